@@ -1,0 +1,510 @@
+//! Wheatstone bridge of strain gauges on the flexspline diaphragm (SPEC §2).
+//!
+//! Strain field seen by a gauge at circumferential position `β`, radius `r` and
+//! orientation `α` (from the radial direction; ±45° nominal), with `ψ = φ − β` and
+//! `φ` the relative WG–FS angle:
+//!
+//! ```text
+//! ε(α) = c + d cos 2α + (γ/2) sin 2α
+//! γ/2  = ε_a(T) (r0/r)² + Σ_h S_h (r/r0) sin(2hψ + p_h)     torsion + interference shear
+//! d    = Σ_h D_h (r/r0) cos(2hψ + p_h)                       (ε_r − ε_θ)/2 of the ellipse
+//! c    = Σ_h C_h (r/r0) cos(2hψ + p_h)                       (ε_r + ε_θ)/2 of the ellipse
+//! ```
+//!
+//! `h = 1` is the 2× component, `h = 2` the 4× component. Torsional shear falls as
+//! `1/r²` (torsion of a disc); the elliptical interference is taken to grow linearly
+//! with radius. At `α = ±45°`, `ε = c ± γ/2`: a rosette's difference keeps the
+//! torsion and the interference shear, and gauges 90° apart cancel the 2× shear
+//! (`sin(2ψ − π) = −sin 2ψ`) but not the 4× (`sin(4ψ − 2π) = sin 4ψ`).
+//!
+//! Bridge (arms 1..4, arm strain = mean of its series gauges, gauge factor `K`):
+//!
+//! ```text
+//! small strain:  U/E = (K/4)(ε1 − ε2 + ε3 − ε4)
+//! exact:         U/E = R1/(R1 + R2) − R4/(R3 + R4),  R_i = R0 (1 + K ε_i)
+//! ```
+//!
+//! With the standard layouts and ideal placement `U = K ε_a E`. Seed 001 writes
+//! `4 K ε_a E`, dropping the bridge's 1/4; we follow the standard equation.
+
+use crate::error::{positive, Error};
+use crate::Real;
+
+/// Torsional principal strain of a flexspline diaphragm per N·m (seed 001):
+/// `ε_a / T = (r1 + r2) / (8π a G r1² r2)`.
+///
+/// `r1_m` hub radius, `r2_m` outer radius, `thickness_m` diaphragm thickness `a`,
+/// `shear_modulus_pa` `G`.
+///
+/// ```
+/// use strainwave_core::bridge::diaphragm_strain_per_nm;
+/// let e = diaphragm_strain_per_nm(0.008_f64, 0.020, 0.0014, 80e9).unwrap();
+/// assert!(e > 7e-6 && e < 8e-6);
+/// ```
+pub fn diaphragm_strain_per_nm<T: Real>(
+    r1_m: T,
+    r2_m: T,
+    thickness_m: T,
+    shear_modulus_pa: T,
+) -> Result<T, Error> {
+    positive(r1_m, "r1_m")?;
+    positive(r2_m, "r2_m")?;
+    positive(thickness_m, "thickness_m")?;
+    positive(shear_modulus_pa, "shear_modulus_pa")?;
+    if r2_m <= r1_m {
+        return Err(Error::NotIncreasing("r2_m"));
+    }
+    let eight_pi = T::from_f64(8.0) * T::PI;
+    Ok((r1_m + r2_m) / (eight_pi * thickness_m * shear_modulus_pa * r1_m * r1_m * r2_m))
+}
+
+/// One harmonic of the elliptical interference, as strains (dimensionless).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Interference<T: Real> {
+    /// Shear part `S_h`: survives a rosette's difference.
+    pub shear: T,
+    /// Normal-difference part `D_h`: leaks in through angular error.
+    pub normal: T,
+    /// Common part `C_h`: cancels in a rosette unless the arms are unbalanced.
+    pub common: T,
+    /// Phase `p_h`, rad.
+    pub phase_rad: T,
+}
+
+/// The strain field of the flexspline diaphragm at the gauge radius.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StrainField<T: Real> {
+    /// Torsional strain `ε_a` per N·m of flexspline torque at the nominal radius.
+    pub torsion_strain_per_nm: T,
+    /// Nominal gauge radius `r0`, m.
+    pub nominal_radius_m: T,
+    /// `[2×, 4×]` interference harmonics.
+    pub interference: [Interference<T>; 2],
+}
+
+/// Which bridge arm a gauge is wired into.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Arm {
+    /// Arm 1 (+ in `ε1 − ε2 + ε3 − ε4`).
+    One,
+    /// Arm 2 (−).
+    Two,
+    /// Arm 3 (+).
+    Three,
+    /// Arm 4 (−).
+    Four,
+}
+
+impl Arm {
+    fn index(self) -> usize {
+        match self {
+            Arm::One => 0,
+            Arm::Two => 1,
+            Arm::Three => 2,
+            Arm::Four => 3,
+        }
+    }
+}
+
+/// A strain gauge: where it is and how it is oriented.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Gauge<T: Real> {
+    /// Bridge arm.
+    pub arm: Arm,
+    /// Circumferential position `β`, rad.
+    pub position_rad: T,
+    /// Orientation `α` from the radial direction, rad (±π/4 nominal).
+    pub orientation_rad: T,
+    /// Radius `r`, m.
+    pub radius_m: T,
+}
+
+/// Placement error of one gauge.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct PlacementError<T: Real> {
+    /// Radial offset, m.
+    pub radial_m: T,
+    /// Circumferential offset `δβ`, rad.
+    pub circumferential_rad: T,
+    /// Orientation offset `Δα`, rad.
+    pub angular_rad: T,
+}
+
+impl<T: Real> Gauge<T> {
+    /// The gauge moved by a placement error.
+    pub fn displaced(&self, e: &PlacementError<T>) -> Self {
+        Self {
+            arm: self.arm,
+            position_rad: self.position_rad + e.circumferential_rad,
+            orientation_rad: self.orientation_rad + e.angular_rad,
+            radius_m: self.radius_m + e.radial_m,
+        }
+    }
+}
+
+/// Gauge layouts on the diaphragm.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Layout {
+    /// Seed 000: four rosettes (two perpendicular gauges each) at 0°, 90°, 180°, 270°.
+    FourRosettes,
+    /// Seed 001: eight gauges as four "T" pairs at 0°, 90°, 180°, 270°.
+    EightGaugeT,
+}
+
+impl Layout {
+    /// The eight gauges of the layout at radius `r`. Both layouts put a +45° and a
+    /// −45° gauge at each of the four positions; arm 1 holds the +45° gauges at 0° and
+    /// 180° in series, arm 2 the −45° ones there, arms 3 and 4 the same at 90° and 270°.
+    /// The series pairs 180° apart cancel radial error and bending; the arms 90° apart
+    /// cancel the 2× interference.
+    pub fn gauges<T: Real>(self, radius_m: T) -> [Gauge<T>; 8] {
+        let q = T::PI * T::HALF; // 90°
+        let a45 = q * T::HALF;
+        // The T-pair layout labels R1..R8 by position first; the wiring is the same.
+        let mk = |arm, pos: T, ori: T| Gauge {
+            arm,
+            position_rad: pos,
+            orientation_rad: ori,
+            radius_m,
+        };
+        [
+            mk(Arm::One, T::ZERO, a45),
+            mk(Arm::Two, T::ZERO, -a45),
+            mk(Arm::Three, q, a45),
+            mk(Arm::Four, q, -a45),
+            mk(Arm::One, T::TWO * q, a45),
+            mk(Arm::Two, T::TWO * q, -a45),
+            mk(Arm::Three, T::from_f64(3.0) * q, a45),
+            mk(Arm::Four, T::from_f64(3.0) * q, -a45),
+        ]
+    }
+}
+
+impl<T: Real> StrainField<T> {
+    /// Strain seen by one gauge for a flexspline torque (N·m) at relative angle `φ` (rad).
+    pub fn gauge_strain(&self, g: &Gauge<T>, fs_torque_nm: T, relative_angle_rad: T) -> T {
+        let rr = g.radius_m / self.nominal_radius_m;
+        let psi = relative_angle_rad - g.position_rad;
+        let mut half_shear = self.torsion_strain_per_nm * fs_torque_nm / (rr * rr);
+        let mut d = T::ZERO;
+        let mut c = T::ZERO;
+        let mut h = T::ONE;
+        for w in &self.interference {
+            let (s, co) = (T::TWO * h * psi + w.phase_rad).sin_cos();
+            half_shear += w.shear * rr * s;
+            d += w.normal * rr * co;
+            c += w.common * rr * co;
+            h += T::ONE;
+        }
+        let (s2a, c2a) = (T::TWO * g.orientation_rad).sin_cos();
+        c + d * c2a + half_shear * s2a
+    }
+}
+
+/// A full bridge of `G` gauges with gauge factor and excitation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Bridge<T: Real, const G: usize> {
+    gauges: [Gauge<T>; G],
+    gauge_factor: T,
+    excitation_v: T,
+    arm_counts: [usize; 4],
+}
+
+impl<T: Real, const G: usize> Bridge<T, G> {
+    /// A bridge from its gauges; every arm needs at least one gauge.
+    ///
+    /// ```
+    /// use strainwave_core::bridge::{Bridge, Layout};
+    /// let b = Bridge::new(Layout::FourRosettes.gauges(0.015_f64), 2.0, 10.0).unwrap();
+    /// assert_eq!(b.excitation_v(), 10.0);
+    /// ```
+    pub fn new(gauges: [Gauge<T>; G], gauge_factor: T, excitation_v: T) -> Result<Self, Error> {
+        positive(gauge_factor, "gauge_factor")?;
+        positive(excitation_v, "excitation_v")?;
+        let mut arm_counts = [0usize; 4];
+        for g in &gauges {
+            positive(g.radius_m, "gauge radius_m")?;
+            arm_counts[g.arm.index()] += 1;
+        }
+        if arm_counts.iter().any(|&n| n == 0) {
+            return Err(Error::OutOfRange("gauges (every arm needs a gauge)"));
+        }
+        Ok(Self {
+            gauges,
+            gauge_factor,
+            excitation_v,
+            arm_counts,
+        })
+    }
+
+    /// The gauges.
+    pub fn gauges(&self) -> &[Gauge<T>; G] {
+        &self.gauges
+    }
+
+    /// Gauge factor `K`.
+    pub fn gauge_factor(&self) -> T {
+        self.gauge_factor
+    }
+
+    /// Excitation `E`, V.
+    pub fn excitation_v(&self) -> T {
+        self.excitation_v
+    }
+
+    /// The same bridge with each gauge displaced by its placement error.
+    pub fn displaced(&self, errors: &[PlacementError<T>; G]) -> Self {
+        let mut out = *self;
+        for (g, e) in out.gauges.iter_mut().zip(errors.iter()) {
+            *g = g.displaced(e);
+        }
+        out
+    }
+
+    /// Mean strain of each arm (series gauges of equal resistance average their strain).
+    pub fn arm_strains(
+        &self,
+        field: &StrainField<T>,
+        fs_torque_nm: T,
+        relative_angle_rad: T,
+    ) -> [T; 4] {
+        let mut sum = [T::ZERO; 4];
+        for g in &self.gauges {
+            sum[g.arm.index()] += field.gauge_strain(g, fs_torque_nm, relative_angle_rad);
+        }
+        let mut out = [T::ZERO; 4];
+        for i in 0..4 {
+            out[i] = sum[i] / T::from_usize(self.arm_counts[i]);
+        }
+        out
+    }
+
+    /// Bridge output `U_out`, V (before amplification), small-strain or exact form.
+    pub fn output_v(
+        &self,
+        field: &StrainField<T>,
+        fs_torque_nm: T,
+        relative_angle_rad: T,
+        exact: bool,
+    ) -> T {
+        let e = self.arm_strains(field, fs_torque_nm, relative_angle_rad);
+        let ratio = if exact {
+            bridge_ratio_exact(self.gauge_factor, e)
+        } else {
+            bridge_ratio_small_strain(self.gauge_factor, e)
+        };
+        ratio * self.excitation_v
+    }
+
+    /// Torque sensitivity `U_out / T_fs`, V per N·m, of the small-strain bridge
+    /// (independent of `φ`: only the torsion term is linear in torque).
+    pub fn sensitivity_v_per_nm(&self, field: &StrainField<T>) -> T {
+        let quiet = StrainField {
+            interference: [Interference::default(); 2],
+            ..*field
+        };
+        self.output_v(&quiet, T::ONE, T::ZERO, false)
+            - self.output_v(&quiet, T::ZERO, T::ZERO, false)
+    }
+}
+
+/// `U/E = (K/4)(ε1 − ε2 + ε3 − ε4)`.
+pub fn bridge_ratio_small_strain<T: Real>(gauge_factor: T, arm_strain: [T; 4]) -> T {
+    gauge_factor
+        * T::from_f64(0.25)
+        * (arm_strain[0] - arm_strain[1] + arm_strain[2] - arm_strain[3])
+}
+
+/// `U/E = R1/(R1 + R2) − R4/(R3 + R4)` with `R_i/R0 = 1 + K ε_i`.
+pub fn bridge_ratio_exact<T: Real>(gauge_factor: T, arm_strain: [T; 4]) -> T {
+    let r = |e: T| T::ONE + gauge_factor * e;
+    let (r1, r2, r3, r4) = (
+        r(arm_strain[0]),
+        r(arm_strain[1]),
+        r(arm_strain[2]),
+        r(arm_strain[3]),
+    );
+    r1 / (r1 + r2) - r4 / (r3 + r4)
+}
+
+/// Amplifier and ADC after the bridge.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SignalChain<T: Real> {
+    /// Amplifier gain, V/V.
+    pub amplifier_gain: T,
+    /// ADC resolution, bits (1..=32).
+    pub adc_bits: u32,
+    /// ADC input range: `±adc_range_v`, V.
+    pub adc_range_v: T,
+}
+
+impl<T: Real> SignalChain<T> {
+    /// Checks the fields.
+    ///
+    /// ```
+    /// use strainwave_core::bridge::SignalChain;
+    /// let c = SignalChain { amplifier_gain: 1000.0_f64, adc_bits: 12, adc_range_v: 10.0 }.validated().unwrap();
+    /// assert!((c.lsb_v() - 20.0 / 4096.0).abs() < 1e-15);
+    /// ```
+    pub fn validated(self) -> Result<Self, Error> {
+        positive(self.amplifier_gain, "amplifier_gain")?;
+        positive(self.adc_range_v, "adc_range_v")?;
+        if self.adc_bits == 0 || self.adc_bits > 32 {
+            return Err(Error::OutOfRange("adc_bits"));
+        }
+        Ok(self)
+    }
+
+    /// One ADC step, V.
+    pub fn lsb_v(&self) -> T {
+        T::TWO * self.adc_range_v / T::from_f64((1u64 << self.adc_bits) as f64)
+    }
+
+    /// Quantizes an amplified voltage to the ADC grid (mid-tread), clipping at the
+    /// range. Returns the value and whether it clipped.
+    pub fn quantize(&self, v: T) -> (T, bool) {
+        let lsb = self.lsb_v();
+        let max = self.adc_range_v - lsb;
+        let clipped = v > max || v < -self.adc_range_v || !v.is_finite();
+        let v = if v.is_finite() {
+            v.clamp(-self.adc_range_v, max)
+        } else {
+            T::ZERO
+        };
+        ((v / lsb).round() * lsb, clipped)
+    }
+
+    /// Full-scale torque for a bridge sensitivity `V/N·m` (before the amplifier), N·m.
+    pub fn full_scale_nm(&self, sensitivity_v_per_nm: T) -> T {
+        self.adc_range_v / (sensitivity_v_per_nm * self.amplifier_gain).abs()
+    }
+
+    /// Torque per ADC step for a bridge sensitivity, N·m.
+    pub fn torque_per_lsb_nm(&self, sensitivity_v_per_nm: T) -> T {
+        self.lsb_v() / (sensitivity_v_per_nm * self.amplifier_gain).abs()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const DEG: f64 = core::f64::consts::PI / 180.0;
+
+    fn field(shear2: f64, shear4: f64) -> StrainField<f64> {
+        StrainField {
+            torsion_strain_per_nm: 7.6e-6,
+            nominal_radius_m: 0.015,
+            interference: [
+                Interference {
+                    shear: shear2,
+                    normal: 3e-4,
+                    common: 2e-4,
+                    phase_rad: 0.3,
+                },
+                Interference {
+                    shear: shear4,
+                    normal: 5e-5,
+                    common: 3e-5,
+                    phase_rad: -0.2,
+                },
+            ],
+        }
+    }
+
+    fn bridge() -> Bridge<f64, 8> {
+        Bridge::new(Layout::FourRosettes.gauges(0.015), 2.0, 10.0).unwrap()
+    }
+
+    /// Amplitude of the `order`× component of `U(φ)` at zero torque (DFT over one turn).
+    fn amplitude(b: &Bridge<f64, 8>, f: &StrainField<f64>, order: f64) -> f64 {
+        let n = 720;
+        let (mut re, mut im) = (0.0, 0.0);
+        for k in 0..n {
+            let phi = k as f64 / n as f64 * core::f64::consts::TAU;
+            let u = b.output_v(f, 0.0, phi, false);
+            re += u * (order * phi).cos();
+            im += u * (order * phi).sin();
+        }
+        2.0 * (re * re + im * im).sqrt() / n as f64
+    }
+
+    #[test]
+    fn ideal_sensitivity_is_k_eps_e() {
+        let f = field(1e-4, 1e-5);
+        let s = bridge().sensitivity_v_per_nm(&f);
+        assert!((s - 2.0 * 7.6e-6 * 10.0).abs() < 1e-15, "{s}");
+    }
+
+    #[test]
+    fn ideal_placement_cancels_2x_not_4x() {
+        let f = field(1e-4, 1e-5);
+        let b = bridge();
+        let a2 = amplitude(&b, &f, 2.0);
+        let a4 = amplitude(&b, &f, 4.0);
+        assert!(a2 < 1e-15, "2x residual {a2}");
+        // 4×: (K/4)·E·(2 S_2 + 2 S_2)/2 … = K E S_2
+        assert!((a4 - 2.0 * 10.0 * 1e-5).abs() < 1e-12, "4x {a4}");
+    }
+
+    #[test]
+    fn circumferential_error_leaves_two_psi_delta() {
+        let psi = 1e-4;
+        let f = field(psi, 0.0);
+        let delta = 0.5 * DEG;
+        // Move the rosette at 90° (both of its gauges) by δ.
+        let mut errs = [PlacementError::default(); 8];
+        errs[2].circumferential_rad = delta;
+        errs[3].circumferential_rad = delta;
+        let b = bridge().displaced(&errs);
+        let a2 = amplitude(&b, &f, 2.0);
+        // Residual shear strain in arm 3 − arm 4 is Ψ·2δ/2 (one of two series gauges),
+        // expressed as torsional strain equivalent: U = (K/4) E · 2Ψδ.
+        let want = 2.0 / 4.0 * 10.0 * 2.0 * psi * delta;
+        assert!((a2 - want).abs() / want < 0.01, "{a2} vs {want}");
+    }
+
+    #[test]
+    fn angular_error_scales_torque_by_cos_2da() {
+        let f = StrainField {
+            interference: [Interference::default(); 2],
+            ..field(0.0, 0.0)
+        };
+        let da = 2.0 * DEG;
+        let errs = [PlacementError {
+            angular_rad: da,
+            ..Default::default()
+        }; 8];
+        let b = bridge().displaced(&errs);
+        let ratio = b.sensitivity_v_per_nm(&f) / bridge().sensitivity_v_per_nm(&f);
+        assert!((ratio - (2.0 * da).cos()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn exact_matches_small_strain_to_first_order() {
+        let e = [1e-4, -1e-4, 1e-4, -1e-4];
+        let lin = bridge_ratio_small_strain(2.0, e);
+        let ex = bridge_ratio_exact(2.0, e);
+        assert!((lin - ex).abs() / lin.abs() < 1e-3);
+        assert!(lin != ex);
+    }
+
+    #[test]
+    fn adc_quantizes_and_clips() {
+        let c = SignalChain {
+            amplifier_gain: 1000.0,
+            adc_bits: 12,
+            adc_range_v: 10.0,
+        }
+        .validated()
+        .unwrap();
+        let (v, clip) = c.quantize(0.0123);
+        assert!(!clip && (v - 3.0 * 20.0 / 4096.0).abs() < 1e-12);
+        assert!(c.quantize(11.0).1);
+        assert!(c.quantize(f64::NAN).1);
+        assert_eq!(
+            SignalChain { adc_bits: 0, ..c }.validated(),
+            Err(Error::OutOfRange("adc_bits"))
+        );
+    }
+}

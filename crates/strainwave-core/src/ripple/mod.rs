@@ -1,0 +1,1 @@
+//! Oscillator-bank Kalman canceller of torque ripple and misalignment (SPEC §4).
