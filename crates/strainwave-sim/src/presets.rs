@@ -1,0 +1,56 @@
+//! Built-in scenarios: the seed-000 and seed-001 rigs.
+
+use crate::error::SimError;
+use crate::scenario::Scenario;
+
+/// `(name, TOML text)` of every preset.
+pub const PRESETS: &[(&str, &str)] = &[
+    ("taghirad", include_str!("../presets/taghirad.toml")),
+    (
+        "flexspline-fixed",
+        include_str!("../presets/flexspline-fixed.toml"),
+    ),
+];
+
+/// The commented TOML of a preset.
+pub fn preset_text(name: &str) -> Result<&'static str, SimError> {
+    PRESETS
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, t)| *t)
+        .ok_or_else(|| SimError::UnknownPreset(name.to_string(), preset_names()))
+}
+
+/// A preset, parsed and validated.
+///
+/// ```
+/// let s = strainwave_sim::presets::preset("taghirad").unwrap();
+/// assert_eq!(s.gear.ratio, 100.0);
+/// assert!(strainwave_sim::presets::preset("nope").is_err());
+/// ```
+pub fn preset(name: &str) -> Result<Scenario, SimError> {
+    Scenario::from_toml(preset_text(name)?)
+}
+
+/// Comma-separated preset names.
+pub fn preset_names() -> String {
+    PRESETS
+        .iter()
+        .map(|(n, _)| *n)
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn presets_parse_and_round_trip() {
+        for (name, _) in PRESETS {
+            let s = preset(name).unwrap();
+            let again = Scenario::from_toml(&s.to_toml()).unwrap();
+            assert_eq!(s, again, "{name}");
+        }
+    }
+}

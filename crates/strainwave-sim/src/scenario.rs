@@ -1,0 +1,637 @@
+//! The scenario: every physical parameter of the simulated joint, its motion and
+//! load profiles, sample rate, duration and seed, as TOML (SPEC §7).
+//!
+//! Unknown keys are rejected; [`Scenario::validate`] checks every value and names
+//! the key at fault.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::SimError;
+
+/// A full simulation scenario.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    /// Short name, written into reports.
+    pub name: String,
+    /// Output sample rate, Hz.
+    pub sample_rate_hz: f64,
+    /// Length of the run, s.
+    pub duration_s: f64,
+    /// Random seed (noise, random placement errors).
+    pub seed: u64,
+    /// The strain wave gear.
+    pub gear: GearParams,
+    /// Motor and its speed controller.
+    pub motor: MotorParams,
+    /// Load on the output.
+    pub load: LoadParams,
+    /// Gear-meshing ripple torque (real torque at the relative-angle orders).
+    pub ripple: RippleParams,
+    /// Misalignment torque signature (1× output angle).
+    pub misalignment: MisalignmentParams,
+    /// Flexspline strain-gauge bridge and its signal chain.
+    pub sensor: SensorParams,
+    /// Encoders, tachometer, current sensor.
+    pub encoders: EncoderParams,
+    /// Motion profile, segments in order.
+    #[serde(default)]
+    pub motion: Vec<MotionSegment>,
+    /// External torque on the load, the sum of these components.
+    #[serde(default)]
+    pub external_torque: Vec<ExternalTorque>,
+}
+
+/// Which gear element is fixed, as written in TOML.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FixedElementName {
+    /// Circular spline fixed, flexspline output.
+    CircularSpline,
+    /// Flexspline fixed, circular spline output.
+    Flexspline,
+}
+
+/// Gear parameters: ratio, configuration, catalogue stiffness, hysteresis, friction.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GearParams {
+    /// Ratio `N`.
+    pub ratio: f64,
+    /// Fixed element.
+    pub fixed: FixedElementName,
+    /// Rated output torque, N·m (sets full scale in reports).
+    pub rated_torque_nm: f64,
+    /// Stiffness below `t1_nm`, N·m/rad.
+    pub k1_nm_per_rad: f64,
+    /// Stiffness between `t1_nm` and `t2_nm`, N·m/rad.
+    pub k2_nm_per_rad: f64,
+    /// Stiffness above `t2_nm`, N·m/rad.
+    pub k3_nm_per_rad: f64,
+    /// First break torque, N·m.
+    pub t1_nm: f64,
+    /// Second break torque, N·m.
+    pub t2_nm: f64,
+    /// Width of the hysteresis loop in twist (catalogue hysteresis loss), rad.
+    pub hysteresis_rad: f64,
+    /// Structural damping of the gear spring, N·m·s/rad.
+    pub damping_nm_s_per_rad: f64,
+    /// Viscous gear friction at the output, N·m·s/rad.
+    pub friction_viscous_nm_s_per_rad: f64,
+    /// Coulomb gear friction at the output, N·m.
+    pub friction_coulomb_nm: f64,
+}
+
+/// Motor, current limit and speed loop.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MotorParams {
+    /// Rotor + wave generator inertia, kg·m².
+    pub inertia_kg_m2: f64,
+    /// Torque constant, N·m/A.
+    pub torque_constant_nm_per_a: f64,
+    /// Viscous friction, N·m·s/rad.
+    pub viscous_nm_s_per_rad: f64,
+    /// Coulomb friction, N·m.
+    pub coulomb_nm: f64,
+    /// Current limit, A.
+    pub current_limit_a: f64,
+    /// Bandwidth of the PI speed loop, Hz.
+    pub speed_loop_bandwidth_hz: f64,
+}
+
+/// Load on the output.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LoadParams {
+    /// Load inertia, kg·m².
+    pub inertia_kg_m2: f64,
+    /// Viscous friction, N·m·s/rad.
+    pub viscous_nm_s_per_rad: f64,
+    /// Coulomb friction, N·m.
+    pub coulomb_nm: f64,
+}
+
+/// Meshing ripple: `Σ_h (a_h + b_h |T|) sin(2h φ + p_h)`, output N·m.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RippleParams {
+    /// 2× amplitude at zero load, N·m.
+    pub amplitude_2x_nm: f64,
+    /// 2× amplitude growth per N·m of transmitted torque.
+    pub amplitude_2x_per_nm: f64,
+    /// 2× phase, rad.
+    pub phase_2x_rad: f64,
+    /// 4× amplitude at zero load, N·m.
+    pub amplitude_4x_nm: f64,
+    /// 4× amplitude growth per N·m of transmitted torque.
+    pub amplitude_4x_per_nm: f64,
+    /// 4× phase, rad.
+    pub phase_4x_rad: f64,
+}
+
+/// Misalignment signature `A sin(θ_out + p)` picked up by the sensor, N·m.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MisalignmentParams {
+    /// Amplitude, N·m.
+    pub amplitude_nm: f64,
+    /// Phase, rad.
+    pub phase_rad: f64,
+}
+
+/// Gauge layout name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LayoutName {
+    /// Seed 000: four rosettes.
+    FourRosettes,
+    /// Seed 001: eight gauges in four T pairs.
+    EightGaugeT,
+}
+
+/// Bridge equation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum BridgeModel {
+    /// `U/E = (K/4)(ε1 − ε2 + ε3 − ε4)`: outputs add exactly.
+    #[default]
+    SmallStrain,
+    /// The nonlinear bridge equation.
+    Exact,
+}
+
+/// One interference harmonic, microstrain.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct InterferenceParams {
+    /// Shear part, µε.
+    pub shear_microstrain: f64,
+    /// Normal-difference part, µε.
+    pub normal_microstrain: f64,
+    /// Common part, µε.
+    pub common_microstrain: f64,
+    /// Phase, rad.
+    pub phase_rad: f64,
+}
+
+/// Placement error of one gauge (index 0..8 in the layout order).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GaugePlacement {
+    /// Gauge index, 0..8.
+    pub gauge: usize,
+    /// Radial offset, mm.
+    #[serde(default)]
+    pub radial_mm: f64,
+    /// Circumferential offset, degrees.
+    #[serde(default)]
+    pub circumferential_deg: f64,
+    /// Orientation offset, degrees.
+    #[serde(default)]
+    pub angular_deg: f64,
+}
+
+/// Random placement tolerances (standard deviations), drawn once per run from the seed.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct PlacementTolerance {
+    /// Radial, mm.
+    pub radial_mm: f64,
+    /// Circumferential, degrees.
+    pub circumferential_deg: f64,
+    /// Angular, degrees.
+    pub angular_deg: f64,
+}
+
+/// Flexspline sensor: diaphragm, gauges, bridge, amplifier, ADC, noise.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorParams {
+    /// Gauge layout.
+    pub layout: LayoutName,
+    /// Bridge equation.
+    #[serde(default)]
+    pub bridge_model: BridgeModel,
+    /// Gauge factor `K`.
+    pub gauge_factor: f64,
+    /// Bridge excitation, V.
+    pub excitation_v: f64,
+    /// Diaphragm hub radius `r1`, m.
+    pub hub_radius_m: f64,
+    /// Diaphragm outer radius `r2`, m.
+    pub outer_radius_m: f64,
+    /// Diaphragm thickness `a`, m.
+    pub thickness_m: f64,
+    /// Shear modulus `G`, Pa.
+    pub shear_modulus_pa: f64,
+    /// Nominal gauge radius, m.
+    pub gauge_radius_m: f64,
+    /// 2× elliptical interference.
+    pub interference_2x: InterferenceParams,
+    /// 4× elliptical interference.
+    pub interference_4x: InterferenceParams,
+    /// Explicit placement errors per gauge.
+    #[serde(default)]
+    pub placement: Vec<GaugePlacement>,
+    /// Random placement tolerances, added to the explicit errors.
+    #[serde(default)]
+    pub placement_tolerance: PlacementTolerance,
+    /// Amplifier gain, V/V.
+    pub amplifier_gain: f64,
+    /// ADC bits.
+    pub adc_bits: u32,
+    /// ADC range `±adc_range_v`, V.
+    pub adc_range_v: f64,
+    /// White noise at the amplifier output, V rms.
+    pub noise_v_rms: f64,
+}
+
+/// Encoders, tachometer and current sensor.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EncoderParams {
+    /// Motor encoder counts per revolution.
+    pub motor_counts_per_rev: u64,
+    /// Output encoder counts per revolution.
+    pub output_counts_per_rev: u64,
+    /// Tachometer white noise, rad/s rms.
+    pub tacho_noise_rad_s: f64,
+    /// Current sensor white noise, A rms.
+    pub current_noise_a: f64,
+    /// Reference torque sensor on the output (seed 001): white noise, N·m rms; absent = no sensor.
+    #[serde(default)]
+    pub reference_torque_noise_nm: Option<f64>,
+}
+
+/// One segment of the motion profile (motor-side speed, or open-loop current).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum MotionSegment {
+    /// Linear ramp of the motor speed to `to_rad_s` (a reversal when the sign changes).
+    Ramp {
+        /// Target motor speed, rad/s.
+        to_rad_s: f64,
+        /// Segment length, s.
+        duration_s: f64,
+    },
+    /// Hold the current speed (standstill when it is 0).
+    Hold {
+        /// Segment length, s.
+        duration_s: f64,
+    },
+    /// Sinusoid around the current speed.
+    Sine {
+        /// Amplitude, rad/s.
+        amplitude_rad_s: f64,
+        /// Frequency, Hz.
+        frequency_hz: f64,
+        /// Segment length, s.
+        duration_s: f64,
+    },
+    /// Open-loop motor current (torque steps), speed loop off.
+    Current {
+        /// Motor current, A.
+        current_a: f64,
+        /// Segment length, s.
+        duration_s: f64,
+    },
+}
+
+/// One component of the external torque on the load (they add).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum ExternalTorque {
+    /// Step of `torque_nm` at `at_s` (negative steps remove load).
+    Step {
+        /// Time of the step, s.
+        at_s: f64,
+        /// Size, N·m.
+        torque_nm: f64,
+    },
+    /// Sinusoid from `start_s` on.
+    Sine {
+        /// Amplitude, N·m.
+        amplitude_nm: f64,
+        /// Frequency, Hz.
+        frequency_hz: f64,
+        /// Phase, rad.
+        #[serde(default)]
+        phase_rad: f64,
+        /// Start time, s.
+        #[serde(default)]
+        start_s: f64,
+    },
+    /// Linear rise from 0 at `from_s` to `torque_nm` at `to_s`, then held.
+    Ramp {
+        /// Start, s.
+        from_s: f64,
+        /// End, s.
+        to_s: f64,
+        /// Final torque, N·m.
+        torque_nm: f64,
+    },
+}
+
+impl Scenario {
+    /// Parses TOML; unknown keys and wrong types are errors naming the key.
+    pub fn from_toml(text: &str) -> Result<Self, SimError> {
+        let s: Scenario = toml::from_str(text).map_err(|e| SimError::Parse {
+            message: e.message().to_string(),
+            location: toml_location(text, e.span()),
+        })?;
+        s.validate()?;
+        Ok(s)
+    }
+
+    /// The scenario as TOML.
+    pub fn to_toml(&self) -> String {
+        toml::to_string(self).unwrap_or_else(|e| format!("# could not serialize scenario: {e}\n"))
+    }
+
+    /// Checks every value; the error names the key.
+    pub fn validate(&self) -> Result<(), SimError> {
+        let pos = |v: f64, key: &'static str| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(SimError::invalid(key, format!("must be positive, got {v}")))
+            }
+        };
+        let nonneg = |v: f64, key: &'static str| {
+            if v.is_finite() && v >= 0.0 {
+                Ok(())
+            } else {
+                Err(SimError::invalid(key, format!("must be ≥ 0, got {v}")))
+            }
+        };
+        let fin = |v: f64, key: &'static str| {
+            if v.is_finite() {
+                Ok(())
+            } else {
+                Err(SimError::invalid(key, format!("must be finite, got {v}")))
+            }
+        };
+        pos(self.sample_rate_hz, "sample_rate_hz")?;
+        pos(self.duration_s, "duration_s")?;
+        let g = &self.gear;
+        pos(g.ratio, "gear.ratio")?;
+        pos(g.rated_torque_nm, "gear.rated_torque_nm")?;
+        pos(g.k1_nm_per_rad, "gear.k1_nm_per_rad")?;
+        pos(g.k2_nm_per_rad, "gear.k2_nm_per_rad")?;
+        pos(g.k3_nm_per_rad, "gear.k3_nm_per_rad")?;
+        pos(g.t1_nm, "gear.t1_nm")?;
+        pos(g.t2_nm, "gear.t2_nm")?;
+        if g.t2_nm <= g.t1_nm {
+            return Err(SimError::invalid(
+                "gear.t2_nm",
+                "must exceed gear.t1_nm".into(),
+            ));
+        }
+        nonneg(g.hysteresis_rad, "gear.hysteresis_rad")?;
+        nonneg(g.damping_nm_s_per_rad, "gear.damping_nm_s_per_rad")?;
+        nonneg(
+            g.friction_viscous_nm_s_per_rad,
+            "gear.friction_viscous_nm_s_per_rad",
+        )?;
+        nonneg(g.friction_coulomb_nm, "gear.friction_coulomb_nm")?;
+        let m = &self.motor;
+        pos(m.inertia_kg_m2, "motor.inertia_kg_m2")?;
+        pos(m.torque_constant_nm_per_a, "motor.torque_constant_nm_per_a")?;
+        nonneg(m.viscous_nm_s_per_rad, "motor.viscous_nm_s_per_rad")?;
+        nonneg(m.coulomb_nm, "motor.coulomb_nm")?;
+        pos(m.current_limit_a, "motor.current_limit_a")?;
+        pos(m.speed_loop_bandwidth_hz, "motor.speed_loop_bandwidth_hz")?;
+        pos(self.load.inertia_kg_m2, "load.inertia_kg_m2")?;
+        nonneg(self.load.viscous_nm_s_per_rad, "load.viscous_nm_s_per_rad")?;
+        nonneg(self.load.coulomb_nm, "load.coulomb_nm")?;
+        let r = &self.ripple;
+        for (v, k) in [
+            (r.amplitude_2x_nm, "ripple.amplitude_2x_nm"),
+            (r.amplitude_2x_per_nm, "ripple.amplitude_2x_per_nm"),
+            (r.amplitude_4x_nm, "ripple.amplitude_4x_nm"),
+            (r.amplitude_4x_per_nm, "ripple.amplitude_4x_per_nm"),
+            (self.misalignment.amplitude_nm, "misalignment.amplitude_nm"),
+        ] {
+            nonneg(v, k)?;
+        }
+        fin(r.phase_2x_rad, "ripple.phase_2x_rad")?;
+        fin(r.phase_4x_rad, "ripple.phase_4x_rad")?;
+        fin(self.misalignment.phase_rad, "misalignment.phase_rad")?;
+        let s = &self.sensor;
+        pos(s.gauge_factor, "sensor.gauge_factor")?;
+        pos(s.excitation_v, "sensor.excitation_v")?;
+        pos(s.hub_radius_m, "sensor.hub_radius_m")?;
+        pos(s.outer_radius_m, "sensor.outer_radius_m")?;
+        if s.outer_radius_m <= s.hub_radius_m {
+            return Err(SimError::invalid(
+                "sensor.outer_radius_m",
+                "must exceed sensor.hub_radius_m".into(),
+            ));
+        }
+        pos(s.thickness_m, "sensor.thickness_m")?;
+        pos(s.shear_modulus_pa, "sensor.shear_modulus_pa")?;
+        pos(s.gauge_radius_m, "sensor.gauge_radius_m")?;
+        for (h, k) in [
+            (&s.interference_2x, "sensor.interference_2x"),
+            (&s.interference_4x, "sensor.interference_4x"),
+        ] {
+            for v in [
+                h.shear_microstrain,
+                h.normal_microstrain,
+                h.common_microstrain,
+                h.phase_rad,
+            ] {
+                fin(v, k)?;
+            }
+        }
+        for p in &s.placement {
+            if p.gauge >= 8 {
+                return Err(SimError::invalid(
+                    "sensor.placement.gauge",
+                    format!("must be 0..=7, got {}", p.gauge),
+                ));
+            }
+            for v in [p.radial_mm, p.circumferential_deg, p.angular_deg] {
+                fin(v, "sensor.placement")?;
+            }
+            if p.radial_mm * 1e-3 <= -s.gauge_radius_m {
+                return Err(SimError::invalid(
+                    "sensor.placement.radial_mm",
+                    "moves a gauge past the centre".into(),
+                ));
+            }
+        }
+        nonneg(
+            s.placement_tolerance.radial_mm,
+            "sensor.placement_tolerance.radial_mm",
+        )?;
+        nonneg(
+            s.placement_tolerance.circumferential_deg,
+            "sensor.placement_tolerance.circumferential_deg",
+        )?;
+        nonneg(
+            s.placement_tolerance.angular_deg,
+            "sensor.placement_tolerance.angular_deg",
+        )?;
+        if s.placement_tolerance.radial_mm * 1e-3 * 4.0 >= s.gauge_radius_m {
+            return Err(SimError::invalid(
+                "sensor.placement_tolerance.radial_mm",
+                "too large for the gauge radius".into(),
+            ));
+        }
+        pos(s.amplifier_gain, "sensor.amplifier_gain")?;
+        if s.adc_bits == 0 || s.adc_bits > 32 {
+            return Err(SimError::invalid(
+                "sensor.adc_bits",
+                format!("must be 1..=32, got {}", s.adc_bits),
+            ));
+        }
+        pos(s.adc_range_v, "sensor.adc_range_v")?;
+        nonneg(s.noise_v_rms, "sensor.noise_v_rms")?;
+        let e = &self.encoders;
+        if e.motor_counts_per_rev == 0 {
+            return Err(SimError::invalid(
+                "encoders.motor_counts_per_rev",
+                "must be positive".into(),
+            ));
+        }
+        if e.output_counts_per_rev == 0 {
+            return Err(SimError::invalid(
+                "encoders.output_counts_per_rev",
+                "must be positive".into(),
+            ));
+        }
+        nonneg(e.tacho_noise_rad_s, "encoders.tacho_noise_rad_s")?;
+        nonneg(e.current_noise_a, "encoders.current_noise_a")?;
+        if let Some(n) = e.reference_torque_noise_nm {
+            nonneg(n, "encoders.reference_torque_noise_nm")?;
+        }
+        for seg in &self.motion {
+            match seg {
+                MotionSegment::Ramp {
+                    to_rad_s,
+                    duration_s,
+                } => {
+                    fin(*to_rad_s, "motion.to_rad_s")?;
+                    pos(*duration_s, "motion.duration_s")?;
+                }
+                MotionSegment::Hold { duration_s } => pos(*duration_s, "motion.duration_s")?,
+                MotionSegment::Sine {
+                    amplitude_rad_s,
+                    frequency_hz,
+                    duration_s,
+                } => {
+                    fin(*amplitude_rad_s, "motion.amplitude_rad_s")?;
+                    pos(*frequency_hz, "motion.frequency_hz")?;
+                    pos(*duration_s, "motion.duration_s")?;
+                }
+                MotionSegment::Current {
+                    current_a,
+                    duration_s,
+                } => {
+                    fin(*current_a, "motion.current_a")?;
+                    pos(*duration_s, "motion.duration_s")?;
+                }
+            }
+        }
+        for t in &self.external_torque {
+            match t {
+                ExternalTorque::Step { at_s, torque_nm } => {
+                    fin(*at_s, "external_torque.at_s")?;
+                    fin(*torque_nm, "external_torque.torque_nm")?;
+                }
+                ExternalTorque::Sine {
+                    amplitude_nm,
+                    frequency_hz,
+                    phase_rad,
+                    start_s,
+                } => {
+                    fin(*amplitude_nm, "external_torque.amplitude_nm")?;
+                    nonneg(*frequency_hz, "external_torque.frequency_hz")?;
+                    fin(*phase_rad, "external_torque.phase_rad")?;
+                    fin(*start_s, "external_torque.start_s")?;
+                }
+                ExternalTorque::Ramp {
+                    from_s,
+                    to_s,
+                    torque_nm,
+                } => {
+                    fin(*from_s, "external_torque.from_s")?;
+                    fin(*to_s, "external_torque.to_s")?;
+                    fin(*torque_nm, "external_torque.torque_nm")?;
+                    if to_s <= from_s {
+                        return Err(SimError::invalid(
+                            "external_torque.to_s",
+                            "must exceed from_s".into(),
+                        ));
+                    }
+                }
+            }
+        }
+        self.check_nyquist()
+    }
+
+    /// Highest motor speed the profile asks for, rad/s.
+    pub fn top_motor_speed_rad_s(&self) -> f64 {
+        let mut speed: f64 = 0.0;
+        let mut top: f64 = 0.0;
+        for seg in &self.motion {
+            match seg {
+                MotionSegment::Ramp { to_rad_s, .. } => {
+                    speed = *to_rad_s;
+                    top = top.max(speed.abs());
+                }
+                MotionSegment::Sine {
+                    amplitude_rad_s, ..
+                } => top = top.max(speed.abs() + amplitude_rad_s.abs()),
+                MotionSegment::Hold { .. } | MotionSegment::Current { .. } => {}
+            }
+        }
+        top
+    }
+
+    /// The 4× ripple order at the top speed must stay below 0.45 × the sample rate.
+    fn check_nyquist(&self) -> Result<(), SimError> {
+        let rel_rate = self.top_motor_speed_rad_s() * (1.0 + 1.0 / self.gear.ratio);
+        let f4_hz = 4.0 * rel_rate / std::f64::consts::TAU;
+        let limit = 0.45 * self.sample_rate_hz;
+        if f4_hz > limit {
+            return Err(SimError::invalid(
+                "sample_rate_hz",
+                format!(
+                    "{} Hz is too low: the 4× ripple order reaches {:.1} Hz at the profile's top motor speed {:.1} rad/s (needs ≤ 0.45 × sample rate, i.e. ≥ {:.0} Hz)",
+                    self.sample_rate_hz,
+                    f4_hz,
+                    self.top_motor_speed_rad_s(),
+                    (f4_hz / 0.45).ceil()
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Total length of the motion profile, s.
+    pub fn motion_length_s(&self) -> f64 {
+        self.motion
+            .iter()
+            .map(|m| match m {
+                MotionSegment::Ramp { duration_s, .. }
+                | MotionSegment::Hold { duration_s }
+                | MotionSegment::Sine { duration_s, .. }
+                | MotionSegment::Current { duration_s, .. } => *duration_s,
+            })
+            .sum()
+    }
+}
+
+/// `line L, column C` of a byte span in TOML text.
+fn toml_location(text: &str, span: Option<std::ops::Range<usize>>) -> String {
+    let Some(span) = span else {
+        return String::new();
+    };
+    let upto = &text[..span.start.min(text.len())];
+    let line = upto.matches('\n').count() + 1;
+    let col = upto.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    format!("line {line}, column {col}")
+}

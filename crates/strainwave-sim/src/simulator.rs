@@ -1,0 +1,267 @@
+//! The simulation loop: scenario in, one recording row per sample out, with the truth.
+
+use crate::error::SimError;
+use crate::joint::{JointModel, JointState, SpeedController};
+use crate::profile::{external_torque_nm, Command, MotionProfile};
+use crate::rng::Rng;
+use crate::scenario::{ExternalTorque, Scenario};
+use crate::sensors::TorqueSensor;
+
+/// Measured columns, in order. `measured_torque` is the bridge voltage times the
+/// sensor's true gain (a perfectly calibrated sensor).
+pub const MEASURED_COLUMNS: &[&str] = &[
+    "time",
+    "motor_angle",
+    "output_angle",
+    "motor_velocity",
+    "motor_current",
+    "bridge_voltage",
+    "measured_torque",
+];
+
+/// Truth columns, in order.
+pub const TRUE_COLUMNS: &[&str] = &[
+    "true_torque",
+    "true_ripple",
+    "true_misalignment",
+    "true_relative_angle",
+    "true_motor_angle",
+    "true_output_angle",
+    "true_motor_velocity",
+    "true_output_velocity",
+    "true_motor_current",
+    "true_external_torque",
+];
+
+/// Largest `|ω h|` of the stiffest mode per RK4 sub-step.
+const MAX_OMEGA_H: f64 = 0.25;
+
+/// A running simulation.
+pub struct Simulator {
+    scenario: Scenario,
+    model: JointModel,
+    sensor: TorqueSensor,
+    profile: MotionProfile,
+    controller: SpeedController,
+    rng: Rng,
+    state: JointState,
+    k: u64,
+    n_samples: u64,
+    dt_s: f64,
+    n_sub: u32,
+    open_loop: bool,
+    motor_step_rad: f64,
+    output_step_rad: f64,
+    clipped: u64,
+}
+
+/// Encoder reading: whole counts, rad.
+fn encoder(angle_rad: f64, step_rad: f64) -> f64 {
+    (angle_rad / step_rad).floor() * step_rad
+}
+
+impl Simulator {
+    /// Prepares a run of a validated scenario.
+    pub fn new(scenario: &Scenario) -> Result<Self, SimError> {
+        scenario.validate()?;
+        let s = scenario.clone();
+        let dt_s = 1.0 / s.sample_rate_hz;
+        let w = JointModel::max_natural_frequency_rad_s(&s);
+        let n_sub = ((w * dt_s / MAX_OMEGA_H).ceil() as u32).clamp(1, 10_000);
+        let model = JointModel::new(&s, dt_s / n_sub as f64)?;
+        let mut rng = Rng::new(s.seed);
+        let fs_per_out = model.gear.flexspline_torque_from_output(1.0);
+        let sensor = TorqueSensor::new(&s, fs_per_out, &mut rng)?;
+        let controller = SpeedController::new(
+            &model,
+            s.motor.speed_loop_bandwidth_hz,
+            s.motor.current_limit_a,
+        );
+        let n_samples = (s.duration_s * s.sample_rate_hz).round() as u64;
+        let tau = std::f64::consts::TAU;
+        Ok(Self {
+            profile: MotionProfile::new(&s.motion),
+            motor_step_rad: tau / s.encoders.motor_counts_per_rev as f64,
+            output_step_rad: tau / s.encoders.output_counts_per_rev as f64,
+            scenario: s,
+            model,
+            sensor,
+            controller,
+            rng,
+            state: JointState::default(),
+            k: 0,
+            n_samples,
+            dt_s,
+            n_sub,
+            open_loop: false,
+            clipped: 0,
+        })
+    }
+
+    /// Column names of the rows, in order.
+    pub fn columns(&self) -> Vec<&'static str> {
+        let mut c: Vec<&'static str> = MEASURED_COLUMNS.to_vec();
+        if self.scenario.encoders.reference_torque_noise_nm.is_some() {
+            c.push("reference_torque");
+        }
+        c.extend_from_slice(TRUE_COLUMNS);
+        c
+    }
+
+    /// Number of rows the run will produce.
+    pub fn len(&self) -> u64 {
+        self.n_samples
+    }
+
+    /// Whether the run produces no rows.
+    pub fn is_empty(&self) -> bool {
+        self.n_samples == 0
+    }
+
+    /// RK4 sub-steps per sample.
+    pub fn substeps(&self) -> u32 {
+        self.n_sub
+    }
+
+    /// The scenario.
+    pub fn scenario(&self) -> &Scenario {
+        &self.scenario
+    }
+
+    /// The joint model.
+    pub fn model(&self) -> &JointModel {
+        &self.model
+    }
+
+    /// The torque sensor.
+    pub fn sensor(&self) -> &TorqueSensor {
+        &self.sensor
+    }
+
+    /// Samples the ADC clipped so far.
+    pub fn clipped_samples(&self) -> u64 {
+        self.clipped
+    }
+
+    /// Writes the next row into `row` (length = `columns().len()`); `false` when done.
+    pub fn next_row(&mut self, row: &mut Vec<f64>) -> bool {
+        if self.k >= self.n_samples {
+            return false;
+        }
+        let t = self.k as f64 * self.dt_s;
+        let x = self.state;
+        let s = &self.scenario;
+
+        // Controller (digital, one update per sample, current held over the sample).
+        let current_a = match self.profile.command(t) {
+            Command::Speed {
+                speed_rad_s,
+                accel_rad_s2,
+            } => {
+                if self.open_loop {
+                    self.controller.reset();
+                    self.open_loop = false;
+                }
+                self.controller
+                    .current_a(speed_rad_s, accel_rad_s2, x.motor_speed_rad_s, self.dt_s)
+            }
+            Command::Current(i) => {
+                self.open_loop = true;
+                i.clamp(-s.motor.current_limit_a, s.motor.current_limit_a)
+            }
+        };
+
+        // Truth at this instant.
+        let tau = self.model.transmitted_torque_nm(&x);
+        let ext = external_torque_nm(&s.external_torque, t);
+        let phi = self
+            .model
+            .gear
+            .relative_angle(x.motor_angle_rad, x.output_angle_rad);
+        let r = &s.ripple;
+        let mesh = (r.amplitude_2x_nm + r.amplitude_2x_per_nm * tau.abs())
+            * (2.0 * phi + r.phase_2x_rad).sin()
+            + (r.amplitude_4x_nm + r.amplitude_4x_per_nm * tau.abs())
+                * (4.0 * phi + r.phase_4x_rad).sin();
+        let mis =
+            s.misalignment.amplitude_nm * (x.output_angle_rad + s.misalignment.phase_rad).sin();
+
+        // Measurements.
+        let reading = self.sensor.read(tau + mesh + mis, phi, &mut self.rng);
+        self.clipped += u64::from(reading.clipped);
+        let tacho = x.motor_speed_rad_s + s.encoders.tacho_noise_rad_s * self.rng.normal();
+        let current_meas = current_a + s.encoders.current_noise_a * self.rng.normal();
+
+        row.clear();
+        row.extend_from_slice(&[
+            t,
+            encoder(x.motor_angle_rad, self.motor_step_rad),
+            encoder(x.output_angle_rad, self.output_step_rad),
+            tacho,
+            current_meas,
+            reading.voltage_v,
+            reading.voltage_v * self.sensor.gain_nm_per_v(),
+        ]);
+        if let Some(noise) = s.encoders.reference_torque_noise_nm {
+            row.push(tau + noise * self.rng.normal());
+        }
+        row.extend_from_slice(&[
+            tau,
+            mesh + reading.interference_nm,
+            mis,
+            phi,
+            x.motor_angle_rad,
+            x.output_angle_rad,
+            x.motor_speed_rad_s,
+            x.output_speed_rad_s,
+            current_a,
+            ext,
+        ]);
+
+        // Advance the dynamics over the sample.
+        let h = self.dt_s / self.n_sub as f64;
+        let torques: &[ExternalTorque] = &s.external_torque;
+        let ext_fn = |time: f64| external_torque_nm(torques, time);
+        let mut state = self.state;
+        for j in 0..self.n_sub {
+            self.model
+                .rk4_step(&mut state, t + j as f64 * h, h, current_a, &ext_fn);
+        }
+        self.state = state;
+        self.k += 1;
+        true
+    }
+}
+
+/// A whole run in memory: column names and one `Vec` per column.
+#[derive(Debug, Clone)]
+pub struct Recording {
+    /// Column names.
+    pub columns: Vec<&'static str>,
+    /// Column data, `data[c][k]`.
+    pub data: Vec<Vec<f64>>,
+}
+
+impl Recording {
+    /// A column by name.
+    pub fn column(&self, name: &str) -> Option<&[f64]> {
+        self.columns
+            .iter()
+            .position(|c| *c == name)
+            .map(|i| self.data[i].as_slice())
+    }
+}
+
+/// Runs a scenario to the end in memory.
+pub fn simulate(scenario: &Scenario) -> Result<(Recording, Simulator), SimError> {
+    let mut sim = Simulator::new(scenario)?;
+    let columns = sim.columns();
+    let mut data = vec![Vec::with_capacity(sim.len() as usize); columns.len()];
+    let mut row = Vec::with_capacity(columns.len());
+    while sim.next_row(&mut row) {
+        for (c, v) in data.iter_mut().zip(row.iter()) {
+            c.push(*v);
+        }
+    }
+    Ok((Recording { columns, data }, sim))
+}
