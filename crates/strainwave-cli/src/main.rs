@@ -1,1 +1,47 @@
-fn main() {}
+//! `strainwave`: torque sensing for strain wave gear joints and motor test benches.
+//!
+//! A thin binary over the library crates: parse arguments, run one command, print
+//! errors once. Exit codes: 0 success, 1 user error (bad file, bad value), 2 bad usage.
+
+mod cmd_demo;
+mod cmd_simulate;
+mod report;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// Torque sensing for strain wave gear (harmonic drive) joints and motor test benches.
+#[derive(Parser, Debug)]
+#[command(name = "strainwave", version, about, long_about = None, propagate_version = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Simulate the seed-000 joint and print the summary; write DIR/report.html.
+    #[command(after_help = "Example:\n  strainwave demo --out demo-out\n  (then open demo-out/report.html)")]
+    Demo(cmd_demo::Args),
+    /// Run the joint digital twin and write a recording with `true_*` columns.
+    #[command(
+        after_help = "Examples:\n  strainwave simulate --preset taghirad --out taghirad.csv\n  strainwave simulate --preset taghirad --print-scenario > my-joint.toml\n  strainwave simulate --scenario my-joint.toml --duration 60 --seed 7 --out run.csv"
+    )]
+    Simulate(cmd_simulate::Args),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Demo(a) => cmd_demo::run(&a),
+        Command::Simulate(a) => cmd_simulate::run(&a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(1)
+        }
+    }
+}

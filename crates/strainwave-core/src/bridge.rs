@@ -41,12 +41,7 @@ use crate::Real;
 /// let e = diaphragm_strain_per_nm(0.008_f64, 0.020, 0.0014, 80e9).unwrap();
 /// assert!(e > 7e-6 && e < 8e-6);
 /// ```
-pub fn diaphragm_strain_per_nm<T: Real>(
-    r1_m: T,
-    r2_m: T,
-    thickness_m: T,
-    shear_modulus_pa: T,
-) -> Result<T, Error> {
+pub fn diaphragm_strain_per_nm<T: Real>(r1_m: T, r2_m: T, thickness_m: T, shear_modulus_pa: T) -> Result<T, Error> {
     positive(r1_m, "r1_m")?;
     positive(r2_m, "r2_m")?;
     positive(thickness_m, "thickness_m")?;
@@ -161,12 +156,7 @@ impl Layout {
         let q = T::PI * T::HALF; // 90°
         let a45 = q * T::HALF;
         // The T-pair layout labels R1..R8 by position first; the wiring is the same.
-        let mk = |arm, pos: T, ori: T| Gauge {
-            arm,
-            position_rad: pos,
-            orientation_rad: ori,
-            radius_m,
-        };
+        let mk = |arm, pos: T, ori: T| Gauge { arm, position_rad: pos, orientation_rad: ori, radius_m };
         [
             mk(Arm::One, T::ZERO, a45),
             mk(Arm::Two, T::ZERO, -a45),
@@ -229,12 +219,7 @@ impl<T: Real, const G: usize> Bridge<T, G> {
         if arm_counts.iter().any(|&n| n == 0) {
             return Err(Error::OutOfRange("gauges (every arm needs a gauge)"));
         }
-        Ok(Self {
-            gauges,
-            gauge_factor,
-            excitation_v,
-            arm_counts,
-        })
+        Ok(Self { gauges, gauge_factor, excitation_v, arm_counts })
     }
 
     /// The gauges.
@@ -262,12 +247,7 @@ impl<T: Real, const G: usize> Bridge<T, G> {
     }
 
     /// Mean strain of each arm (series gauges of equal resistance average their strain).
-    pub fn arm_strains(
-        &self,
-        field: &StrainField<T>,
-        fs_torque_nm: T,
-        relative_angle_rad: T,
-    ) -> [T; 4] {
+    pub fn arm_strains(&self, field: &StrainField<T>, fs_torque_nm: T, relative_angle_rad: T) -> [T; 4] {
         let mut sum = [T::ZERO; 4];
         for g in &self.gauges {
             sum[g.arm.index()] += field.gauge_strain(g, fs_torque_nm, relative_angle_rad);
@@ -280,13 +260,7 @@ impl<T: Real, const G: usize> Bridge<T, G> {
     }
 
     /// Bridge output `U_out`, V (before amplification), small-strain or exact form.
-    pub fn output_v(
-        &self,
-        field: &StrainField<T>,
-        fs_torque_nm: T,
-        relative_angle_rad: T,
-        exact: bool,
-    ) -> T {
+    pub fn output_v(&self, field: &StrainField<T>, fs_torque_nm: T, relative_angle_rad: T, exact: bool) -> T {
         let e = self.arm_strains(field, fs_torque_nm, relative_angle_rad);
         let ratio = if exact {
             bridge_ratio_exact(self.gauge_factor, e)
@@ -299,31 +273,104 @@ impl<T: Real, const G: usize> Bridge<T, G> {
     /// Torque sensitivity `U_out / T_fs`, V per N·m, of the small-strain bridge
     /// (independent of `φ`: only the torsion term is linear in torque).
     pub fn sensitivity_v_per_nm(&self, field: &StrainField<T>) -> T {
-        let quiet = StrainField {
-            interference: [Interference::default(); 2],
-            ..*field
+        let quiet = StrainField { interference: [Interference::default(); 2], ..*field };
+        self.output_v(&quiet, T::ONE, T::ZERO, false) - self.output_v(&quiet, T::ZERO, T::ZERO, false)
+    }
+}
+
+/// A bridge and strain field reduced to their linear form: each arm strain is
+///
+/// ```text
+/// ε_arm(T, φ) = e0 + eT T + Σ_h (a_h sin 2hφ + b_h cos 2hφ)
+/// ```
+///
+/// (the field is linear in the torque and in `sin/cos 2hφ`), so one sample costs two
+/// `sin_cos` and 24 multiply-adds instead of three trigonometric calls per gauge.
+/// Exactly equal to [`Bridge::arm_strains`] up to rounding.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BridgeKernel<T: Real> {
+    /// Per arm: `[e0, eT, a_1, b_1, a_2, b_2]`.
+    arm: [[T; 6]; 4],
+    gauge_factor: T,
+    excitation_v: T,
+}
+
+impl<T: Real, const G: usize> Bridge<T, G> {
+    /// The linear kernel of this bridge on a strain field.
+    ///
+    /// ```
+    /// use strainwave_core::bridge::{Bridge, Interference, Layout, StrainField};
+    /// let b = Bridge::new(Layout::FourRosettes.gauges(0.015_f64), 2.0, 10.0).unwrap();
+    /// let f = StrainField { torsion_strain_per_nm: 7.6e-6, nominal_radius_m: 0.015, interference: [Interference::default(); 2] };
+    /// let k = b.kernel(&f);
+    /// assert!((k.output_v(3.0, 0.4, false) - b.output_v(&f, 3.0, 0.4, false)).abs() < 1e-15);
+    /// ```
+    pub fn kernel(&self, field: &StrainField<T>) -> BridgeKernel<T> {
+        let mut arm = [[T::ZERO; 6]; 4];
+        for g in &self.gauges {
+            let i = g.arm.index();
+            let wgt = T::ONE / T::from_usize(self.arm_counts[i]);
+            let rr = g.radius_m / field.nominal_radius_m;
+            let (s2a, c2a) = (T::TWO * g.orientation_rad).sin_cos();
+            let row = &mut arm[i];
+            row[1] += wgt * field.torsion_strain_per_nm / (rr * rr) * s2a;
+            let mut h = T::ONE;
+            for (k, w) in field.interference.iter().enumerate() {
+                // sin(2hφ − 2hβ + p) = sin 2hφ · cos(p − 2hβ) + cos 2hφ · sin(p − 2hβ)
+                let (sd, cd) = (w.phase_rad - T::TWO * h * g.position_rad).sin_cos();
+                let shear = w.shear * rr * s2a;
+                let cosine = (w.normal * c2a + w.common) * rr;
+                row[2 + 2 * k] += wgt * (shear * cd - cosine * sd);
+                row[3 + 2 * k] += wgt * (shear * sd + cosine * cd);
+                h += T::ONE;
+            }
+        }
+        BridgeKernel { arm, gauge_factor: self.gauge_factor, excitation_v: self.excitation_v }
+    }
+}
+
+impl<T: Real> BridgeKernel<T> {
+    /// Arm strains for a flexspline torque (N·m) at relative angle `φ` (rad).
+    #[inline]
+    pub fn arm_strains(&self, fs_torque_nm: T, relative_angle_rad: T) -> [T; 4] {
+        let (s1, c1) = (T::TWO * relative_angle_rad).sin_cos();
+        // sin/cos 4φ from the double angle.
+        let (s2, c2) = (T::TWO * s1 * c1, c1 * c1 - s1 * s1);
+        let mut out = [T::ZERO; 4];
+        for (o, a) in out.iter_mut().zip(self.arm.iter()) {
+            *o = a[0] + a[1] * fs_torque_nm + a[2] * s1 + a[3] * c1 + a[4] * s2 + a[5] * c2;
+        }
+        out
+    }
+
+    /// Bridge output `U_out`, V, small-strain or exact form.
+    #[inline]
+    pub fn output_v(&self, fs_torque_nm: T, relative_angle_rad: T, exact: bool) -> T {
+        let e = self.arm_strains(fs_torque_nm, relative_angle_rad);
+        let ratio = if exact {
+            bridge_ratio_exact(self.gauge_factor, e)
+        } else {
+            bridge_ratio_small_strain(self.gauge_factor, e)
         };
-        self.output_v(&quiet, T::ONE, T::ZERO, false)
-            - self.output_v(&quiet, T::ZERO, T::ZERO, false)
+        ratio * self.excitation_v
+    }
+
+    /// Torque sensitivity of the small-strain bridge `U_out / T_fs`, V per N·m.
+    pub fn sensitivity_v_per_nm(&self) -> T {
+        let a = &self.arm;
+        self.gauge_factor * T::from_f64(0.25) * (a[0][1] - a[1][1] + a[2][1] - a[3][1]) * self.excitation_v
     }
 }
 
 /// `U/E = (K/4)(ε1 − ε2 + ε3 − ε4)`.
 pub fn bridge_ratio_small_strain<T: Real>(gauge_factor: T, arm_strain: [T; 4]) -> T {
-    gauge_factor
-        * T::from_f64(0.25)
-        * (arm_strain[0] - arm_strain[1] + arm_strain[2] - arm_strain[3])
+    gauge_factor * T::from_f64(0.25) * (arm_strain[0] - arm_strain[1] + arm_strain[2] - arm_strain[3])
 }
 
 /// `U/E = R1/(R1 + R2) − R4/(R3 + R4)` with `R_i/R0 = 1 + K ε_i`.
 pub fn bridge_ratio_exact<T: Real>(gauge_factor: T, arm_strain: [T; 4]) -> T {
     let r = |e: T| T::ONE + gauge_factor * e;
-    let (r1, r2, r3, r4) = (
-        r(arm_strain[0]),
-        r(arm_strain[1]),
-        r(arm_strain[2]),
-        r(arm_strain[3]),
-    );
+    let (r1, r2, r3, r4) = (r(arm_strain[0]), r(arm_strain[1]), r(arm_strain[2]), r(arm_strain[3]));
     r1 / (r1 + r2) - r4 / (r3 + r4)
 }
 
@@ -366,11 +413,7 @@ impl<T: Real> SignalChain<T> {
         let lsb = self.lsb_v();
         let max = self.adc_range_v - lsb;
         let clipped = v > max || v < -self.adc_range_v || !v.is_finite();
-        let v = if v.is_finite() {
-            v.clamp(-self.adc_range_v, max)
-        } else {
-            T::ZERO
-        };
+        let v = if v.is_finite() { v.clamp(-self.adc_range_v, max) } else { T::ZERO };
         ((v / lsb).round() * lsb, clipped)
     }
 
@@ -396,18 +439,8 @@ mod tests {
             torsion_strain_per_nm: 7.6e-6,
             nominal_radius_m: 0.015,
             interference: [
-                Interference {
-                    shear: shear2,
-                    normal: 3e-4,
-                    common: 2e-4,
-                    phase_rad: 0.3,
-                },
-                Interference {
-                    shear: shear4,
-                    normal: 5e-5,
-                    common: 3e-5,
-                    phase_rad: -0.2,
-                },
+                Interference { shear: shear2, normal: 3e-4, common: 2e-4, phase_rad: 0.3 },
+                Interference { shear: shear4, normal: 5e-5, common: 3e-5, phase_rad: -0.2 },
             ],
         }
     }
@@ -466,18 +499,33 @@ mod tests {
 
     #[test]
     fn angular_error_scales_torque_by_cos_2da() {
-        let f = StrainField {
-            interference: [Interference::default(); 2],
-            ..field(0.0, 0.0)
-        };
+        let f = StrainField { interference: [Interference::default(); 2], ..field(0.0, 0.0) };
         let da = 2.0 * DEG;
-        let errs = [PlacementError {
-            angular_rad: da,
-            ..Default::default()
-        }; 8];
+        let errs = [PlacementError { angular_rad: da, ..Default::default() }; 8];
         let b = bridge().displaced(&errs);
         let ratio = b.sensitivity_v_per_nm(&f) / bridge().sensitivity_v_per_nm(&f);
         assert!((ratio - (2.0 * da).cos()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn kernel_equals_direct_evaluation() {
+        let f = field(1e-4, 1e-5);
+        let errs: [PlacementError<f64>; 8] = core::array::from_fn(|j| PlacementError {
+            radial_m: 1e-4 * (j as f64 - 3.5),
+            circumferential_rad: 0.003 * (j as f64 - 2.0),
+            angular_rad: -0.002 * (j as f64 - 4.0),
+        });
+        let b = bridge().displaced(&errs);
+        let k = b.kernel(&f);
+        assert!((k.sensitivity_v_per_nm() - b.sensitivity_v_per_nm(&f)).abs() < 1e-18);
+        for i in 0..200 {
+            let phi = i as f64 * 0.37 - 20.0;
+            let t = (i as f64 - 100.0) * 0.5;
+            for exact in [false, true] {
+                let (u1, u2) = (k.output_v(t, phi, exact), b.output_v(&f, t, phi, exact));
+                assert!((u1 - u2).abs() < 1e-14, "{u1} {u2}");
+            }
+        }
     }
 
     #[test]
@@ -491,20 +539,11 @@ mod tests {
 
     #[test]
     fn adc_quantizes_and_clips() {
-        let c = SignalChain {
-            amplifier_gain: 1000.0,
-            adc_bits: 12,
-            adc_range_v: 10.0,
-        }
-        .validated()
-        .unwrap();
+        let c = SignalChain { amplifier_gain: 1000.0, adc_bits: 12, adc_range_v: 10.0 }.validated().unwrap();
         let (v, clip) = c.quantize(0.0123);
         assert!(!clip && (v - 3.0 * 20.0 / 4096.0).abs() < 1e-12);
         assert!(c.quantize(11.0).1);
         assert!(c.quantize(f64::NAN).1);
-        assert_eq!(
-            SignalChain { adc_bits: 0, ..c }.validated(),
-            Err(Error::OutOfRange("adc_bits"))
-        );
+        assert_eq!(SignalChain { adc_bits: 0, ..c }.validated(), Err(Error::OutOfRange("adc_bits")));
     }
 }

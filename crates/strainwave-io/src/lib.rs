@@ -1,1 +1,11 @@
-//! strainwave-io
+//! Recordings for strainwave: CSV reading (streamed in chunks) and writing (atomic),
+//! with errors that name the file, row and column.
+//!
+//! A recording is a table with a header: a `time` column in seconds and one column per
+//! signal in SI units. Simulated recordings add `true_*` columns.
+
+pub mod csv_io;
+pub mod error;
+
+pub use csv_io::{read_table, CsvReader, CsvWriter, Table, DEFAULT_CHUNK_ROWS};
+pub use error::IoError;

@@ -6,10 +6,7 @@ use crate::scenario::Scenario;
 /// `(name, TOML text)` of every preset.
 pub const PRESETS: &[(&str, &str)] = &[
     ("taghirad", include_str!("../presets/taghirad.toml")),
-    (
-        "flexspline-fixed",
-        include_str!("../presets/flexspline-fixed.toml"),
-    ),
+    ("flexspline-fixed", include_str!("../presets/flexspline-fixed.toml")),
 ];
 
 /// The commented TOML of a preset.
@@ -34,11 +31,7 @@ pub fn preset(name: &str) -> Result<Scenario, SimError> {
 
 /// Comma-separated preset names.
 pub fn preset_names() -> String {
-    PRESETS
-        .iter()
-        .map(|(n, _)| *n)
-        .collect::<Vec<_>>()
-        .join(", ")
+    PRESETS.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
 }
 
 #[cfg(test)]

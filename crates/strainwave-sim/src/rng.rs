@@ -25,10 +25,7 @@ impl Rng {
             x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
             x ^ (x >> 31)
         };
-        Self {
-            s: [split(), split(), split(), split()],
-            spare_normal: None,
-        }
+        Self { s: [split(), split(), split(), split()], spare_normal: None }
     }
 
     /// Next 64 random bits.
@@ -87,8 +84,6 @@ mod tests {
         let mut a = Rng::new(1);
         let mut b = Rng::new(2);
         assert_ne!(a.next_u64(), b.next_u64());
-        assert!((0..10_000)
-            .map(|_| a.uniform())
-            .all(|u| (0.0..1.0).contains(&u)));
+        assert!((0..10_000).map(|_| a.uniform()).all(|u| (0.0..1.0).contains(&u)));
     }
 }

@@ -383,17 +383,11 @@ impl Scenario {
         pos(g.t1_nm, "gear.t1_nm")?;
         pos(g.t2_nm, "gear.t2_nm")?;
         if g.t2_nm <= g.t1_nm {
-            return Err(SimError::invalid(
-                "gear.t2_nm",
-                "must exceed gear.t1_nm".into(),
-            ));
+            return Err(SimError::invalid("gear.t2_nm", "must exceed gear.t1_nm".into()));
         }
         nonneg(g.hysteresis_rad, "gear.hysteresis_rad")?;
         nonneg(g.damping_nm_s_per_rad, "gear.damping_nm_s_per_rad")?;
-        nonneg(
-            g.friction_viscous_nm_s_per_rad,
-            "gear.friction_viscous_nm_s_per_rad",
-        )?;
+        nonneg(g.friction_viscous_nm_s_per_rad, "gear.friction_viscous_nm_s_per_rad")?;
         nonneg(g.friction_coulomb_nm, "gear.friction_coulomb_nm")?;
         let m = &self.motor;
         pos(m.inertia_kg_m2, "motor.inertia_kg_m2")?;
@@ -424,56 +418,30 @@ impl Scenario {
         pos(s.hub_radius_m, "sensor.hub_radius_m")?;
         pos(s.outer_radius_m, "sensor.outer_radius_m")?;
         if s.outer_radius_m <= s.hub_radius_m {
-            return Err(SimError::invalid(
-                "sensor.outer_radius_m",
-                "must exceed sensor.hub_radius_m".into(),
-            ));
+            return Err(SimError::invalid("sensor.outer_radius_m", "must exceed sensor.hub_radius_m".into()));
         }
         pos(s.thickness_m, "sensor.thickness_m")?;
         pos(s.shear_modulus_pa, "sensor.shear_modulus_pa")?;
         pos(s.gauge_radius_m, "sensor.gauge_radius_m")?;
-        for (h, k) in [
-            (&s.interference_2x, "sensor.interference_2x"),
-            (&s.interference_4x, "sensor.interference_4x"),
-        ] {
-            for v in [
-                h.shear_microstrain,
-                h.normal_microstrain,
-                h.common_microstrain,
-                h.phase_rad,
-            ] {
+        for (h, k) in [(&s.interference_2x, "sensor.interference_2x"), (&s.interference_4x, "sensor.interference_4x")] {
+            for v in [h.shear_microstrain, h.normal_microstrain, h.common_microstrain, h.phase_rad] {
                 fin(v, k)?;
             }
         }
         for p in &s.placement {
             if p.gauge >= 8 {
-                return Err(SimError::invalid(
-                    "sensor.placement.gauge",
-                    format!("must be 0..=7, got {}", p.gauge),
-                ));
+                return Err(SimError::invalid("sensor.placement.gauge", format!("must be 0..=7, got {}", p.gauge)));
             }
             for v in [p.radial_mm, p.circumferential_deg, p.angular_deg] {
                 fin(v, "sensor.placement")?;
             }
             if p.radial_mm * 1e-3 <= -s.gauge_radius_m {
-                return Err(SimError::invalid(
-                    "sensor.placement.radial_mm",
-                    "moves a gauge past the centre".into(),
-                ));
+                return Err(SimError::invalid("sensor.placement.radial_mm", "moves a gauge past the centre".into()));
             }
         }
-        nonneg(
-            s.placement_tolerance.radial_mm,
-            "sensor.placement_tolerance.radial_mm",
-        )?;
-        nonneg(
-            s.placement_tolerance.circumferential_deg,
-            "sensor.placement_tolerance.circumferential_deg",
-        )?;
-        nonneg(
-            s.placement_tolerance.angular_deg,
-            "sensor.placement_tolerance.angular_deg",
-        )?;
+        nonneg(s.placement_tolerance.radial_mm, "sensor.placement_tolerance.radial_mm")?;
+        nonneg(s.placement_tolerance.circumferential_deg, "sensor.placement_tolerance.circumferential_deg")?;
+        nonneg(s.placement_tolerance.angular_deg, "sensor.placement_tolerance.angular_deg")?;
         if s.placement_tolerance.radial_mm * 1e-3 * 4.0 >= s.gauge_radius_m {
             return Err(SimError::invalid(
                 "sensor.placement_tolerance.radial_mm",
@@ -482,25 +450,16 @@ impl Scenario {
         }
         pos(s.amplifier_gain, "sensor.amplifier_gain")?;
         if s.adc_bits == 0 || s.adc_bits > 32 {
-            return Err(SimError::invalid(
-                "sensor.adc_bits",
-                format!("must be 1..=32, got {}", s.adc_bits),
-            ));
+            return Err(SimError::invalid("sensor.adc_bits", format!("must be 1..=32, got {}", s.adc_bits)));
         }
         pos(s.adc_range_v, "sensor.adc_range_v")?;
         nonneg(s.noise_v_rms, "sensor.noise_v_rms")?;
         let e = &self.encoders;
         if e.motor_counts_per_rev == 0 {
-            return Err(SimError::invalid(
-                "encoders.motor_counts_per_rev",
-                "must be positive".into(),
-            ));
+            return Err(SimError::invalid("encoders.motor_counts_per_rev", "must be positive".into()));
         }
         if e.output_counts_per_rev == 0 {
-            return Err(SimError::invalid(
-                "encoders.output_counts_per_rev",
-                "must be positive".into(),
-            ));
+            return Err(SimError::invalid("encoders.output_counts_per_rev", "must be positive".into()));
         }
         nonneg(e.tacho_noise_rad_s, "encoders.tacho_noise_rad_s")?;
         nonneg(e.current_noise_a, "encoders.current_noise_a")?;
@@ -509,27 +468,17 @@ impl Scenario {
         }
         for seg in &self.motion {
             match seg {
-                MotionSegment::Ramp {
-                    to_rad_s,
-                    duration_s,
-                } => {
+                MotionSegment::Ramp { to_rad_s, duration_s } => {
                     fin(*to_rad_s, "motion.to_rad_s")?;
                     pos(*duration_s, "motion.duration_s")?;
                 }
                 MotionSegment::Hold { duration_s } => pos(*duration_s, "motion.duration_s")?,
-                MotionSegment::Sine {
-                    amplitude_rad_s,
-                    frequency_hz,
-                    duration_s,
-                } => {
+                MotionSegment::Sine { amplitude_rad_s, frequency_hz, duration_s } => {
                     fin(*amplitude_rad_s, "motion.amplitude_rad_s")?;
                     pos(*frequency_hz, "motion.frequency_hz")?;
                     pos(*duration_s, "motion.duration_s")?;
                 }
-                MotionSegment::Current {
-                    current_a,
-                    duration_s,
-                } => {
+                MotionSegment::Current { current_a, duration_s } => {
                     fin(*current_a, "motion.current_a")?;
                     pos(*duration_s, "motion.duration_s")?;
                 }
@@ -541,30 +490,18 @@ impl Scenario {
                     fin(*at_s, "external_torque.at_s")?;
                     fin(*torque_nm, "external_torque.torque_nm")?;
                 }
-                ExternalTorque::Sine {
-                    amplitude_nm,
-                    frequency_hz,
-                    phase_rad,
-                    start_s,
-                } => {
+                ExternalTorque::Sine { amplitude_nm, frequency_hz, phase_rad, start_s } => {
                     fin(*amplitude_nm, "external_torque.amplitude_nm")?;
                     nonneg(*frequency_hz, "external_torque.frequency_hz")?;
                     fin(*phase_rad, "external_torque.phase_rad")?;
                     fin(*start_s, "external_torque.start_s")?;
                 }
-                ExternalTorque::Ramp {
-                    from_s,
-                    to_s,
-                    torque_nm,
-                } => {
+                ExternalTorque::Ramp { from_s, to_s, torque_nm } => {
                     fin(*from_s, "external_torque.from_s")?;
                     fin(*to_s, "external_torque.to_s")?;
                     fin(*torque_nm, "external_torque.torque_nm")?;
                     if to_s <= from_s {
-                        return Err(SimError::invalid(
-                            "external_torque.to_s",
-                            "must exceed from_s".into(),
-                        ));
+                        return Err(SimError::invalid("external_torque.to_s", "must exceed from_s".into()));
                     }
                 }
             }
@@ -582,9 +519,7 @@ impl Scenario {
                     speed = *to_rad_s;
                     top = top.max(speed.abs());
                 }
-                MotionSegment::Sine {
-                    amplitude_rad_s, ..
-                } => top = top.max(speed.abs() + amplitude_rad_s.abs()),
+                MotionSegment::Sine { amplitude_rad_s, .. } => top = top.max(speed.abs() + amplitude_rad_s.abs()),
                 MotionSegment::Hold { .. } | MotionSegment::Current { .. } => {}
             }
         }
@@ -609,6 +544,37 @@ impl Scenario {
             ));
         }
         Ok(())
+    }
+
+    /// Constant-speed windows of the motion profile `(start_s, end_s, motor_speed_rad_s)`:
+    /// every `hold` segment at non-zero speed, minus `settle_s` at its start.
+    ///
+    /// ```
+    /// let s = strainwave_sim::presets::preset("taghirad").unwrap();
+    /// let w = s.hold_windows(0.2);
+    /// assert_eq!(w[0], (0.6000000000000001, 2.0, 156.0));
+    /// ```
+    pub fn hold_windows(&self, settle_s: f64) -> Vec<(f64, f64, f64)> {
+        let mut t = 0.0;
+        let mut speed = 0.0;
+        let mut out = Vec::new();
+        for seg in &self.motion {
+            match seg {
+                MotionSegment::Ramp { to_rad_s, duration_s } => {
+                    t += duration_s;
+                    speed = *to_rad_s;
+                }
+                MotionSegment::Hold { duration_s } => {
+                    if speed != 0.0 && *duration_s > settle_s {
+                        out.push((t + settle_s, (t + duration_s).min(self.duration_s), speed));
+                    }
+                    t += duration_s;
+                }
+                MotionSegment::Sine { duration_s, .. } | MotionSegment::Current { duration_s, .. } => t += duration_s,
+            }
+        }
+        out.retain(|w| w.1 > w.0);
+        out
     }
 
     /// Total length of the motion profile, s.

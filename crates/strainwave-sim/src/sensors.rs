@@ -12,7 +12,7 @@
 //! ```
 
 use strainwave_core::bridge::{
-    diaphragm_strain_per_nm, Bridge, Interference, Layout, PlacementError, SignalChain, StrainField,
+    diaphragm_strain_per_nm, Bridge, BridgeKernel, Interference, Layout, PlacementError, SignalChain, StrainField,
 };
 
 use crate::error::SimError;
@@ -33,8 +33,7 @@ pub struct BridgeReading {
 /// The sensor model of one run (placement errors drawn once).
 #[derive(Debug, Clone)]
 pub struct TorqueSensor {
-    bridge: Bridge<f64, 8>,
-    field: StrainField<f64>,
+    kernel: BridgeKernel<f64>,
     chain: SignalChain<f64>,
     exact: bool,
     noise_v_rms: f64,
@@ -74,12 +73,8 @@ impl TorqueSensor {
             e.circumferential_rad += deg * g.circumferential_deg;
             e.angular_rad += deg * g.angular_deg;
         }
-        let bridge = Bridge::new(
-            layout.gauges(p.gauge_radius_m),
-            p.gauge_factor,
-            p.excitation_v,
-        )?
-        .displaced(&placement);
+        let bridge =
+            Bridge::new(layout.gauges(p.gauge_radius_m), p.gauge_factor, p.excitation_v)?.displaced(&placement);
         let field = StrainField {
             torsion_strain_per_nm: diaphragm_strain_per_nm(
                 p.hub_radius_m,
@@ -88,28 +83,17 @@ impl TorqueSensor {
                 p.shear_modulus_pa,
             )?,
             nominal_radius_m: p.gauge_radius_m,
-            interference: [
-                interference(&p.interference_2x),
-                interference(&p.interference_4x),
-            ],
+            interference: [interference(&p.interference_2x), interference(&p.interference_4x)],
         };
-        let chain = SignalChain {
-            amplifier_gain: p.amplifier_gain,
-            adc_bits: p.adc_bits,
-            adc_range_v: p.adc_range_v,
-        }
-        .validated()?;
+        let chain = SignalChain { amplifier_gain: p.amplifier_gain, adc_bits: p.adc_bits, adc_range_v: p.adc_range_v }
+            .validated()?;
         let s_fs = bridge.sensitivity_v_per_nm(&field);
         if !(s_fs.abs() > 0.0) || !s_fs.is_finite() {
-            return Err(SimError::invalid(
-                "sensor.placement",
-                "leaves the bridge with no torque sensitivity".into(),
-            ));
+            return Err(SimError::invalid("sensor.placement", "leaves the bridge with no torque sensitivity".into()));
         }
         let gain_nm_per_v = 1.0 / (s_fs * fs_per_out * p.amplifier_gain);
         Ok(Self {
-            bridge,
-            field,
+            kernel: bridge.kernel(&field),
             chain,
             exact: p.bridge_model == BridgeModel::Exact,
             noise_v_rms: p.noise_v_rms,
@@ -142,28 +126,12 @@ impl TorqueSensor {
     }
 
     /// One reading: `sensed_out_nm` is `τ + T_mesh + T_mis` (output N·m), `phi` the relative angle.
-    pub fn read(
-        &self,
-        sensed_out_nm: f64,
-        relative_angle_rad: f64,
-        rng: &mut Rng,
-    ) -> BridgeReading {
+    pub fn read(&self, sensed_out_nm: f64, relative_angle_rad: f64, rng: &mut Rng) -> BridgeReading {
         let a = self.chain.amplifier_gain;
-        let u = self.bridge.output_v(
-            &self.field,
-            self.fs_per_out * sensed_out_nm,
-            relative_angle_rad,
-            self.exact,
-        );
-        let u_interf = self
-            .bridge
-            .output_v(&self.field, 0.0, relative_angle_rad, false);
+        let u = self.kernel.output_v(self.fs_per_out * sensed_out_nm, relative_angle_rad, self.exact);
+        let u_interf = self.kernel.output_v(0.0, relative_angle_rad, false);
         let noisy = a * u + self.noise_v_rms * rng.normal();
         let (voltage_v, clipped) = self.chain.quantize(noisy);
-        BridgeReading {
-            voltage_v,
-            interference_nm: a * u_interf * self.gain_nm_per_v,
-            clipped,
-        }
+        BridgeReading { voltage_v, interference_nm: a * u_interf * self.gain_nm_per_v, clipped }
     }
 }

@@ -1,0 +1,4 @@
+//! The HTML report and its SVG plots.
+
+pub mod html;
+pub mod plot;

@@ -1,0 +1,179 @@
+//! End-to-end behaviour of the `strainwave` binary.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_strainwave"))
+}
+
+fn run(args: &[&str]) -> Output {
+    bin().args(args).output().expect("run strainwave")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("sw-cli-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn simulate_same_seed_same_bytes() {
+    let d = tmp("seed");
+    let a = d.join("a.csv");
+    let b = d.join("b.csv");
+    let c = d.join("c.csv");
+    for (p, seed) in [(&a, "3"), (&b, "3"), (&c, "4")] {
+        let o = run(&[
+            "simulate",
+            "--preset",
+            "taghirad",
+            "--duration",
+            "0.5",
+            "--seed",
+            seed,
+            "--out",
+            p.to_str().unwrap(),
+            "--quiet",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let (a, b, c) = (std::fs::read(a).unwrap(), std::fs::read(b).unwrap(), std::fs::read(c).unwrap());
+    assert_eq!(a, b);
+    assert_ne!(a, c);
+    let text = String::from_utf8(a).unwrap();
+    let header = text.lines().next().unwrap();
+    for col in [
+        "time",
+        "motor_angle",
+        "output_angle",
+        "motor_velocity",
+        "motor_current",
+        "bridge_voltage",
+        "true_torque",
+        "true_ripple",
+        "true_misalignment",
+        "true_relative_angle",
+    ] {
+        assert!(header.split(',').any(|h| h == col), "missing {col} in {header}");
+    }
+    assert_eq!(text.lines().count(), 501);
+}
+
+#[test]
+fn print_scenario_round_trips_through_a_file() {
+    let o = run(&["simulate", "--preset", "taghirad", "--print-scenario"]);
+    assert!(o.status.success());
+    let d = tmp("print");
+    let f = d.join("joint.toml");
+    std::fs::write(&f, &o.stdout).unwrap();
+    let out = d.join("r.csv");
+    let o = run(&[
+        "simulate",
+        "--scenario",
+        f.to_str().unwrap(),
+        "--duration",
+        "0.2",
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let p = run(&[
+        "simulate",
+        "--preset",
+        "taghirad",
+        "--duration",
+        "0.2",
+        "--out",
+        d.join("p.csv").to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(p.status.success());
+    assert_eq!(std::fs::read(out).unwrap(), std::fs::read(d.join("p.csv")).unwrap());
+}
+
+fn scenario_with(d: &Path, from: &str, to: &str) -> PathBuf {
+    let text = String::from_utf8(run(&["simulate", "--preset", "taghirad", "--print-scenario"]).stdout).unwrap();
+    assert!(text.contains(from), "{from}");
+    let f = d.join("bad.toml");
+    std::fs::write(&f, text.replacen(from, to, 1)).unwrap();
+    f
+}
+
+fn assert_user_error(o: &Output, needle: &str) {
+    let e = stderr(o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(e.contains(needle), "`{needle}` not in: {e}");
+    assert_eq!(e.trim_end().lines().count(), 1, "one line: {e}");
+    assert!(!e.contains("panicked"), "{e}");
+}
+
+#[test]
+fn bad_scenarios_are_one_line_errors_naming_the_key() {
+    let d = tmp("bad");
+    let out = d.join("never.csv");
+    let cases = [
+        ("ratio = 100.0", "ratio = 0.0", "gear.ratio"),
+        ("ratio = 100.0", "ratio = 100.0\nratoi = 3", "ratoi"),
+        ("inertia_kg_m2 = 1.0", "inertia_kg_m2 = -1.0", "load.inertia_kg_m2"),
+        ("inertia_kg_m2 = 3.3e-5", "inertia_kg_m2 = 0.0", "motor.inertia_kg_m2"),
+        ("sample_rate_hz = 1000.0", "sample_rate_hz = 150.0", "sample_rate_hz"),
+    ];
+    for (from, to, needle) in cases {
+        let f = scenario_with(&d, from, to);
+        let o = run(&["simulate", "--scenario", f.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+        assert_user_error(&o, needle);
+        assert!(!out.exists(), "nothing written for {needle}");
+    }
+}
+
+#[test]
+fn unwritable_output_and_unknown_preset_are_user_errors() {
+    let o = run(&["simulate", "--preset", "taghirad", "--out", "/nonexistent-dir/x.csv"]);
+    assert_user_error(&o, "/nonexistent-dir/x.csv");
+    let o = run(&["simulate", "--preset", "nope", "--out", "x.csv"]);
+    assert_user_error(&o, "unknown preset `nope`");
+    let d = tmp("dir");
+    let o = run(&["simulate", "--preset", "taghirad", "--out", d.to_str().unwrap()]);
+    assert_user_error(&o, "is a directory");
+}
+
+#[test]
+fn bad_usage_exits_2() {
+    assert_eq!(run(&["simulate"]).status.code(), Some(2));
+    assert_eq!(run(&["frobnicate"]).status.code(), Some(2));
+    assert_eq!(
+        run(&["simulate", "--preset", "taghirad", "--scenario", "x.toml", "--out", "y.csv"]).status.code(),
+        Some(2)
+    );
+    let v = run(&["--version"]);
+    assert!(v.status.success() && String::from_utf8_lossy(&v.stdout).starts_with("strainwave "));
+}
+
+#[test]
+fn demo_prints_the_ripple_lines_and_writes_the_report() {
+    let d = tmp("demo");
+    let o = run(&["demo", "--out", d.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("2× relative angle") && text.contains("4× relative angle"), "{text}");
+    // Both ripple lines found as peaks within one bin.
+    for l in text.lines().filter(|l| l.contains("× relative angle") && !l.contains("order")) {
+        let cells: Vec<&str> = l.split_whitespace().collect();
+        assert_eq!(cells.last(), Some(&"yes"), "{l}");
+        let off: f64 = cells[cells.len() - 3].parse().unwrap();
+        assert!(off.abs() <= 1.0, "{l}");
+    }
+    let html = std::fs::read_to_string(d.join("report.html")).unwrap();
+    assert!(html.starts_with("<!DOCTYPE html>"));
+    assert_eq!(html.matches("<svg").count(), 3);
+    // Self-contained: no scripts, no address but the SVG namespace.
+    assert!(!html.contains("<script"));
+    assert_eq!(html.matches("http").count(), html.matches("http://www.w3.org/2000/svg").count());
+    assert!(d.join("taghirad.csv").exists());
+}
