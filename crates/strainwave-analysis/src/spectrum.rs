@@ -29,9 +29,7 @@ pub struct Peak {
 
 /// Hann window `w[n] = 0.5 (1 − cos(2π n / L))` (periodic form).
 pub fn hann(len: usize) -> Vec<f64> {
-    (0..len)
-        .map(|n| 0.5 * (1.0 - (std::f64::consts::TAU * n as f64 / len as f64).cos()))
-        .collect()
+    (0..len).map(|n| 0.5 * (1.0 - (std::f64::consts::TAU * n as f64 / len as f64).cos())).collect()
 }
 
 /// Hann-windowed amplitude spectrum of `signal` sampled at `sample_rate_hz`; the mean
@@ -44,16 +42,9 @@ pub fn hann(len: usize) -> Vec<f64> {
 /// let s = amplitude_spectrum(&x, fs).unwrap();
 /// assert!((s.amplitude_at(50.0) - 2.0).abs() < 1e-9);
 /// ```
-pub fn amplitude_spectrum(
-    signal: &[f64],
-    sample_rate_hz: f64,
-) -> Result<AmplitudeSpectrum, AnalysisError> {
+pub fn amplitude_spectrum(signal: &[f64], sample_rate_hz: f64) -> Result<AmplitudeSpectrum, AnalysisError> {
     if signal.len() < 8 {
-        return Err(AnalysisError::TooShort {
-            what: "signal",
-            needed: 8,
-            got: signal.len(),
-        });
+        return Err(AnalysisError::TooShort { what: "signal", needed: 8, got: signal.len() });
     }
     if !(sample_rate_hz.is_finite() && sample_rate_hz > 0.0) {
         return Err(AnalysisError::Invalid {
@@ -62,10 +53,7 @@ pub fn amplitude_spectrum(
         });
     }
     if let Some(i) = signal.iter().position(|v| !v.is_finite()) {
-        return Err(AnalysisError::NonFinite {
-            what: "signal",
-            index: i,
-        });
+        return Err(AnalysisError::NonFinite { what: "signal", index: i });
     }
     let n = signal.len();
     let mean = signal.iter().sum::<f64>() / n as f64;
@@ -74,20 +62,12 @@ pub fn amplitude_spectrum(
     let mut input: Vec<f64> = signal.iter().zip(&w).map(|(x, w)| (x - mean) * w).collect();
     let fft = RealFftPlanner::<f64>::new().plan_fft_forward(n);
     let mut out = fft.make_output_vec();
-    fft.process(&mut input, &mut out)
-        .map_err(|e| AnalysisError::Invalid {
-            what: "fft",
-            why: e.to_string(),
-        })?;
+    fft.process(&mut input, &mut out).map_err(|e| AnalysisError::Invalid { what: "fft", why: e.to_string() })?;
     let amplitude: Vec<f64> = out
         .iter()
         .enumerate()
         .map(|(k, c)| {
-            let one_sided = if k == 0 || (n % 2 == 0 && k == n / 2) {
-                1.0
-            } else {
-                2.0
-            };
+            let one_sided = if k == 0 || (n % 2 == 0 && k == n / 2) { 1.0 } else { 2.0 };
             one_sided * c.norm() / gain
         })
         .collect();
@@ -106,10 +86,7 @@ impl AmplitudeSpectrum {
         let k = (freq_hz / self.resolution_hz).round().max(0.0) as usize;
         let lo = k.saturating_sub(1);
         let hi = (k + 1).min(self.amplitude.len().saturating_sub(1));
-        self.amplitude[lo.min(hi)..=hi]
-            .iter()
-            .cloned()
-            .fold(0.0, f64::max)
+        self.amplitude[lo.min(hi)..=hi].iter().cloned().fold(0.0, f64::max)
     }
 
     /// The `count` largest local maxima above `min_hz`, strongest first; maxima closer
@@ -118,11 +95,7 @@ impl AmplitudeSpectrum {
         let a = &self.amplitude;
         let mut cands: Vec<Peak> = (1..a.len().saturating_sub(1))
             .filter(|&k| a[k] >= a[k - 1] && a[k] > a[k + 1] && self.freqs_hz[k] >= min_hz)
-            .map(|k| Peak {
-                freq_hz: self.freqs_hz[k],
-                amplitude: a[k],
-                bin: k,
-            })
+            .map(|k| Peak { freq_hz: self.freqs_hz[k], amplitude: a[k], bin: k })
             .collect();
         cands.sort_by(|x, y| y.amplitude.total_cmp(&x.amplitude));
         let mut out: Vec<Peak> = Vec::new();
@@ -130,10 +103,7 @@ impl AmplitudeSpectrum {
             if out.len() == count {
                 break;
             }
-            if out
-                .iter()
-                .all(|q| (q.freq_hz - p.freq_hz).abs() >= min_separation_hz)
-            {
+            if out.iter().all(|q| (q.freq_hz - p.freq_hz).abs() >= min_separation_hz) {
                 out.push(p);
             }
         }
@@ -151,9 +121,7 @@ mod tests {
         let x: Vec<f64> = (0..4000)
             .map(|k| {
                 let t = k as f64 / fs;
-                0.5 * (std::f64::consts::TAU * 49.65 * t).sin()
-                    + 0.2 * (std::f64::consts::TAU * 99.3 * t).sin()
-                    + 3.0
+                0.5 * (std::f64::consts::TAU * 49.65 * t).sin() + 0.2 * (std::f64::consts::TAU * 99.3 * t).sin() + 3.0
             })
             .collect();
         let s = amplitude_spectrum(&x, fs).unwrap();

@@ -33,13 +33,7 @@ impl<T: Real> ThreeSlopeStiffness<T> {
     /// assert!((k.twist_rad(60.0_f64) - 7.15e-4).abs() < 1e-6);
     /// assert!((k.torque_nm(k.twist_rad(60.0)) - 60.0).abs() < 1e-9);
     /// ```
-    pub fn new(
-        k1_nm_per_rad: T,
-        k2_nm_per_rad: T,
-        k3_nm_per_rad: T,
-        t1_nm: T,
-        t2_nm: T,
-    ) -> Result<Self, Error> {
+    pub fn new(k1_nm_per_rad: T, k2_nm_per_rad: T, k3_nm_per_rad: T, t1_nm: T, t2_nm: T) -> Result<Self, Error> {
         positive(k1_nm_per_rad, "k1_nm_per_rad")?;
         positive(k2_nm_per_rad, "k2_nm_per_rad")?;
         positive(k3_nm_per_rad, "k3_nm_per_rad")?;
@@ -48,13 +42,7 @@ impl<T: Real> ThreeSlopeStiffness<T> {
         if t2_nm <= t1_nm {
             return Err(Error::NotIncreasing("t2_nm"));
         }
-        Ok(Self {
-            k1_nm_per_rad,
-            k2_nm_per_rad,
-            k3_nm_per_rad,
-            t1_nm,
-            t2_nm,
-        })
+        Ok(Self { k1_nm_per_rad, k2_nm_per_rad, k3_nm_per_rad, t1_nm, t2_nm })
     }
 
     /// A single linear stiffness (all three slopes equal).
@@ -118,9 +106,7 @@ impl<T: Real> ThreeSlopeStiffness<T> {
 
     /// The largest of the three slopes, N·m/rad (sets the integrator step).
     pub fn max_stiffness(&self) -> T {
-        self.k1_nm_per_rad
-            .max(self.k2_nm_per_rad)
-            .max(self.k3_nm_per_rad)
+        self.k1_nm_per_rad.max(self.k2_nm_per_rad).max(self.k3_nm_per_rad)
     }
 }
 
@@ -152,13 +138,7 @@ mod tests {
 
     #[test]
     fn rejects_bad_parameters() {
-        assert_eq!(
-            ThreeSlopeStiffness::new(1.0, 1.0, 1.0, 5.0, 4.0),
-            Err(Error::NotIncreasing("t2_nm"))
-        );
-        assert_eq!(
-            ThreeSlopeStiffness::new(0.0, 1.0, 1.0, 1.0, 4.0),
-            Err(Error::NonPositive("k1_nm_per_rad"))
-        );
+        assert_eq!(ThreeSlopeStiffness::new(1.0, 1.0, 1.0, 5.0, 4.0), Err(Error::NotIncreasing("t2_nm")));
+        assert_eq!(ThreeSlopeStiffness::new(0.0, 1.0, 1.0, 1.0, 4.0), Err(Error::NonPositive("k1_nm_per_rad")));
     }
 }

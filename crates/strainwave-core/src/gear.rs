@@ -163,13 +163,7 @@ mod tests {
 
     #[test]
     fn bad_ratio_is_named() {
-        assert_eq!(
-            Gear::new(-1.0f32, FixedElement::CircularSpline),
-            Err(Error::NonPositive("ratio"))
-        );
-        assert_eq!(
-            Gear::new(f64::NAN, FixedElement::CircularSpline),
-            Err(Error::NonPositive("ratio"))
-        );
+        assert_eq!(Gear::new(-1.0f32, FixedElement::CircularSpline), Err(Error::NonPositive("ratio")));
+        assert_eq!(Gear::new(f64::NAN, FixedElement::CircularSpline), Err(Error::NonPositive("ratio")));
     }
 }

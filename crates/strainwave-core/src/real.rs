@@ -239,10 +239,7 @@ mod tests {
             (7.0, 7.0 - core::f64::consts::TAU),
         ] {
             let got = T::from_f64(x).wrap_pi().to_f64();
-            assert!(
-                (got - want).abs() < tol,
-                "wrap_pi({x}) = {got}, want {want}"
-            );
+            assert!((got - want).abs() < tol, "wrap_pi({x}) = {got}, want {want}");
         }
         assert!(T::PI.wrap_pi() == T::PI);
         assert!((-T::PI).wrap_pi() == T::PI);
