@@ -93,7 +93,7 @@ pub fn run(a: &Args) -> Result<()> {
     );
     let _ = writeln!(
         out,
-        "  {:.1} s at {} Hz: motor to {:.0} rad/s, hold, reversal to {:.0} rad/s, hold; {} RK4 sub-steps per sample",
+        "  {:.1} s at {} Hz: motor to {:.0} rad/s, hold, reversal to {:.0} rad/s, hold; RK4 sub-steps per sample: {}",
         scenario.duration_s,
         fs,
         scenario.top_motor_speed_rad_s(),
@@ -107,6 +107,7 @@ pub fn run(a: &Args) -> Result<()> {
         full_scale,
         sensor.noise_floor_nm()
     );
+    let intro = out.clone();
     let rows = vec![
         vec![
             "transmitted torque (true)".into(),
@@ -147,7 +148,7 @@ pub fn run(a: &Args) -> Result<()> {
                 l.label.clone(),
                 format!("{:.2}", l.expected_hz),
                 format!("{:.2}", l.found_hz),
-                format!("{:+.0}", l.offset_bins),
+                format!("{:+}", l.offset_bins.round() as i64),
                 format!("{:.3}", l.amplitude),
                 if l.is_peak { "yes".into() } else { "no".into() },
             ]
@@ -207,7 +208,7 @@ pub fn run(a: &Args) -> Result<()> {
         ..Default::default()
     };
     let html_rows: Vec<Vec<String>> = rows.iter().map(|r| r.to_vec()).collect();
-    let mut body = format!("<pre>{}</pre>", esc(&out));
+    let mut body = format!("<pre>{}</pre>", esc(intro.trim_end()));
     body += &table(&header, &html_rows);
     body += &table(&line_header, &line_rows);
     body += &time_plot.to_svg();
@@ -221,8 +222,8 @@ pub fn run(a: &Args) -> Result<()> {
     let report_path = a.out.join("report.html");
     std::fs::write(&report_path, report.to_html()).with_context(|| format!("{}", report_path.display()))?;
     if !a.quiet {
-        print!("{out}");
-        println!("\nwrote {} and {}", report_path.display(), rec_path.display());
+        out += &format!("\nwrote {} and {}\n", report_path.display(), rec_path.display());
+        crate::stdout::print(&out)?;
     }
     Ok(())
 }

@@ -62,9 +62,11 @@ pub fn run(a: &Args) -> Result<()> {
     if a.print_scenario {
         match (&a.preset, &a.scenario) {
             (Some(name), _) if a.duration.is_none() && a.seed.is_none() => {
-                print!("{}", presets::preset_text(name)?)
+                crate::stdout::print(presets::preset_text(name)?)?
             }
-            _ => print!("{}", load_scenario(a.preset.as_deref(), a.scenario.as_deref(), a.duration, a.seed)?.to_toml()),
+            _ => crate::stdout::print(
+                &load_scenario(a.preset.as_deref(), a.scenario.as_deref(), a.duration, a.seed)?.to_toml(),
+            )?,
         }
         return Ok(());
     }

@@ -6,6 +6,7 @@
 mod cmd_demo;
 mod cmd_simulate;
 mod report;
+mod stdout;
 
 use std::process::ExitCode;
 

@@ -177,3 +177,16 @@ fn demo_prints_the_ripple_lines_and_writes_the_report() {
     assert_eq!(html.matches("http").count(), html.matches("http://www.w3.org/2000/svg").count());
     assert!(d.join("taghirad.csv").exists());
 }
+
+#[test]
+fn closed_stdout_pipe_is_not_a_panic() {
+    use std::process::Stdio;
+    let d = tmp("pipe");
+    for args in [vec!["demo", "--out", d.to_str().unwrap()], vec!["simulate", "--preset", "taghirad", "--print-scenario"]] {
+        let mut child = bin().args(&args).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+        drop(child.stdout.take()); // the reader goes away at once
+        let o = child.wait_with_output().unwrap();
+        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+        assert!(!stderr(&o).contains("panicked"));
+    }
+}
