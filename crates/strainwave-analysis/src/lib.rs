@@ -1,8 +1,16 @@
 //! Offline analysis for strainwave: spectra, fits and smoothers over whole recordings.
 
+pub mod bench;
+pub mod calibration;
+pub mod campbell;
 pub mod error;
+pub mod frf;
 pub mod lines;
+pub mod lstsq;
+pub mod psd;
+pub mod smoother;
 pub mod spectrum;
 pub mod stats;
+pub mod stft;
 
 pub use error::AnalysisError;

@@ -2,9 +2,13 @@
 #![cfg_attr(not(any(feature = "std", test)), no_std)]
 
 pub mod bridge;
+pub mod calibration;
 pub mod compliance;
 pub mod error;
+pub mod fusion;
 pub mod gear;
+pub mod iir;
+pub mod pmsm;
 pub mod real;
 pub mod ripple;
 

@@ -1,0 +1,1 @@
+//! Test-bench models: torsion-shaft and accelerometer transfer functions (SPEC §6).

@@ -1,0 +1,1 @@
+//! Campbell diagrams and order slices from a speed channel.

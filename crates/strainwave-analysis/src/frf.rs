@@ -1,0 +1,1 @@
+//! Frequency-response estimate H1 with coherence between two channels.

@@ -1,0 +1,1 @@
+//! Fixed-interval (Rauch–Tung–Striebel) smoother on the ripple canceller's model.

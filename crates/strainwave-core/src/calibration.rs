@@ -1,0 +1,1 @@
+//! Applying a calibration in real time: linear and speed-dependent (lookup table interpolated in speed).

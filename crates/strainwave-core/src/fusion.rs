@@ -1,0 +1,1 @@
+//! Complementary fusion of a torsion-shaft torque and an accelerometer torque (SPEC §6).

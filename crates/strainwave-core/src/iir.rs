@@ -1,0 +1,1 @@
+//! Small discrete filters: first order and biquad sections.
