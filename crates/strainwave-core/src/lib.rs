@@ -11,6 +11,7 @@ pub mod iir;
 pub mod pmsm;
 pub mod real;
 pub mod ripple;
+pub mod torsion;
 
 pub use error::Error;
 pub use real::Real;

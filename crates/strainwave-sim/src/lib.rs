@@ -13,6 +13,8 @@
 //! assert_eq!(row.len(), sim.columns().len());
 //! ```
 
+pub mod arm;
+pub mod bench;
 pub mod error;
 pub mod joint;
 pub mod presets;

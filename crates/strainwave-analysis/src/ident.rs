@@ -1,0 +1,1 @@
+//! Identification of the kinematic error and the compliance from recorded runs (SPEC §5).
