@@ -29,6 +29,18 @@ pub enum IoError {
         /// What the header has.
         available: String,
     },
+    /// A config channel names a column the recording does not have.
+    #[error("{path}: no column `{column}` for channel `{key}` (columns: {available})")]
+    MissingChannel {
+        /// File.
+        path: PathBuf,
+        /// Config key of the channel.
+        key: String,
+        /// Wanted column.
+        column: String,
+        /// What the header has.
+        available: String,
+    },
     /// A cell that is not a number.
     #[error("{path}: row {row}, column `{column}`: `{value}` is not a number")]
     NotANumber {

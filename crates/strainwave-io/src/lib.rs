@@ -4,8 +4,12 @@
 //! A recording is a table with a header: a `time` column in seconds and one column per
 //! signal in SI units. Simulated recordings add `true_*` columns.
 
+pub mod channels;
 pub mod csv_io;
 pub mod error;
+pub mod time_axis;
 
 pub use csv_io::{read_table, CsvReader, CsvWriter, Table, DEFAULT_CHUNK_ROWS};
+pub use channels::{BoundChannel, Channel};
 pub use error::IoError;
+pub use time_axis::{TimeEvent, TimeMonitor};
