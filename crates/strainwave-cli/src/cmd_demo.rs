@@ -12,6 +12,7 @@ use strainwave_sim::{presets, simulate};
 
 use crate::report::html::{esc, table, Report, Section};
 use crate::report::plot::{LinePlot, Marker, Series};
+use crate::report::text::text_table;
 
 /// Arguments of `demo`.
 #[derive(clap::Args, Debug)]
@@ -22,35 +23,6 @@ pub struct Args {
     /// Print nothing but errors.
     #[arg(long, short)]
     pub quiet: bool,
-}
-
-/// Fixed-width text table.
-fn text_table(header: &[&str], rows: &[Vec<String>]) -> String {
-    let n = header.len();
-    let mut w: Vec<usize> = header.iter().map(|h| h.chars().count()).collect();
-    for r in rows {
-        for (i, c) in r.iter().enumerate().take(n) {
-            w[i] = w[i].max(c.chars().count());
-        }
-    }
-    let line = |cells: Vec<&str>| {
-        let mut s = String::from("  ");
-        for (i, c) in cells.iter().enumerate() {
-            let pad = w[i] - c.chars().count();
-            if i == 0 {
-                let _ = write!(s, "{c}{}", " ".repeat(pad));
-            } else {
-                let _ = write!(s, "  {}{c}", " ".repeat(pad));
-            }
-        }
-        s.trim_end().to_string() + "\n"
-    };
-    let mut out = line(header.to_vec());
-    out += &line(w.iter().map(|k| "-".repeat(*k)).collect::<Vec<_>>().iter().map(String::as_str).collect());
-    for r in rows {
-        out += &line(r.iter().map(String::as_str).collect());
-    }
-    out
 }
 
 /// Runs `demo`.

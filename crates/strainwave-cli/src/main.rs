@@ -4,6 +4,7 @@
 //! errors once. Exit codes: 0 success, 1 user error (bad file, bad value), 2 bad usage.
 
 mod cmd_demo;
+mod cmd_design;
 mod cmd_simulate;
 mod report;
 mod stdout;
@@ -25,6 +26,11 @@ enum Command {
     /// Simulate the seed-000 joint and print the summary; write DIR/report.html.
     #[command(after_help = "Example:\n  strainwave demo --out demo-out\n  (then open demo-out/report.html)")]
     Demo(cmd_demo::Args),
+    /// Bridge sensitivity, full scale, resolution and the gauge-placement Monte Carlo.
+    #[command(
+        after_help = "Example:\n  strainwave design --config examples/sensor-taghirad.toml --svg residual-2x.svg"
+    )]
+    Design(cmd_design::Args),
     /// Run the joint digital twin and write a recording with `true_*` columns.
     #[command(
         after_help = "Examples:\n  strainwave simulate --preset taghirad --out taghirad.csv\n  strainwave simulate --preset taghirad --print-scenario > my-joint.toml\n  strainwave simulate --scenario my-joint.toml --duration 60 --seed 7 --out run.csv"
@@ -36,6 +42,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Demo(a) => cmd_demo::run(&a),
+        Command::Design(a) => cmd_design::run(&a),
         Command::Simulate(a) => cmd_simulate::run(&a),
     };
     match result {

@@ -182,11 +182,37 @@ fn demo_prints_the_ripple_lines_and_writes_the_report() {
 fn closed_stdout_pipe_is_not_a_panic() {
     use std::process::Stdio;
     let d = tmp("pipe");
-    for args in [vec!["demo", "--out", d.to_str().unwrap()], vec!["simulate", "--preset", "taghirad", "--print-scenario"]] {
+    for args in
+        [vec!["demo", "--out", d.to_str().unwrap()], vec!["simulate", "--preset", "taghirad", "--print-scenario"]]
+    {
         let mut child = bin().args(&args).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
         drop(child.stdout.take()); // the reader goes away at once
         let o = child.wait_with_output().unwrap();
         assert!(o.status.success(), "{args:?}: {}", stderr(&o));
         assert!(!stderr(&o).contains("panicked"));
     }
+}
+
+#[test]
+fn design_prints_the_figures_and_rejects_bad_configs() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let d = tmp("design");
+    let svg = d.join("h.svg");
+    for cfg in ["examples/sensor-taghirad.toml", "examples/sensor-flexspline-fixed.toml"] {
+        let o = run(&["design", "--config", root.join(cfg).to_str().unwrap(), "--svg", svg.to_str().unwrap()]);
+        assert!(o.status.success(), "{cfg}: {}", stderr(&o));
+        let text = String::from_utf8_lossy(&o.stdout);
+        for needle in ["mV/V per N·m", "full scale", "resolution", "µε", "circumferential", "angular", "combined"] {
+            assert!(text.contains(needle), "{needle} in {text}");
+        }
+        assert!(std::fs::read_to_string(&svg).unwrap().contains("<path"));
+    }
+    let text = std::fs::read_to_string(root.join("examples/sensor-taghirad.toml")).unwrap();
+    let bad = d.join("bad.toml");
+    std::fs::write(&bad, text.replace("thickness_m = 1.44e-3", "thickness_m = -1.0")).unwrap();
+    assert_user_error(&run(&["design", "--config", bad.to_str().unwrap()]), "sensor.thickness_m");
+    std::fs::write(&bad, text.replace("draws = 10000", "draws = 0")).unwrap();
+    assert_user_error(&run(&["design", "--config", bad.to_str().unwrap()]), "monte_carlo.draws");
+    std::fs::write(&bad, text.replace("seed = 1", "seed = 1\nsede = 2")).unwrap();
+    assert_user_error(&run(&["design", "--config", bad.to_str().unwrap()]), "sede");
 }

@@ -355,6 +355,21 @@ impl<T: Real> BridgeKernel<T> {
         ratio * self.excitation_v
     }
 
+    /// Amplitude of the small-strain bridge output at `2h ×` the relative angle with no
+    /// torque (`h = 1`: the 2× line, `h = 2`: the 4× line), V. Other `h` give 0.
+    ///
+    /// `U_h(φ) = (K E / 4) Σ_arms ±(a_h sin 2hφ + b_h cos 2hφ)`, amplitude `(K E/4) √(A² + B²)`.
+    pub fn order_amplitude_v(&self, h: usize) -> T {
+        if h == 0 || h > 2 {
+            return T::ZERO;
+        }
+        let (i, j) = (2 * h, 2 * h + 1);
+        let a = &self.arm;
+        let sa = a[0][i] - a[1][i] + a[2][i] - a[3][i];
+        let sb = a[0][j] - a[1][j] + a[2][j] - a[3][j];
+        self.gauge_factor * T::from_f64(0.25) * self.excitation_v * (sa * sa + sb * sb).sqrt()
+    }
+
     /// Torque sensitivity of the small-strain bridge `U_out / T_fs`, V per N·m.
     pub fn sensitivity_v_per_nm(&self) -> T {
         let a = &self.arm;
@@ -526,6 +541,22 @@ mod tests {
                 assert!((u1 - u2).abs() < 1e-14, "{u1} {u2}");
             }
         }
+    }
+
+    #[test]
+    fn order_amplitude_matches_the_dft() {
+        let f = field(1e-4, 1e-5);
+        let errs: [PlacementError<f64>; 8] = core::array::from_fn(|j| PlacementError {
+            circumferential_rad: 0.004 * (j as f64 - 3.0),
+            ..Default::default()
+        });
+        let b = bridge().displaced(&errs);
+        let k = b.kernel(&f);
+        for h in [1usize, 2] {
+            let want = amplitude(&b, &f, 2.0 * h as f64);
+            assert!((k.order_amplitude_v(h) - want).abs() < 1e-12 * want.max(1e-9), "h={h}");
+        }
+        assert_eq!(k.order_amplitude_v(3), 0.0);
     }
 
     #[test]

@@ -112,7 +112,9 @@ mod tests {
 
     #[test]
     fn parses_both_forms_and_binds() {
-        let cfg: Cfg = toml::from_str("[channels]\ntime = \"t\"\nangle = { column = \"counts\", scale = 0.5, offset = 1.0 }\n").unwrap();
+        let cfg: Cfg =
+            toml::from_str("[channels]\ntime = \"t\"\nangle = { column = \"counts\", scale = 0.5, offset = 1.0 }\n")
+                .unwrap();
         let r = CsvReader::from_reader(Path::new("log.csv"), Box::new("t,counts\n0,4\n".as_bytes())).unwrap();
         let a = cfg.channels["angle"].bind(&r, "angle").unwrap();
         assert_eq!(a.get(&[0.0, 4.0]), 3.0);

@@ -9,7 +9,7 @@ pub mod csv_io;
 pub mod error;
 pub mod time_axis;
 
-pub use csv_io::{read_table, CsvReader, CsvWriter, Table, DEFAULT_CHUNK_ROWS};
 pub use channels::{BoundChannel, Channel};
+pub use csv_io::{read_table, CsvReader, CsvWriter, Table, DEFAULT_CHUNK_ROWS};
 pub use error::IoError;
 pub use time_axis::{TimeEvent, TimeMonitor};

@@ -49,7 +49,7 @@ impl TimeMonitor {
     /// Feeds the time of the next row (1-based row numbers in messages).
     pub fn push(&mut self, t_s: f64) -> TimeEvent {
         self.rows += 1;
-        let mut note = |m: &mut Self, what| {
+        let note = |m: &mut Self, what| {
             if m.first_problem.is_none() {
                 m.first_problem = Some((m.rows, t_s, what));
             }
@@ -103,7 +103,8 @@ mod tests {
     #[test]
     fn finds_gaps_duplicates_and_backsteps() {
         let mut m = TimeMonitor::new(None);
-        let ev: Vec<TimeEvent> = [0.0, 0.001, 0.002, 0.002, 0.0015, 0.010, 0.011, f64::NAN].iter().map(|t| m.push(*t)).collect();
+        let ev: Vec<TimeEvent> =
+            [0.0, 0.001, 0.002, 0.002, 0.0015, 0.010, 0.011, f64::NAN].iter().map(|t| m.push(*t)).collect();
         assert_eq!(ev[3], TimeEvent::NonMonotonic);
         assert_eq!(ev[4], TimeEvent::NonMonotonic);
         assert_eq!(ev[5], TimeEvent::Gap);

@@ -15,6 +15,7 @@
 
 pub mod arm;
 pub mod bench;
+pub mod design;
 pub mod error;
 pub mod joint;
 pub mod presets;

@@ -17,7 +17,7 @@ use strainwave_core::bridge::{
 
 use crate::error::SimError;
 use crate::rng::Rng;
-use crate::scenario::{BridgeModel, InterferenceParams, LayoutName, Scenario};
+use crate::scenario::{BridgeModel, InterferenceParams, LayoutName, Scenario, SensorParams};
 
 /// What the bridge produced for one sample.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -51,14 +51,37 @@ fn interference(p: &InterferenceParams) -> Interference<f64> {
     }
 }
 
+/// The gauge layout named in the sensor section.
+pub fn layout(p: &SensorParams) -> Layout {
+    match p.layout {
+        LayoutName::FourRosettes => Layout::FourRosettes,
+        LayoutName::EightGaugeT => Layout::EightGaugeT,
+    }
+}
+
+/// The diaphragm strain field of the sensor section.
+pub fn strain_field(p: &SensorParams) -> Result<StrainField<f64>, SimError> {
+    Ok(StrainField {
+        torsion_strain_per_nm: diaphragm_strain_per_nm(
+            p.hub_radius_m,
+            p.outer_radius_m,
+            p.thickness_m,
+            p.shear_modulus_pa,
+        )?,
+        nominal_radius_m: p.gauge_radius_m,
+        interference: [interference(&p.interference_2x), interference(&p.interference_4x)],
+    })
+}
+
+/// The ideal bridge of the sensor section (no placement error).
+pub fn ideal_bridge(p: &SensorParams) -> Result<Bridge<f64, 8>, SimError> {
+    Ok(Bridge::new(layout(p).gauges(p.gauge_radius_m), p.gauge_factor, p.excitation_v)?)
+}
+
 impl TorqueSensor {
     /// Builds the sensor; random placement errors come from `rng`.
     pub fn new(s: &Scenario, fs_per_out: f64, rng: &mut Rng) -> Result<Self, SimError> {
         let p = &s.sensor;
-        let layout = match p.layout {
-            LayoutName::FourRosettes => Layout::FourRosettes,
-            LayoutName::EightGaugeT => Layout::EightGaugeT,
-        };
         let deg = std::f64::consts::PI / 180.0;
         let mut placement = [PlacementError::default(); 8];
         let tol = &p.placement_tolerance;
@@ -73,18 +96,8 @@ impl TorqueSensor {
             e.circumferential_rad += deg * g.circumferential_deg;
             e.angular_rad += deg * g.angular_deg;
         }
-        let bridge =
-            Bridge::new(layout.gauges(p.gauge_radius_m), p.gauge_factor, p.excitation_v)?.displaced(&placement);
-        let field = StrainField {
-            torsion_strain_per_nm: diaphragm_strain_per_nm(
-                p.hub_radius_m,
-                p.outer_radius_m,
-                p.thickness_m,
-                p.shear_modulus_pa,
-            )?,
-            nominal_radius_m: p.gauge_radius_m,
-            interference: [interference(&p.interference_2x), interference(&p.interference_4x)],
-        };
+        let bridge = ideal_bridge(p)?.displaced(&placement);
+        let field = strain_field(p)?;
         let chain = SignalChain { amplifier_gain: p.amplifier_gain, adc_bits: p.adc_bits, adc_range_v: p.adc_range_v }
             .validated()?;
         let s_fs = bridge.sensitivity_v_per_nm(&field);

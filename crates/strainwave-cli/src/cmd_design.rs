@@ -1,0 +1,95 @@
+//! `strainwave design`: bridge sensitivity, full scale, resolution and the placement
+//! Monte Carlo for a flexspline sensor.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use strainwave_analysis::stats::histogram;
+use strainwave_sim::design::{DesignConfig, DesignReport};
+
+use crate::report::plot::{LinePlot, Series};
+use crate::report::text::text_table;
+
+/// Arguments of `design`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Sensor design TOML (see examples/sensor-taghirad.toml).
+    #[arg(long)]
+    pub config: PathBuf,
+    /// Write a histogram of the combined 2× residual as SVG.
+    #[arg(long)]
+    pub svg: Option<PathBuf>,
+}
+
+/// The printed report.
+pub fn render(r: &DesignReport, full_scale_for_pct: f64) -> String {
+    let mut out = String::new();
+    let _ = writeln!(out, "sensor design");
+    let rows = vec![
+        vec!["sensitivity (bridge)".into(), format!("{:.5}", r.sensitivity_mv_per_v_per_nm), "mV/V per N·m".into()],
+        vec!["output at rated torque".into(), format!("{:.4}", r.output_at_rated_mv_per_v), "mV/V".into()],
+        vec!["sensitivity after amplifier".into(), format!("{:.5}", r.amplified_v_per_nm), "V per N·m".into()],
+        vec!["calibration gain".into(), format!("{:.4}", 1.0 / r.amplified_v_per_nm), "N·m/V".into()],
+        vec!["full scale (ADC range)".into(), format!("{:.2}", r.full_scale_nm), "N·m".into()],
+        vec!["resolution (1 LSB)".into(), format!("{:.5}", r.resolution_nm), "N·m".into()],
+        vec!["principal strain at rated torque".into(), format!("{:.1}", r.strain_at_rated_microstrain), "µε".into()],
+        vec!["2× residual, ideal placement".into(), format!("{:.2e}", r.ideal_residual_nm.0), "N·m".into()],
+        vec!["4× residual, ideal placement".into(), format!("{:.4}", r.ideal_residual_nm.1), "N·m".into()],
+    ];
+    out += &text_table(&["figure", "value", "unit"], &rows);
+    let _ = writeln!(out, "\nresidual interference from placement errors (Monte Carlo), N·m and % of full scale:");
+    let pct = |x: f64| 100.0 * x / full_scale_for_pct;
+    let mut mc = Vec::new();
+    for s in &r.studies {
+        for (line, p) in [("2×", s.line_2x_nm), ("4×", s.line_4x_nm)] {
+            mc.push(vec![
+                s.errors.to_string(),
+                line.to_string(),
+                format!("{:.4}", p.p50),
+                format!("{:.4}", p.p95),
+                format!("{:.4}", p.p99),
+                format!("{:.3}", pct(p.p95)),
+            ]);
+        }
+    }
+    out += &text_table(&["errors", "line", "p50 N·m", "p95 N·m", "p99 N·m", "p95 % FS"], &mc);
+    out
+}
+
+/// Runs `design`.
+pub fn run(a: &Args) -> Result<()> {
+    let text = std::fs::read_to_string(&a.config).with_context(|| format!("{}", a.config.display()))?;
+    let cfg = DesignConfig::from_toml(&text).with_context(|| format!("config {}", a.config.display()))?;
+    let r = cfg.evaluate().with_context(|| format!("config {}", a.config.display()))?;
+    let mut out = render(&r, r.full_scale_nm);
+    let _ = writeln!(
+        out,
+        "\n({} draws, seed {}, tolerances 1σ: radial {} mm, circumferential {}°, angular {}°)",
+        cfg.monte_carlo.draws,
+        cfg.monte_carlo.seed,
+        cfg.sensor.placement_tolerance.radial_mm,
+        cfg.sensor.placement_tolerance.circumferential_deg,
+        cfg.sensor.placement_tolerance.angular_deg
+    );
+    if let Some(path) = &a.svg {
+        let combined = r.studies.iter().find(|s| s.errors == "combined").context("no combined study")?;
+        let (edges, counts) = histogram(&combined.samples_2x_nm, 50);
+        let mut x = Vec::with_capacity(2 * counts.len());
+        let mut y = Vec::with_capacity(2 * counts.len());
+        for (i, c) in counts.iter().enumerate() {
+            x.extend_from_slice(&[edges[i], edges[i + 1]]);
+            y.extend_from_slice(&[*c as f64, *c as f64]);
+        }
+        let plot = LinePlot {
+            title: "Residual 2× interference over placement draws (combined tolerances)".into(),
+            x_label: "2× residual amplitude (N·m)".into(),
+            y_label: "draws per bin".into(),
+            series: vec![Series { name: format!("{} draws", combined.samples_2x_nm.len()), x, y }],
+            ..Default::default()
+        };
+        std::fs::write(path, plot.to_svg()).with_context(|| format!("{}", path.display()))?;
+        let _ = writeln!(out, "wrote {}", path.display());
+    }
+    crate::stdout::print(&out)
+}
