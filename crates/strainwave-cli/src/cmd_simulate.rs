@@ -24,6 +24,11 @@ pub struct Args {
     /// Override the scenario's random seed.
     #[arg(long)]
     pub seed: Option<u64>,
+    /// Run a calibration procedure on the scenario's sensor instead of the joint:
+    /// `locked-wg` (seed 000: wave generator locked, arm and weights, loading and
+    /// unloading both ways, four flexspline positions × low/full range, 5–35 °C).
+    #[arg(long, value_parser = ["locked-wg"])]
+    pub procedure: Option<String>,
     /// Print the scenario as TOML and exit.
     #[arg(long)]
     pub print_scenario: bool,
@@ -72,6 +77,26 @@ pub fn run(a: &Args) -> Result<()> {
     }
     let scenario = load_scenario(a.preset.as_deref(), a.scenario.as_deref(), a.duration, a.seed)?;
     let Some(out) = a.out.as_deref() else { bail!("--out FILE is required") };
+    if a.procedure.is_some() {
+        let run = strainwave_sim::calibration_rig::LockedWgProcedure::default().run(&scenario)?;
+        let mut w = CsvWriter::create(out, strainwave_sim::calibration_rig::COLUMNS)?;
+        for r in &run.rows {
+            w.write_row(r)?;
+        }
+        let rows = w.finish()?;
+        if !a.quiet {
+            let (mean, consistency) = run.true_gain_and_consistency();
+            eprintln!(
+                "locked-wg calibration procedure on `{}`: {} experiments, {rows} readings -> {}; true gain {:.4} N·m/V, consistency {:.2} %",
+                scenario.name,
+                run.true_gains.len(),
+                out.display(),
+                mean,
+                100.0 * consistency
+            );
+        }
+        return Ok(());
+    }
     let mut sim = Simulator::new(&scenario)?;
     let columns = sim.columns();
     let mut w = CsvWriter::create(out, &columns)?;

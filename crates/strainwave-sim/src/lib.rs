@@ -15,6 +15,7 @@
 
 pub mod arm;
 pub mod bench;
+pub mod calibration_rig;
 pub mod design;
 pub mod error;
 pub mod joint;

@@ -7,6 +7,8 @@ use crate::scenario::Scenario;
 pub const PRESETS: &[(&str, &str)] = &[
     ("taghirad", include_str!("../presets/taghirad.toml")),
     ("flexspline-fixed", include_str!("../presets/flexspline-fixed.toml")),
+    ("flexspline-fixed-static", include_str!("../presets/flexspline-fixed-static.toml")),
+    ("flexspline-fixed-dynamic", include_str!("../presets/flexspline-fixed-dynamic.toml")),
 ];
 
 /// The commented TOML of a preset.
