@@ -41,6 +41,33 @@ pub enum IoError {
         /// What the header has.
         available: String,
     },
+    /// A column of a non-numeric type (Parquet).
+    #[error("{path}: column `{column}` has type {found}, expected a number")]
+    WrongType {
+        /// File.
+        path: PathBuf,
+        /// Column.
+        column: String,
+        /// Its type.
+        found: String,
+    },
+    /// An extension we do not know.
+    #[error("{0}: unknown format (use .csv, .parquet or .mcap)")]
+    UnknownFormat(PathBuf),
+    /// A format compiled out.
+    #[error("{path}: this build has no `{feature}` support")]
+    FeatureOff {
+        /// File.
+        path: PathBuf,
+        /// Cargo feature.
+        feature: &'static str,
+    },
+    /// MCAP is converted first, not read as a table.
+    #[error("{0}: MCAP logs are read by `strainwave convert --in LOG.mcap --out REC.csv|.parquet` first")]
+    McapNotARecording(PathBuf),
+    /// MCAP cannot be written.
+    #[error("{0}: MCAP output is not supported; write .csv or .parquet")]
+    McapOutput(PathBuf),
     /// A cell that is not a number.
     #[error("{path}: row {row}, column `{column}`: `{value}` is not a number")]
     NotANumber {

@@ -7,9 +7,13 @@
 pub mod channels;
 pub mod csv_io;
 pub mod error;
+#[cfg(feature = "parquet")]
+pub mod parquet_io;
+pub mod recording;
 pub mod time_axis;
 
 pub use channels::{BoundChannel, Channel};
 pub use csv_io::{read_table, CsvReader, CsvWriter, Table, DEFAULT_CHUNK_ROWS};
 pub use error::IoError;
+pub use recording::{format_of, read_all, Format, RecordingReader, RecordingWriter};
 pub use time_axis::{TimeEvent, TimeMonitor};

@@ -1,0 +1,227 @@
+//! Parquet recordings through Arrow: every column read as `f64` (integer and `f32`
+//! columns are widened; nulls become NaN; any other type is an error naming the column),
+//! written as non-nullable `Float64` columns with snappy compression, in row groups
+//! of [`crate::DEFAULT_CHUNK_ROWS`] rows, so both directions stream in constant memory.
+
+use std::fs::File;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use arrow_array::cast::AsArray;
+use arrow_array::types::{
+    Float32Type, Float64Type, Int16Type, Int32Type, Int64Type, Int8Type, UInt16Type, UInt32Type, UInt64Type, UInt8Type,
+};
+use arrow_array::{Array, ArrayRef, Float64Array, RecordBatch};
+use arrow_schema::{DataType, Field, Schema, SchemaRef};
+use parquet::arrow::arrow_reader::{ParquetRecordBatchReader, ParquetRecordBatchReaderBuilder};
+use parquet::arrow::ArrowWriter;
+use parquet::basic::Compression;
+use parquet::file::properties::WriterProperties;
+
+use crate::error::IoError;
+
+fn pq_err(path: &Path, e: impl std::fmt::Display) -> IoError {
+    IoError::Csv { path: path.to_path_buf(), msg: format!("parquet: {e}") }
+}
+
+fn numeric(dt: &DataType) -> bool {
+    matches!(
+        dt,
+        DataType::Float64
+            | DataType::Float32
+            | DataType::Int8
+            | DataType::Int16
+            | DataType::Int32
+            | DataType::Int64
+            | DataType::UInt8
+            | DataType::UInt16
+            | DataType::UInt32
+            | DataType::UInt64
+    )
+}
+
+/// Value `k` of a numeric column as `f64` (NaN for null).
+fn value(a: &dyn Array, k: usize) -> f64 {
+    if a.is_null(k) {
+        return f64::NAN;
+    }
+    match a.data_type() {
+        DataType::Float64 => a.as_primitive::<Float64Type>().value(k),
+        DataType::Float32 => a.as_primitive::<Float32Type>().value(k) as f64,
+        DataType::Int8 => a.as_primitive::<Int8Type>().value(k) as f64,
+        DataType::Int16 => a.as_primitive::<Int16Type>().value(k) as f64,
+        DataType::Int32 => a.as_primitive::<Int32Type>().value(k) as f64,
+        DataType::Int64 => a.as_primitive::<Int64Type>().value(k) as f64,
+        DataType::UInt8 => a.as_primitive::<UInt8Type>().value(k) as f64,
+        DataType::UInt16 => a.as_primitive::<UInt16Type>().value(k) as f64,
+        DataType::UInt32 => a.as_primitive::<UInt32Type>().value(k) as f64,
+        DataType::UInt64 => a.as_primitive::<UInt64Type>().value(k) as f64,
+        _ => f64::NAN,
+    }
+}
+
+/// Streaming reader of a Parquet recording.
+pub struct ParquetReader {
+    path: PathBuf,
+    columns: Vec<String>,
+    batches: ParquetRecordBatchReader,
+    batch: Option<RecordBatch>,
+    row_in_batch: usize,
+    rows_read: u64,
+}
+
+impl ParquetReader {
+    /// Opens a file and checks that every column is numeric.
+    pub fn open(path: &Path) -> Result<Self, IoError> {
+        if path.is_dir() {
+            return Err(IoError::IsDirectory(path.to_path_buf()));
+        }
+        let file = File::open(path).map_err(|source| IoError::Os { path: path.to_path_buf(), source })?;
+        if file.metadata().map(|m| m.len()).unwrap_or(0) == 0 {
+            return Err(IoError::Empty(path.to_path_buf()));
+        }
+        let builder = ParquetRecordBatchReaderBuilder::try_new(file).map_err(|e| pq_err(path, e))?;
+        let schema = builder.schema().clone();
+        for f in schema.fields() {
+            if !numeric(f.data_type()) {
+                return Err(IoError::WrongType {
+                    path: path.to_path_buf(),
+                    column: f.name().clone(),
+                    found: f.data_type().to_string(),
+                });
+            }
+        }
+        let columns = schema.fields().iter().map(|f| f.name().clone()).collect();
+        let batches = builder.with_batch_size(crate::DEFAULT_CHUNK_ROWS).build().map_err(|e| pq_err(path, e))?;
+        Ok(Self { path: path.to_path_buf(), columns, batches, batch: None, row_in_batch: 0, rows_read: 0 })
+    }
+
+    /// Column names in file order.
+    pub fn columns(&self) -> &[String] {
+        &self.columns
+    }
+
+    /// Data rows read so far.
+    pub fn rows_read(&self) -> u64 {
+        self.rows_read
+    }
+
+    /// Reads the next row; `Ok(false)` at the end.
+    pub fn read_row(&mut self, row: &mut Vec<f64>) -> Result<bool, IoError> {
+        loop {
+            if let Some(b) = &self.batch {
+                if self.row_in_batch < b.num_rows() {
+                    row.clear();
+                    for c in b.columns() {
+                        row.push(value(c.as_ref(), self.row_in_batch));
+                    }
+                    self.row_in_batch += 1;
+                    self.rows_read += 1;
+                    return Ok(true);
+                }
+            }
+            match self.batches.next() {
+                None => return Ok(false),
+                Some(Err(e)) => return Err(pq_err(&self.path, e)),
+                Some(Ok(b)) => {
+                    self.batch = Some(b);
+                    self.row_in_batch = 0;
+                }
+            }
+        }
+    }
+}
+
+/// Parquet writer; the file appears under its name only on [`ParquetWriter::finish`].
+pub struct ParquetWriter {
+    path: PathBuf,
+    tmp: PathBuf,
+    schema: SchemaRef,
+    writer: Option<ArrowWriter<File>>,
+    buffer: Vec<Vec<f64>>,
+    rows: u64,
+}
+
+impl ParquetWriter {
+    /// Creates the file with `Float64` columns.
+    pub fn create(path: &Path, columns: &[&str]) -> Result<Self, IoError> {
+        if path.is_dir() {
+            return Err(IoError::IsDirectory(path.to_path_buf()));
+        }
+        let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
+        let tmp = path.with_file_name(format!(".{name}.partial"));
+        let file = File::create(&tmp).map_err(|source| IoError::Os { path: path.to_path_buf(), source })?;
+        let schema: SchemaRef =
+            Arc::new(Schema::new(columns.iter().map(|c| Field::new(*c, DataType::Float64, false)).collect::<Vec<_>>()));
+        let props = WriterProperties::builder()
+            .set_compression(Compression::SNAPPY)
+            .set_max_row_group_row_count(Some(crate::DEFAULT_CHUNK_ROWS * 16))
+            .build();
+        let writer = ArrowWriter::try_new(file, schema.clone(), Some(props)).map_err(|e| pq_err(path, e))?;
+        Ok(Self {
+            path: path.to_path_buf(),
+            tmp,
+            schema,
+            writer: Some(writer),
+            buffer: vec![Vec::with_capacity(crate::DEFAULT_CHUNK_ROWS); columns.len()],
+            rows: 0,
+        })
+    }
+
+    /// Writes one row.
+    pub fn write_row(&mut self, row: &[f64]) -> Result<(), IoError> {
+        if row.len() != self.buffer.len() {
+            return Err(IoError::RowLength {
+                path: self.path.clone(),
+                row: self.rows + 1,
+                got: row.len(),
+                want: self.buffer.len(),
+            });
+        }
+        for (c, v) in self.buffer.iter_mut().zip(row) {
+            c.push(*v);
+        }
+        self.rows += 1;
+        if self.buffer[0].len() >= crate::DEFAULT_CHUNK_ROWS {
+            self.flush()?;
+        }
+        Ok(())
+    }
+
+    /// Writes the buffered rows as one batch.
+    pub fn flush(&mut self) -> Result<(), IoError> {
+        if self.buffer.first().is_none_or(|c| c.is_empty()) {
+            return Ok(());
+        }
+        let arrays: Vec<ArrayRef> =
+            self.buffer.iter_mut().map(|c| Arc::new(Float64Array::from(std::mem::take(c))) as ArrayRef).collect();
+        let batch = RecordBatch::try_new(self.schema.clone(), arrays).map_err(|e| pq_err(&self.path, e))?;
+        if let Some(w) = self.writer.as_mut() {
+            w.write(&batch).map_err(|e| pq_err(&self.path, e))?;
+        }
+        Ok(())
+    }
+
+    /// Rows written.
+    pub fn rows(&self) -> u64 {
+        self.rows
+    }
+
+    /// Closes the file and moves it into place.
+    pub fn finish(mut self) -> Result<u64, IoError> {
+        self.flush()?;
+        if let Some(w) = self.writer.take() {
+            w.close().map_err(|e| pq_err(&self.path, e))?;
+        }
+        std::fs::rename(&self.tmp, &self.path).map_err(|source| IoError::Os { path: self.path.clone(), source })?;
+        Ok(self.rows)
+    }
+}
+
+impl Drop for ParquetWriter {
+    fn drop(&mut self) {
+        if self.writer.take().is_some() {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+    }
+}
