@@ -3,8 +3,10 @@
 //! A thin binary over the library crates: parse arguments, run one command, print
 //! errors once. Exit codes: 0 success, 1 user error (bad file, bad value), 2 bad usage.
 
+mod cmd_convert;
 mod cmd_demo;
 mod cmd_design;
+mod cmd_mcap;
 mod cmd_simulate;
 mod report;
 mod stdout;
@@ -23,6 +25,11 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
+    /// Convert recordings between CSV, Parquet and MCAP (in), streaming.
+    #[command(
+        after_help = "Examples:\n  strainwave convert --in log.csv --out log.parquet\n  strainwave convert --in run.mcap --out run.csv\n  strainwave convert --in jittery.csv --out uniform.csv --resample-hz 1000"
+    )]
+    Convert(cmd_convert::Args),
     /// Simulate the seed-000 joint and print the summary; write DIR/report.html.
     #[command(after_help = "Example:\n  strainwave demo --out demo-out\n  (then open demo-out/report.html)")]
     Demo(cmd_demo::Args),
@@ -41,6 +48,7 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Convert(a) => cmd_convert::run(&a),
         Command::Demo(a) => cmd_demo::run(&a),
         Command::Design(a) => cmd_design::run(&a),
         Command::Simulate(a) => cmd_simulate::run(&a),

@@ -216,3 +216,68 @@ fn design_prints_the_figures_and_rejects_bad_configs() {
     std::fs::write(&bad, text.replace("seed = 1", "seed = 1\nsede = 2")).unwrap();
     assert_user_error(&run(&["design", "--config", bad.to_str().unwrap()]), "sede");
 }
+
+#[test]
+fn convert_round_trips_csv_parquet_csv_bit_exact() {
+    let d = tmp("convert");
+    let (a, pq, b) = (d.join("a.csv"), d.join("a.parquet"), d.join("b.csv"));
+    assert!(run(&[
+        "simulate",
+        "--preset",
+        "flexspline-fixed",
+        "--duration",
+        "0.3",
+        "--out",
+        a.to_str().unwrap(),
+        "-q"
+    ])
+    .status
+    .success());
+    for (i, o) in [(&a, &pq), (&pq, &b)] {
+        let r = run(&["convert", "--in", i.to_str().unwrap(), "--out", o.to_str().unwrap(), "-q"]);
+        assert!(r.status.success(), "{}", stderr(&r));
+    }
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+}
+
+#[test]
+fn convert_rejects_bad_recordings_naming_file_row_and_column() {
+    let d = tmp("badrec");
+    let out = d.join("o.csv");
+    let cases: [(&str, &str, &str); 5] = [
+        ("empty.csv", "", "empty file"),
+        ("header.csv", "time,x\n", "no data rows"),
+        ("trunc.csv", "time,x,y\n0,1,2\n0.001,3", "row 2 has 2 cells, the header has 3"),
+        ("text.csv", "time,x\n0,1\n0.001,abc\n", "row 2, column `x`: `abc` is not a number"),
+        ("weird.xlsx", "time\n0\n", "unknown format"),
+    ];
+    for (name, text, needle) in cases {
+        let f = d.join(name);
+        std::fs::write(&f, text).unwrap();
+        assert_user_error(&run(&["convert", "--in", f.to_str().unwrap(), "--out", out.to_str().unwrap()]), needle);
+        assert!(!out.exists(), "{name}: output left behind");
+    }
+    assert_user_error(
+        &run(&["convert", "--in", d.to_str().unwrap(), "--out", out.to_str().unwrap()]),
+        "is a directory",
+    );
+}
+
+#[test]
+fn convert_reports_time_gaps_and_resamples_only_when_asked() {
+    let d = tmp("gaps");
+    let f = d.join("g.csv");
+    std::fs::write(&f, "time,x\n0,0\n0.001,1\n0.002,2\n0.010,10\n0.010,10\n0.011,11\n").unwrap();
+    let out = d.join("o.csv");
+    let o = run(&["convert", "--in", f.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(o.status.success());
+    let e = stderr(&o);
+    assert!(e.contains("1 gap(s)") && e.contains("1 non-monotonic"), "{e}");
+    assert_eq!(std::fs::read_to_string(&out).unwrap().lines().count(), 7, "kept as is");
+    let o = run(&["convert", "--in", f.to_str().unwrap(), "--out", out.to_str().unwrap(), "--resample-hz", "1000"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&out).unwrap();
+    let rows: Vec<&str> = text.lines().skip(1).collect();
+    assert_eq!(rows.len(), 12, "{text}");
+    assert_eq!(rows[5], "0.005,5");
+}

@@ -10,6 +10,7 @@ pub mod error;
 #[cfg(feature = "parquet")]
 pub mod parquet_io;
 pub mod recording;
+pub mod resample;
 pub mod time_axis;
 
 pub use channels::{BoundChannel, Channel};

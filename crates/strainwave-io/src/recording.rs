@@ -18,10 +18,14 @@ pub enum Format {
     Mcap,
 }
 
-/// The format of a path by its extension (`-` is CSV on standard input/output).
+/// The format of a path by its extension (`-` is CSV on standard input/output); a
+/// directory is an error.
 pub fn format_of(path: &Path) -> Result<Format, IoError> {
     if path == Path::new("-") {
         return Ok(Format::Csv);
+    }
+    if path.is_dir() {
+        return Err(IoError::IsDirectory(path.to_path_buf()));
     }
     match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
         Some("csv") | Some("txt") => Ok(Format::Csv),
@@ -46,6 +50,9 @@ pub struct RecordingReader {
 impl RecordingReader {
     /// Opens a recording by extension.
     pub fn open(path: &Path) -> Result<Self, IoError> {
+        if path.is_dir() {
+            return Err(IoError::IsDirectory(path.to_path_buf()));
+        }
         let inner = match format_of(path)? {
             Format::Csv => Reader::Csv(CsvReader::open(path)?),
             #[cfg(feature = "parquet")]
@@ -113,6 +120,9 @@ pub struct RecordingWriter {
 impl RecordingWriter {
     /// Creates a recording by extension.
     pub fn create(path: &Path, columns: &[&str]) -> Result<Self, IoError> {
+        if path.is_dir() {
+            return Err(IoError::IsDirectory(path.to_path_buf()));
+        }
         let inner = match format_of(path)? {
             Format::Csv => Writer::Csv(CsvWriter::create(path, columns)?),
             #[cfg(feature = "parquet")]
@@ -190,6 +200,27 @@ mod tests {
                 assert_eq!(t.data[c][k].to_bits(), r[c].to_bits());
             }
         }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn parquet_column_of_the_wrong_type_is_named() {
+        use arrow_array::{ArrayRef, Float64Array, RecordBatch, StringArray};
+        use std::sync::Arc;
+        let dir = std::env::temp_dir().join(format!("sw-pqt-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("bad.parquet");
+        let batch = RecordBatch::try_from_iter(vec![
+            ("time", Arc::new(Float64Array::from(vec![0.0, 1.0])) as ArrayRef),
+            ("label", Arc::new(StringArray::from(vec!["a", "b"])) as ArrayRef),
+        ])
+        .unwrap();
+        let mut w =
+            parquet::arrow::ArrowWriter::try_new(std::fs::File::create(&p).unwrap(), batch.schema(), None).unwrap();
+        w.write(&batch).unwrap();
+        w.close().unwrap();
+        let e = RecordingReader::open(&p).err().unwrap().to_string();
+        assert!(e.ends_with("bad.parquet: column `label` has type Utf8, expected a number"), "{e}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
