@@ -3,6 +3,7 @@
 pub mod bench;
 pub mod calibration;
 pub mod campbell;
+pub mod canceller_eval;
 pub mod error;
 pub mod fir;
 pub mod frf;

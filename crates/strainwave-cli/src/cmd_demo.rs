@@ -136,6 +136,12 @@ pub fn run(a: &Args) -> Result<()> {
         out_rate.abs() / tau
     );
 
+    // The canceller against its alternatives, on three runs.
+    let (acc_text, acc_html, acc_plots) = canceller_section()?;
+    out += &acc_text;
+    let (cal_text, cal_html, cal_plots) = crate::demo_calibration::section()?;
+    out += &cal_text;
+
     // Report.
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("{}: cannot create the output directory", a.out.display()))?;
@@ -186,10 +192,21 @@ pub fn run(a: &Args) -> Result<()> {
     body += &time_plot.to_svg();
     body += &zoom.to_svg();
     body += &spec_plot.to_svg();
+    let mut acc_body = acc_html;
+    for p in &acc_plots {
+        acc_body += &p.to_svg();
+    }
     let report = Report {
         title: "strainwave demo report".into(),
         subtitle: format!("Seed-000 joint (preset `taghirad`), strainwave {}", env!("CARGO_PKG_VERSION")),
-        sections: vec![Section { title: "Joint digital twin".into(), body }],
+        sections: vec![
+            Section { title: "Joint digital twin".into(), body },
+            Section { title: "Ripple and misalignment cancellation".into(), body: acc_body },
+            Section {
+                title: "Sensor calibration".into(),
+                body: cal_html + &cal_plots.iter().map(LinePlot::to_svg).collect::<String>(),
+            },
+        ],
     };
     let report_path = a.out.join("report.html");
     std::fs::write(&report_path, report.to_html()).with_context(|| format!("{}", report_path.display()))?;
@@ -198,4 +215,92 @@ pub fn run(a: &Args) -> Result<()> {
         crate::stdout::print(&out)?;
     }
     Ok(())
+}
+
+/// Accuracy of the canceller and its alternatives on the free-motion, standstill and
+/// loaded runs: text, HTML table and plots.
+fn canceller_section() -> Result<(String, String, Vec<LinePlot>)> {
+    use strainwave_analysis::canceller_eval::{evaluate, lowpass_cutoff_for, Method, RunSignals};
+    let mut text = String::from("\nripple and misalignment cancellation against the simulator's truth:\n");
+    let header = ["run", "method", "ripple+mis left dB", "RMS err N·m", "RMS err % FS", "step delay samples"];
+    let mut rows: Vec<Vec<String>> = Vec::new();
+    let mut plots = Vec::new();
+    let mut lowpass_hz = None;
+    for name in ["taghirad", "taghirad-standstill", "taghirad-loaded"] {
+        let scenario = presets::preset(name)?;
+        let (rec, sim) = simulate(&scenario)?;
+        let col = |c: &str| rec.column(c).with_context(|| format!("simulator did not produce `{c}`"));
+        let signals = RunSignals {
+            sample_rate_hz: scenario.sample_rate_hz,
+            measured_nm: col("measured_torque")?,
+            motor_angle_rad: col("motor_angle")?,
+            output_angle_rad: col("output_angle")?,
+            motor_velocity_rad_s: col("motor_velocity")?,
+            true_torque_nm: col("true_torque")?,
+            true_ripple_nm: col("true_ripple")?,
+            true_misalignment_nm: col("true_misalignment")?,
+        };
+        let gear = sim.model().gear;
+        let noise = sim.sensor().noise_floor_nm();
+        let fs_nm = sim.sensor().full_scale_nm();
+        // The low-pass gets the cutoff that matches the full configuration's suppression
+        // on the free-motion run, and keeps it on the other runs.
+        let full = evaluate(&signals, &gear, noise, &[Method::Full], 0.3)?;
+        let fc = *lowpass_hz.get_or_insert(lowpass_cutoff_for(&signals, full[0].suppression_db)?);
+        let top = scenario.top_motor_speed_rad_s() * (1.0 + 1.0 / scenario.gear.ratio);
+        let f2 = 2.0 * top / std::f64::consts::TAU;
+        let methods =
+            [Method::Raw, Method::LowPass(fc), Method::Notch(f2), Method::Seed4th, Method::Seed6th, Method::Full];
+        let eval = evaluate(&signals, &gear, noise, &methods, 0.3)?;
+        for r in &eval {
+            rows.push(vec![
+                name.to_string(),
+                r.method.label(),
+                format!("{:.1}", r.suppression_db),
+                format!("{:.4}", r.rms_error_nm),
+                format!("{:.3}", 100.0 * r.rms_error_nm / fs_nm),
+                r.step_delay_samples.map_or("never".into(), |d| d.to_string()),
+            ]);
+        }
+        let full_row = eval.last().context("no rows")?;
+        rows.push(vec![
+            name.to_string(),
+            "(white-noise floor)".into(),
+            "".into(),
+            format!("{noise:.4}"),
+            format!("{:.3}", 100.0 * noise / fs_nm),
+            format!("full/floor = {:.2}", full_row.rms_error_nm / noise),
+        ]);
+        if name == "taghirad-loaded" {
+            let t = col("time")?;
+            let m = RippleModelRun::full(&signals, &gear, noise)?;
+            plots.push(LinePlot {
+                title: "Loaded run: measured, filtered and true torque".into(),
+                x_label: "time (s)".into(),
+                y_label: "output torque (N·m)".into(),
+                series: vec![
+                    Series { name: "measured".into(), x: t.to_vec(), y: signals.measured_nm.to_vec() },
+                    Series { name: "strainwave filtered".into(), x: t.to_vec(), y: m },
+                    Series { name: "true".into(), x: t.to_vec(), y: signals.true_torque_nm.to_vec() },
+                ],
+                x_range: Some((2.3, 2.8)),
+                ..Default::default()
+            });
+        }
+    }
+    text += &text_table(&header, &rows);
+    Ok((text, crate::report::html::table(&header, &rows), plots))
+}
+
+/// The full configuration's output over a run (for plots).
+struct RippleModelRun;
+
+impl RippleModelRun {
+    fn full(
+        s: &strainwave_analysis::canceller_eval::RunSignals,
+        gear: &strainwave_core::gear::Gear<f64>,
+        noise: f64,
+    ) -> Result<Vec<f64>> {
+        Ok(strainwave_analysis::canceller_eval::filtered(s, gear, noise)?)
+    }
 }

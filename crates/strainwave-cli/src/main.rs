@@ -3,11 +3,18 @@
 //! A thin binary over the library crates: parse arguments, run one command, print
 //! errors once. Exit codes: 0 success, 1 user error (bad file, bad value), 2 bad usage.
 
+mod cmd_calibrate;
 mod cmd_convert;
 mod cmd_demo;
 mod cmd_design;
+mod cmd_filter;
+mod cmd_filter_smooth;
 mod cmd_mcap;
+mod cmd_report;
 mod cmd_simulate;
+mod demo_calibration;
+mod joint_config;
+mod progress;
 mod report;
 mod stdout;
 
@@ -25,11 +32,21 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
+    /// Fit a sensor calibration (gain, static, dynamic, speed table) and print the report.
+    #[command(
+        after_help = "Examples:\n  strainwave simulate --preset taghirad --procedure locked-wg --out locked.csv\n  strainwave calibrate --in locked.csv --experiment-column experiment --reference reference_torque --sensor bridge_voltage --model gain --out calibration.toml"
+    )]
+    Calibrate(cmd_calibrate::Args),
     /// Convert recordings between CSV, Parquet and MCAP (in), streaming.
     #[command(
         after_help = "Examples:\n  strainwave convert --in log.csv --out log.parquet\n  strainwave convert --in run.mcap --out run.csv\n  strainwave convert --in jittery.csv --out uniform.csv --resample-hz 1000"
     )]
     Convert(cmd_convert::Args),
+    /// Cancel torque ripple and misalignment in a recording (real time, no added delay).
+    #[command(
+        after_help = "Examples:\n  strainwave simulate --preset taghirad --out taghirad.csv\n  strainwave filter --config examples/joint-taghirad.toml --in taghirad.csv --out filtered.csv\n  cat log.csv | strainwave filter --config joint.toml --in - --out - > filtered.csv"
+    )]
+    Filter(cmd_filter::Args),
     /// Simulate the seed-000 joint and print the summary; write DIR/report.html.
     #[command(after_help = "Example:\n  strainwave demo --out demo-out\n  (then open demo-out/report.html)")]
     Demo(cmd_demo::Args),
@@ -38,6 +55,15 @@ enum Command {
         after_help = "Example:\n  strainwave design --config examples/sensor-taghirad.toml --svg residual-2x.svg"
     )]
     Design(cmd_design::Args),
+    /// A self-contained HTML report of a recording (inline SVG, no scripts).
+    #[command(after_help = "Example:\n  strainwave filter --config examples/joint-taghirad.toml --in taghirad.csv --out filtered.csv\n  strainwave report --in filtered.csv --config examples/joint-taghirad.toml --out report.html")]
+    Report(cmd_report::Args),
+    /// Print a shell completion script.
+    #[command(after_help = "Example:\n  strainwave completions bash > ~/.local/share/bash-completion/completions/strainwave")]
+    Completions {
+        /// bash, zsh, fish, elvish or powershell.
+        shell: clap_complete::Shell,
+    },
     /// Run the joint digital twin and write a recording with `true_*` columns.
     #[command(
         after_help = "Examples:\n  strainwave simulate --preset taghirad --out taghirad.csv\n  strainwave simulate --preset taghirad --print-scenario > my-joint.toml\n  strainwave simulate --scenario my-joint.toml --duration 60 --seed 7 --out run.csv"
@@ -48,10 +74,19 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Calibrate(a) => cmd_calibrate::run(&a),
         Command::Convert(a) => cmd_convert::run(&a),
         Command::Demo(a) => cmd_demo::run(&a),
         Command::Design(a) => cmd_design::run(&a),
+        Command::Filter(a) => cmd_filter::run(&a),
         Command::Simulate(a) => cmd_simulate::run(&a),
+        Command::Report(a) => cmd_report::run(&a),
+        Command::Completions { shell } => {
+            use clap::CommandFactory;
+            let mut buf = Vec::new();
+            clap_complete::generate(shell, &mut Cli::command(), "strainwave", &mut buf);
+            stdout::print(&String::from_utf8_lossy(&buf))
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

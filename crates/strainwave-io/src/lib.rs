@@ -7,6 +7,8 @@
 pub mod channels;
 pub mod csv_io;
 pub mod error;
+#[cfg(feature = "mcap")]
+pub mod mcap_in;
 #[cfg(feature = "parquet")]
 pub mod parquet_io;
 pub mod recording;

@@ -1,0 +1,258 @@
+//! `strainwave filter`: the real-time ripple and misalignment canceller over a
+//! recording, streaming in constant memory (or the offline smoother with `--smooth`).
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use strainwave_core::ripple::{
+    step, Order, PhaseSource, Reference, ReferenceValues, RippleInput, RippleModel, RippleOutput, RippleState,
+    StepFlags,
+};
+use strainwave_io::{BoundChannel, RecordingReader, RecordingWriter, TimeMonitor};
+
+use crate::joint_config::{JointConfig, MAX_TABLE_LEN};
+
+/// Columns the filter adds.
+pub const OUTPUT_COLUMNS: &[&str] = &["torque", "ripple", "misalignment", "innovation", "nis", "filter_flags"];
+
+/// Arguments of `filter`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Joint configuration (gear, channels, calibration, filter); see examples/joint-taghirad.toml.
+    #[arg(long)]
+    pub config: PathBuf,
+    /// Input recording (.csv, .parquet; `-` for CSV on standard input).
+    #[arg(long = "in")]
+    pub input: PathBuf,
+    /// Output recording: the input columns plus torque, ripple, misalignment, innovation, nis, filter_flags.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Offline: forward filter plus Rauch–Tung–Striebel smoother (zero phase; reads the whole recording).
+    #[arg(long)]
+    pub smooth: bool,
+    /// Prefix for the added columns (when the input already has a `torque` column).
+    #[arg(long, default_value = "")]
+    pub prefix: String,
+    /// No summary on stderr.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// The channels bound to the input's columns.
+struct Bound {
+    time: BoundChannel,
+    torque: BoundChannel,
+    motor_angle: Option<BoundChannel>,
+    output_angle: Option<BoundChannel>,
+    motor_velocity: Option<BoundChannel>,
+    expected: Option<BoundChannel>,
+}
+
+fn bind(cfg: &JointConfig, r: &RecordingReader) -> Result<Bound> {
+    let b = |c: &strainwave_io::Channel, key: &str| -> Result<BoundChannel> {
+        let index = r.column_index(c.column_name()).map_err(|e| anyhow::anyhow!("{e} (channel `channels.{key}`)"))?;
+        let (scale, offset) = c.scale_offset();
+        if !(scale.is_finite() && scale != 0.0 && offset.is_finite()) {
+            bail!("`channels.{key}`: scale must be finite and non-zero, offset finite");
+        }
+        Ok(BoundChannel { index, scale, offset })
+    };
+    let opt = |c: &Option<strainwave_io::Channel>, key: &str| c.as_ref().map(|c| b(c, key)).transpose();
+    let ch = &cfg.channels;
+    Ok(Bound {
+        time: b(&ch.time, "time")?,
+        torque: b(&ch.torque, "torque")?,
+        motor_angle: opt(&ch.motor_angle, "motor_angle")?,
+        output_angle: opt(&ch.output_angle, "output_angle")?,
+        motor_velocity: opt(&ch.motor_velocity, "motor_velocity")?,
+        expected: opt(&ch.expected_torque, "expected_torque")?,
+    })
+}
+
+fn reference(name: &str) -> Result<Reference> {
+    Ok(match name {
+        "relative" => Reference::Relative,
+        "output" => Reference::Output,
+        "motor" => Reference::Motor,
+        other => bail!("`filter.orders.reference` must be relative, output or motor, got `{other}`"),
+    })
+}
+
+/// Runs `filter`.
+pub fn run(a: &Args) -> Result<()> {
+    let cfg = JointConfig::load(&a.config)?;
+    let ctx = || format!("config {}", a.config.display());
+    let fs = cfg.filter.sample_rate_hz;
+    let phase = match cfg.filter.phase.as_str() {
+        "angle" => PhaseSource::Angle,
+        "velocity" => PhaseSource::Velocity,
+        other => bail!("{}: `filter.phase` must be `angle` or `velocity`, got `{other}`", a.config.display()),
+    };
+    let core = |e: strainwave_core::Error| anyhow::anyhow!("{}: filter: {e}", a.config.display());
+    match cfg.filter.model.as_str() {
+        "product" => {
+            let noise = cfg
+                .filter
+                .noise_nm
+                .with_context(|| format!("{}: `filter.noise_nm` is needed by the product model", a.config.display()))?;
+            let m = RippleModel::<f64, 3>::product(fs, noise).map_err(core)?.with_phase_source(phase);
+            stream(a, &cfg, &m)
+        }
+        "seed-4th-order" => {
+            stream(a, &cfg, &RippleModel::<f64, 2>::seed_4th_order(fs).map_err(core)?.with_phase_source(phase))
+        }
+        "seed-6th-order" => {
+            stream(a, &cfg, &RippleModel::<f64, 3>::seed_6th_order(fs).map_err(core)?.with_phase_source(phase))
+        }
+        "orders" => {
+            let orders: Vec<Order<f64>> = cfg
+                .filter
+                .orders
+                .iter()
+                .map(|o| {
+                    Order::new(reference(&o.reference)?, o.multiple)
+                        .and_then(|x| x.with_noise(o.q_per_sample_nm2, o.q_per_rad_nm2))
+                        .map_err(core)
+                })
+                .collect::<Result<_>>()
+                .with_context(ctx)?;
+            let r = cfg
+                .filter
+                .r_nm2
+                .with_context(|| format!("{}: `filter.r_nm2` is needed by the orders model", a.config.display()))?;
+            macro_rules! with_m {
+                ($($m:literal)*) => {
+                    match orders.len() {
+                        $($m => {
+                            let arr: [Order<f64>; $m] = orders.clone().try_into().map_err(|_| anyhow::anyhow!("orders"))?;
+                            let mut model = RippleModel::new(arr, r, fs).map_err(core)?.with_phase_source(phase);
+                            if let Some(q) = cfg.filter.bias_q_nm2 {
+                                model = model.with_bias_state(q).map_err(core)?;
+                            }
+                            stream(a, &cfg, &model)
+                        })*
+                        n => bail!("{}: `filter.orders` needs 1 to 8 orders, got {n}", a.config.display()),
+                    }
+                };
+            }
+            with_m!(1 2 3 4 5 6 7 8)
+        }
+        other => bail!(
+            "{}: `filter.model` must be product, seed-4th-order, seed-6th-order or orders, got `{other}`",
+            a.config.display()
+        ),
+    }
+}
+
+fn stream<const M: usize>(a: &Args, cfg: &JointConfig, model: &RippleModel<f64, M>) -> Result<()> {
+    let gear = cfg.gear()?;
+    let cal = cfg.calibration()?;
+    let mut r = RecordingReader::open(&a.input)?;
+    let ch = bind(cfg, &r)?;
+    let velocity = model.phase_source() == PhaseSource::Velocity;
+    if velocity && ch.motor_velocity.is_none() {
+        bail!("{}: `filter.phase = \"velocity\"` needs `channels.motor_velocity`", a.config.display());
+    }
+    if !velocity && (ch.motor_angle.is_none() || ch.output_angle.is_none()) {
+        bail!("{}: the angle phase needs `channels.motor_angle` and `channels.output_angle`", a.config.display());
+    }
+    let mut columns: Vec<String> = r.columns().to_vec();
+    for c in OUTPUT_COLUMNS {
+        let name = format!("{}{c}", a.prefix);
+        if columns.contains(&name) {
+            bail!("{}: already has a column `{name}`; choose --prefix", a.input.display());
+        }
+        columns.push(name);
+    }
+    let refs: Vec<&str> = columns.iter().map(String::as_str).collect();
+    if a.smooth {
+        return crate::cmd_filter_smooth::smooth(a, model, &gear, &cal, &mut r, &refs, |row| {
+            inputs(&ch, &gear, &cal, row, velocity)
+        });
+    }
+    let mut w = RecordingWriter::create(&a.out, &refs)?;
+    let mut state = RippleState::new(model);
+    let mut monitor = TimeMonitor::new(Some(1.0 / cfg.filter.sample_rate_hz));
+    let mut row = Vec::with_capacity(columns.len());
+    let mut last_t: Option<f64> = None;
+    let (mut skipped, mut extrapolated) = (0u64, 0u64);
+    let progress = crate::progress::Progress::new("filter", a.quiet, None);
+    while r.read_row(&mut row)? {
+        let t = ch.time.get(&row);
+        monitor.push(t);
+        let (input, extra) = inputs(&ch, &gear, &cal, &row, velocity);
+        extrapolated += u64::from(extra);
+        let mut input = input;
+        if let Some(t0) = last_t.filter(|t0| t.is_finite() && t > *t0) {
+            input = input.with_dt(t - t0);
+        }
+        if t.is_finite() {
+            last_t = Some(t);
+        }
+        let o: RippleOutput<f64> = step(model, &mut state, &input)
+            .map_err(|e| anyhow::anyhow!("{}: row {}: filter: {e}", a.input.display(), r.rows_read()))?;
+        skipped += u64::from(o.flags.contains(StepFlags::MEASUREMENT_SKIPPED));
+        row.extend_from_slice(&[
+            o.torque_nm,
+            o.ripple_nm,
+            o.misalignment_nm,
+            o.innovation_nm,
+            o.nis,
+            o.flags.bits() as f64,
+        ]);
+        w.write_row(&row)?;
+        if r.rows_read() % strainwave_io::DEFAULT_CHUNK_ROWS as u64 == 0 {
+            if a.out.as_os_str() == "-" {
+                w.flush()?;
+            }
+            progress.set(r.rows_read());
+        }
+    }
+    progress.finish();
+    if r.rows_read() == 0 {
+        bail!("{}: no data rows", a.input.display());
+    }
+    let rows = w.finish()?;
+    if !a.quiet {
+        eprintln!("filtered {rows} rows of {} -> {}", a.input.display(), a.out.display());
+        if skipped > 0 {
+            eprintln!("warning: {skipped} samples with a non-finite torque or angle were skipped (flag bit 0 in filter_flags)");
+        }
+        if extrapolated > 0 {
+            eprintln!("warning: {extrapolated} samples used the calibration outside its speed range (its extrapolation policy)");
+        }
+        if let Some(msg) = monitor.report() {
+            eprintln!("warning: {}: {msg}", a.input.display());
+        }
+    }
+    Ok(())
+}
+
+/// The canceller's input for one row; `true` when the calibration extrapolated.
+fn inputs(
+    ch: &Bound,
+    gear: &strainwave_core::gear::Gear<f64>,
+    cal: &strainwave_core::calibration::Calibration<f64, MAX_TABLE_LEN>,
+    row: &[f64],
+    velocity: bool,
+) -> (RippleInput<f64>, bool) {
+    let speed = ch.motor_velocity.map_or(0.0, |c| c.get(row));
+    let (torque, extrapolated) = match cal.apply_flagged(ch.torque.get(row), speed) {
+        Ok(a) => (a.torque_nm, a.extrapolated),
+        // A non-finite sample or a speed the policy rejects: the filter skips it.
+        Err(_) => (f64::NAN, false),
+    };
+    let refs = if velocity {
+        let w = speed;
+        ReferenceValues::new(w * gear.relative_rate_rigid(1.0), gear.output_angle(w), w)
+    } else {
+        let (m, o) =
+            (ch.motor_angle.map_or(f64::NAN, |c| c.get(row)), ch.output_angle.map_or(f64::NAN, |c| c.get(row)));
+        ReferenceValues::from_gear(gear, m, o)
+    };
+    let mut input = RippleInput::new(torque, refs);
+    if let Some(e) = ch.expected {
+        input = input.with_expected_torque(e.get(row));
+    }
+    (input, extrapolated)
+}

@@ -1,0 +1,157 @@
+//! The joint configuration read by `filter` (TOML): the gear, the channel mapping,
+//! the calibration and the canceller settings. See the README for a complete example.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use serde::Deserialize;
+use strainwave_core::calibration::Calibration;
+use strainwave_core::gear::{FixedElement, Gear};
+use strainwave_io::Channel;
+
+/// Largest calibration table the filter accepts.
+pub const MAX_TABLE_LEN: usize = strainwave_analysis::calibration::MAX_TABLE_LEN;
+
+/// The whole file.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JointConfig {
+    /// Gear.
+    pub gear: GearConfig,
+    /// Where each signal comes from.
+    pub channels: Channels,
+    /// Turns the torque channel into N·m; absent when it already is.
+    #[serde(default)]
+    pub calibration: Option<CalibrationConfig>,
+    /// Canceller settings.
+    pub filter: FilterConfig,
+}
+
+/// `[gear]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GearConfig {
+    /// Ratio `N`.
+    pub ratio: f64,
+    /// `circular_spline` or `flexspline`.
+    pub fixed: String,
+}
+
+/// `[channels]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Channels {
+    /// Time, s.
+    pub time: Channel,
+    /// Torque (N·m), or the sensor signal the calibration converts.
+    pub torque: Channel,
+    /// Motor (wave generator) angle, rad.
+    pub motor_angle: Option<Channel>,
+    /// Output angle, rad.
+    pub output_angle: Option<Channel>,
+    /// Motor velocity, rad/s (tachometer phase, speed-dependent calibrations).
+    pub motor_velocity: Option<Channel>,
+    /// Expected torque (seed 000: load inertia × load acceleration), N·m.
+    pub expected_torque: Option<Channel>,
+}
+
+/// `[calibration]`: a gain, or a file from `strainwave calibrate`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CalibrationConfig {
+    /// N·m per unit of the torque channel.
+    pub gain_nm_per_v: Option<f64>,
+    /// A calibration TOML (relative paths are relative to the joint config).
+    pub file: Option<PathBuf>,
+}
+
+/// `[filter]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FilterConfig {
+    /// `product`, `seed-4th-order`, `seed-6th-order` or `orders`.
+    #[serde(default = "default_model")]
+    pub model: String,
+    /// Nominal sample rate, Hz.
+    pub sample_rate_hz: f64,
+    /// Product model: white noise of the torque signal, N·m (1σ).
+    pub noise_nm: Option<f64>,
+    /// `angle` (encoders; default) or `velocity` (tachometer only).
+    #[serde(default = "default_phase")]
+    pub phase: String,
+    /// `orders` model: the oscillators.
+    #[serde(default)]
+    pub orders: Vec<OrderConfig>,
+    /// `orders` model: measurement noise variance, N·m².
+    pub r_nm2: Option<f64>,
+    /// `orders` model: torque/bias random-walk variance per sample, N·m² (absent: no bias state).
+    pub bias_q_nm2: Option<f64>,
+}
+
+fn default_model() -> String {
+    "product".into()
+}
+
+fn default_phase() -> String {
+    "angle".into()
+}
+
+/// One oscillator of an `orders` model.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OrderConfig {
+    /// `relative`, `output` or `motor`.
+    pub reference: String,
+    /// Multiple of the reference angle.
+    pub multiple: f64,
+    /// Process noise per sample, N·m².
+    #[serde(default)]
+    pub q_per_sample_nm2: f64,
+    /// Process noise per radian of the order's phase, N·m².
+    #[serde(default)]
+    pub q_per_rad_nm2: f64,
+}
+
+impl JointConfig {
+    /// Reads and checks a config file.
+    pub fn load(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
+        let mut c: Self = toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {}", path.display(), e.message()))?;
+        if let Some(cal) = c.calibration.as_mut() {
+            if let Some(f) = cal.file.as_mut() {
+                if f.is_relative() {
+                    *f = path.parent().unwrap_or(Path::new(".")).join(&*f);
+                }
+            }
+        }
+        c.gear().with_context(|| format!("{}", path.display()))?;
+        if !(c.filter.sample_rate_hz.is_finite() && c.filter.sample_rate_hz > 0.0) {
+            bail!("{}: `filter.sample_rate_hz` must be positive", path.display());
+        }
+        Ok(c)
+    }
+
+    /// The gear; errors name `gear.ratio` / `gear.fixed`.
+    pub fn gear(&self) -> Result<Gear<f64>> {
+        let fixed = match self.gear.fixed.as_str() {
+            "circular_spline" => FixedElement::CircularSpline,
+            "flexspline" => FixedElement::Flexspline,
+            other => bail!("`gear.fixed` must be `circular_spline` or `flexspline`, got `{other}`"),
+        };
+        Gear::new(self.gear.ratio, fixed)
+            .map_err(|_| anyhow::anyhow!("`gear.ratio` must be positive, got {}", self.gear.ratio))
+    }
+
+    /// The calibration to apply to the torque channel (identity when absent).
+    pub fn calibration(&self) -> Result<Calibration<f64, MAX_TABLE_LEN>> {
+        let Some(c) = &self.calibration else { return Ok(Calibration::gain(1.0)?) };
+        match (c.gain_nm_per_v, &c.file) {
+            (Some(g), None) => Calibration::gain(g).map_err(|e| anyhow::anyhow!("`calibration.gain_nm_per_v`: {e}")),
+            (None, Some(f)) => {
+                let file = strainwave_analysis::calibration::CalibrationFile::load(f)?;
+                Ok(file.to_core::<f64, MAX_TABLE_LEN>().with_context(|| format!("{}", f.display()))?)
+            }
+            _ => bail!("`[calibration]` needs exactly one of `gain_nm_per_v` and `file`"),
+        }
+    }
+}

@@ -1,0 +1,182 @@
+//! `strainwave filter` and `strainwave report` end to end.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+
+fn run(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_strainwave")).args(args).output().expect("run strainwave")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("sw-filter-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn config() -> String {
+    root().join("examples/joint-taghirad.toml").to_str().unwrap().to_string()
+}
+
+fn assert_user_error(o: &Output, needle: &str) {
+    let e = stderr(o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(e.contains(needle), "`{needle}` not in: {e}");
+    assert_eq!(e.trim_end().lines().count(), 1, "one line: {e}");
+}
+
+fn simulate(d: &Path, seconds: &str) -> PathBuf {
+    let f = d.join("sim.csv");
+    let o = run(&["simulate", "--preset", "taghirad", "--duration", seconds, "--out", f.to_str().unwrap(), "-q"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    f
+}
+
+fn read(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap().split(',').map(String::from).collect();
+    (header, lines.map(|l| l.split(',').map(|v| v.parse().unwrap()).collect()).collect())
+}
+
+fn col(h: &[String], rows: &[Vec<f64>], name: &str) -> Vec<f64> {
+    let i = h.iter().position(|c| c == name).unwrap_or_else(|| panic!("no {name}"));
+    rows.iter().map(|r| r[i]).collect()
+}
+
+#[test]
+fn filter_adds_its_columns_and_removes_ripple_at_constant_speed() {
+    let d = tmp("basic");
+    let sim = simulate(&d, "4");
+    let out = d.join("f.csv");
+    let o = run(&["filter", "--config", &config(), "--in", sim.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (h, rows) = read(&out);
+    for c in ["torque", "ripple", "misalignment", "innovation", "nis", "filter_flags", "true_torque"] {
+        assert!(h.iter().any(|x| x == c), "{c}");
+    }
+    // The clean torque equals the calibrated input minus the predictions (no added delay).
+    let (meas, tq, rip, mis) = (col(&h, &rows, "measured_torque"), col(&h, &rows, "torque"), col(&h, &rows, "ripple"), col(&h, &rows, "misalignment"));
+    for k in 0..rows.len() {
+        // bridge_voltage × the config's gain (6.611) vs the simulator's exact gain: 1e-4 relative.
+        assert!((tq[k] + rip[k] + mis[k] - meas[k]).abs() < 1e-3 * meas[k].abs().max(1.0), "row {k}");
+    }
+    // The predicted ripple follows the true ripple once converged (1.5–2.0 s, constant speed).
+    let tr = col(&h, &rows, "true_ripple");
+    let (mut e0, mut e1) = (0.0, 0.0);
+    for k in 1500..2000 {
+        e0 += tr[k] * tr[k];
+        e1 += (tr[k] - rip[k]).powi(2);
+    }
+    let db = 10.0 * (e0 / e1).log10();
+    assert!(db > 20.0, "ripple suppression at constant speed {db:.1} dB");
+}
+
+#[test]
+fn filter_streams_through_a_pipe() {
+    let d = tmp("pipe");
+    let sim = simulate(&d, "0.5");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_strainwave"))
+        .args(["filter", "--config", &config(), "--in", "-", "--out", "-", "-q"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let data = std::fs::read(&sim).unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    let writer = std::thread::spawn(move || {
+        use std::io::Write;
+        stdin.write_all(&data).unwrap();
+    });
+    let o = child.wait_with_output().unwrap();
+    writer.join().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8(o.stdout).unwrap();
+    assert_eq!(text.lines().count(), 501);
+    assert!(text.lines().next().unwrap().ends_with("torque,ripple,misalignment,innovation,nis,filter_flags"));
+}
+
+#[test]
+fn nan_samples_are_skipped_with_a_flag_and_reported() {
+    let d = tmp("nan");
+    let sim = simulate(&d, "0.5");
+    let text = std::fs::read_to_string(&sim).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let h: Vec<&str> = lines[0].split(',').collect();
+    let i = h.iter().position(|c| *c == "bridge_voltage").unwrap();
+    let mut cells: Vec<String> = lines[100].split(',').map(String::from).collect();
+    cells[i] = "NaN".into();
+    lines[100] = cells.join(",");
+    let bad = d.join("nan.csv");
+    std::fs::write(&bad, lines.join("\n") + "\n").unwrap();
+    let out = d.join("f.csv");
+    let o = run(&["filter", "--config", &config(), "--in", bad.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("1 samples with a non-finite torque or angle were skipped"), "{}", stderr(&o));
+    let (h, rows) = read(&out);
+    let flags = col(&h, &rows, "filter_flags");
+    assert_eq!(flags[99] as u32 & 1, 1, "row 100 flagged");
+    assert!(col(&h, &rows, "torque")[101].is_finite());
+}
+
+#[test]
+fn bad_inputs_are_one_line_errors_and_write_nothing() {
+    let d = tmp("bad");
+    let sim = simulate(&d, "0.2");
+    let out = d.join("never.csv");
+    let cfg_text = std::fs::read_to_string(config()).unwrap();
+    let counter = std::cell::Cell::new(0);
+    let with = |from: &str, to: &str| {
+        assert!(cfg_text.contains(from), "{from}");
+        counter.set(counter.get() + 1);
+        let p = d.join(format!("cfg-{}.toml", counter.get()));
+        std::fs::write(&p, cfg_text.replacen(from, to, 1)).unwrap();
+        p
+    };
+    let cases = [
+        (with("ratio = 100.0", "ratio = 0.0"), "gear.ratio"),
+        (with("output_angle = \"output_angle\"", "output_angle = \"link_angle\""), "no column `link_angle`"),
+        (with("noise_nm = 0.0162", "noise_nm = -1.0"), "noise_nm"),
+        (with("model = \"product\"", "model = \"magic\""), "filter.model"),
+        (with("[filter]", "[filter]\ncutoff = 3"), "cutoff"),
+    ];
+    for (cfg, needle) in cases {
+        let o = run(&["filter", "--config", cfg.to_str().unwrap(), "--in", sim.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+        assert_user_error(&o, needle);
+        assert!(!out.exists());
+    }
+    let empty = d.join("empty.csv");
+    std::fs::write(&empty, "").unwrap();
+    assert_user_error(&run(&["filter", "--config", &config(), "--in", empty.to_str().unwrap(), "--out", out.to_str().unwrap()]), "empty file");
+    let header_only = d.join("header.csv");
+    std::fs::write(&header_only, std::fs::read_to_string(&sim).unwrap().lines().next().unwrap().to_string() + "\n").unwrap();
+    assert_user_error(
+        &run(&["filter", "--config", &config(), "--in", header_only.to_str().unwrap(), "--out", out.to_str().unwrap()]),
+        "no data rows",
+    );
+    assert!(!out.exists());
+}
+
+#[test]
+fn report_renders_sections_for_a_filtered_recording() {
+    let d = tmp("report");
+    let sim = simulate(&d, "2");
+    let f = d.join("f.csv");
+    assert!(run(&["filter", "--config", &config(), "--in", sim.to_str().unwrap(), "--out", f.to_str().unwrap(), "-q"]).status.success());
+    let html = d.join("r.html");
+    let o = run(&["report", "--in", f.to_str().unwrap(), "--config", &config(), "--out", html.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&html).unwrap();
+    for s in ["Torque over time", "Amplitude spectrum", "Errors against true_torque", "2× (mean speed)"] {
+        assert!(text.contains(s), "{s}");
+    }
+    assert!(!text.contains("<script"));
+}

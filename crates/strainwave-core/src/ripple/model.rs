@@ -1,0 +1,364 @@
+//! The immutable error model of the canceller: orders, noise, limits (SPEC §4).
+//!
+//! ```text
+//! x_i(k+1) = Φ_i(k) x_i(k) + w_i(k),   Φ_i(k) = [[cos a_i, sin a_i], [−sin a_i, cos a_i]]
+//! a_i(k)   = n_i Δθ_r(k)               phase increment of order i on reference r, rad
+//! b(k+1)   = b(k) + w_b(k)             optional torque/bias random walk (seed 001)
+//! y(k)     = T_meas(k) − T_exp(k) = Σ_i [1 0] x_i(k) + b(k) + v(k)
+//! E w_i w_iᵀ = (q_s,i + q_rad,i |a_i(k)|) I₂,   E w_b² = q_b,   E v² = R
+//! ```
+//!
+//! Units: torques N·m, variances N·m², `q_rad` N·m² per radian of the order's phase.
+
+use core::cmp::Ordering;
+
+use crate::error::{non_negative, positive, Error};
+use crate::Real;
+
+/// The measured angle an order is periodic in. The caller supplies each per sample.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Reference {
+    /// Relative WG–FS angle `φ = θ_wg − θ_fs` (SPEC §1): gear meshing and elliptical
+    /// interference ripple, 2× and 4×.
+    #[default]
+    Relative,
+    /// Output (link) angle: misalignment of shaft and load, 1×.
+    Output,
+    /// Motor (WG) angle, e.g. `p·θ_m` harmonics of the electrical angle.
+    Motor,
+}
+
+impl Reference {
+    /// Index into [`ReferenceValues`](super::ReferenceValues) order: relative, output, motor.
+    pub fn index(self) -> usize {
+        match self {
+            Reference::Relative => 0,
+            Reference::Output => 1,
+            Reference::Motor => 2,
+        }
+    }
+
+    /// Whether an order on this reference counts as ripple (else as misalignment).
+    pub fn is_ripple(self) -> bool {
+        !matches!(self, Reference::Output)
+    }
+}
+
+/// How the caller measures the reference angles.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum PhaseSource {
+    /// Reference values are angles (rad, wrapped or unwrapped):
+    /// `Δθ(k) = wrap_π(θ(k) − θ(k−1))`.
+    #[default]
+    Angle,
+    /// Reference values are velocities (rad/s, tachometer): trapezoidal
+    /// `Δθ(k) = (ω(k−1) + ω(k)) / 2 · dt`.
+    Velocity,
+}
+
+/// One order: an oscillator at `multiple ×` a reference angle with its process noise.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Order<T: Real> {
+    pub(crate) reference: Reference,
+    pub(crate) multiple: T,
+    pub(crate) q_per_sample_nm2: T,
+    pub(crate) q_per_rad_nm2: T,
+}
+
+impl<T: Real> Order<T> {
+    /// An order `multiple > 0` on `reference`, without process noise yet.
+    ///
+    /// ```
+    /// use strainwave_core::ripple::{Order, Reference};
+    /// let o = Order::new(Reference::Relative, 2.0_f64).unwrap().with_noise(0.0, 1e-4).unwrap();
+    /// assert_eq!(o.multiple(), 2.0);
+    /// assert!(Order::new(Reference::Output, 0.0_f32).is_err());
+    /// ```
+    pub fn new(reference: Reference, multiple: T) -> Result<Self, Error> {
+        positive(multiple, "multiple")?;
+        Ok(Self { reference, multiple, q_per_sample_nm2: T::ZERO, q_per_rad_nm2: T::ZERO })
+    }
+
+    /// Sets the process noise `Q_i = (q_per_sample + q_per_rad |n Δθ|) I₂`, N·m².
+    /// The per-radian part stops at standstill, so the oscillator cannot drift there.
+    pub fn with_noise(mut self, q_per_sample_nm2: T, q_per_rad_nm2: T) -> Result<Self, Error> {
+        self.q_per_sample_nm2 = non_negative(q_per_sample_nm2, "q_per_sample_nm2")?;
+        self.q_per_rad_nm2 = non_negative(q_per_rad_nm2, "q_per_rad_nm2")?;
+        Ok(self)
+    }
+
+    /// The reference angle.
+    pub fn reference(&self) -> Reference {
+        self.reference
+    }
+    /// The multiple `n` of the reference angle.
+    pub fn multiple(&self) -> T {
+        self.multiple
+    }
+    /// Process noise per sample, N·m².
+    pub fn q_per_sample_nm2(&self) -> T {
+        self.q_per_sample_nm2
+    }
+    /// Process noise per radian of the order's phase `n θ`, N·m².
+    pub fn q_per_rad_nm2(&self) -> T {
+        self.q_per_rad_nm2
+    }
+}
+
+/// Robustness limits. All fields are public; [`RippleModel::with_limits`] validates them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Limits<T: Real> {
+    /// A reference increment `|Δθ|` above this (rad per sample) is an encoder jump: the
+    /// orders on that reference are reset. Must be in `(0, π)` for wrapped angles.
+    /// Default π/2.
+    pub max_angle_step_rad: T,
+    /// An increment differing from the previous one (per sample) by more than this, rad,
+    /// is also a jump: it catches encoder glitches smaller than `max_angle_step_rad`.
+    /// Default π/4 (785 rad/s of speed change within one sample at 1 kHz); ∞ disables.
+    pub max_step_change_rad: T,
+    /// A sample interval `dt_s` above this many nominal periods is a time gap: every
+    /// oscillator is reset and the bias variance reinflated. Default 5 (∞ disables).
+    pub max_gap_periods: T,
+    /// An order whose line passes `nyquist_fraction · fs` (`|a| > nyquist_fraction·2π`)
+    /// is switched off; it comes back below 90 % of that. Default 0.45, range (0, 0.5].
+    pub nyquist_fraction: T,
+    /// An order whose line frequency is below this is held: still predicted and
+    /// subtracted, never updated, so standstill load cannot leak into it. The line
+    /// frequency is taken from the running mean (≈ 16 samples) of the signed increment,
+    /// so ±1-count encoder jitter at standstill does not count as motion.
+    /// Default 0.05 Hz; 0 disables (seed behaviour).
+    pub hold_below_hz: T,
+    /// Each sample the covariance is inflated by this fraction `ρ`: every oscillator block
+    /// gains `ρ (P_i,00 + P_i,11)/2 · I₂` (rotation invariant, so it is part of `Q`) and
+    /// the bias `ρ P_bb`. It dominates the rounding of the update so `P` stays positive
+    /// in f32 over 10⁸ samples. Default `ρ = 16 ε` (f32: 1.9e-6, a forgetting time of 5·10⁵ samples;
+    /// f64: 3.6e-15, invisible). The update also never lets a variance fall below its
+    /// exact lower bound `P_ii R / S`.
+    pub covariance_inflation: T,
+    /// With the bias state, an innovation whose NIS `e²/S` exceeds this is taken as a
+    /// load step: the update is the limit `Var(b) → ∞`, so the bias takes the whole
+    /// innovation and the oscillators learn nothing from that sample. Default 25 (5σ);
+    /// 0 disables.
+    pub load_step_nis: T,
+}
+
+impl<T: Real> Default for Limits<T> {
+    fn default() -> Self {
+        Self {
+            max_angle_step_rad: T::PI * T::HALF,
+            max_step_change_rad: T::PI * T::from_f64(0.25),
+            max_gap_periods: T::from_f64(5.0),
+            nyquist_fraction: T::from_f64(0.45),
+            hold_below_hz: T::from_f64(0.05),
+            covariance_inflation: T::from_f64(16.0) * T::EPSILON,
+            load_step_nis: T::from_f64(25.0),
+        }
+    }
+}
+
+/// The configuration of an oscillator bank of `M` orders (plus an optional bias
+/// state): everything but the state. One model serves any number of joints.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RippleModel<T: Real, const M: usize> {
+    pub(crate) orders: [Order<T>; M],
+    pub(crate) r_nm2: T,
+    pub(crate) sample_rate_hz: T,
+    pub(crate) bias_q_nm2: Option<T>,
+    pub(crate) p0_oscillator_nm2: T,
+    pub(crate) p0_bias_nm2: T,
+    pub(crate) phase_source: PhaseSource,
+    pub(crate) limits: Limits<T>,
+    // Derived, refreshed by `derive`.
+    pub(crate) dt_s: T,
+    pub(crate) max_gap_s: T,
+    pub(crate) off_above_rad: T,
+    pub(crate) on_below_rad: T,
+    pub(crate) hold_below_rad: T,
+    pub(crate) uses: [bool; 3],
+    /// Whole multiple `n ≤ 16` of each order (its phasor is the reference's to the
+    /// `n`th power), or 0 for a fractional or larger multiple (own accumulated phase).
+    pub(crate) power: [u8; M],
+    /// The references some order uses, in index order, and how many there are.
+    pub(crate) used_refs: [u8; 3],
+    pub(crate) n_used: u8,
+}
+
+impl<T: Real, const M: usize> RippleModel<T, M> {
+    /// A bank of `orders`, measurement noise variance `R > 0` (N·m²) and the sample
+    /// rate. No bias state, initial variance 1 N·m² per oscillator, default limits.
+    ///
+    /// ```
+    /// use strainwave_core::ripple::{Order, Reference, RippleModel};
+    /// let orders = [
+    ///     Order::new(Reference::Relative, 2.0_f64)?.with_noise(1e-3, 0.0)?,
+    ///     Order::new(Reference::Relative, 4.0)?.with_noise(1e-3, 0.0)?,
+    /// ];
+    /// let model = RippleModel::new(orders, 1.0, 1000.0)?;
+    /// assert_eq!(model.state_len(), 4);
+    /// assert!(RippleModel::new(orders, 0.0, 1000.0).is_err());
+    /// # Ok::<(), strainwave_core::Error>(())
+    /// ```
+    pub fn new(orders: [Order<T>; M], r_nm2: T, sample_rate_hz: T) -> Result<Self, Error> {
+        for o in &orders {
+            positive(o.multiple, "multiple")?;
+            non_negative(o.q_per_sample_nm2, "q_per_sample_nm2")?;
+            non_negative(o.q_per_rad_nm2, "q_per_rad_nm2")?;
+        }
+        let mut m = Self {
+            orders,
+            r_nm2: positive(r_nm2, "r_nm2")?,
+            sample_rate_hz: positive(sample_rate_hz, "sample_rate_hz")?,
+            bias_q_nm2: None,
+            p0_oscillator_nm2: T::ONE,
+            p0_bias_nm2: T::from_f64(1e4),
+            phase_source: PhaseSource::Angle,
+            limits: Limits::default(),
+            dt_s: T::ZERO,
+            max_gap_s: T::ZERO,
+            off_above_rad: T::ZERO,
+            on_below_rad: T::ZERO,
+            hold_below_rad: T::ZERO,
+            uses: [false; 3],
+            power: [0; M],
+            used_refs: [0; 3],
+            n_used: 0,
+        };
+        m.derive();
+        Ok(m)
+    }
+
+    /// Adds the torque/bias random-walk state `b(k+1) = b(k) + w_b`, `E w_b² = q_b` (N·m²
+    /// per sample; see [`tuning::random_walk_q`](super::tuning::random_walk_q)).
+    ///
+    /// ```
+    /// use strainwave_core::ripple::RippleModel;
+    /// let m = RippleModel::<f32, 2>::seed_4th_order(1000.0)?.with_bias_state(1e-2)?;
+    /// assert_eq!(m.state_len(), 5);
+    /// # Ok::<(), strainwave_core::Error>(())
+    /// ```
+    pub fn with_bias_state(mut self, q_bias_nm2: T) -> Result<Self, Error> {
+        self.bias_q_nm2 = Some(non_negative(q_bias_nm2, "q_bias_nm2")?);
+        Ok(self)
+    }
+
+    /// Initial (and reset) variances of each oscillator component and of the bias, N·m².
+    ///
+    /// ```
+    /// use strainwave_core::ripple::RippleModel;
+    /// let m = RippleModel::<f64, 3>::seed_6th_order(1000.0)?.with_initial_variance(4.0, 100.0)?;
+    /// assert_eq!(m.initial_variance_nm2(), (4.0, 100.0));
+    /// # Ok::<(), strainwave_core::Error>(())
+    /// ```
+    pub fn with_initial_variance(mut self, oscillator_nm2: T, bias_nm2: T) -> Result<Self, Error> {
+        self.p0_oscillator_nm2 = positive(oscillator_nm2, "oscillator_nm2")?;
+        self.p0_bias_nm2 = positive(bias_nm2, "bias_nm2")?;
+        Ok(self)
+    }
+
+    /// Whether the reference values fed to `step` are angles or velocities.
+    ///
+    /// ```
+    /// use strainwave_core::ripple::{PhaseSource, RippleModel};
+    /// let m = RippleModel::<f64, 2>::seed_4th_order(1000.0)?.with_phase_source(PhaseSource::Velocity);
+    /// assert_eq!(m.phase_source(), PhaseSource::Velocity);
+    /// # Ok::<(), strainwave_core::Error>(())
+    /// ```
+    pub fn with_phase_source(mut self, source: PhaseSource) -> Self {
+        self.phase_source = source;
+        self
+    }
+
+    /// Replaces the robustness limits after checking them.
+    ///
+    /// ```
+    /// use strainwave_core::ripple::{Limits, RippleModel};
+    /// let limits = Limits { hold_below_hz: 0.0, ..Limits::default() };
+    /// let m = RippleModel::<f64, 2>::seed_4th_order(1000.0)?.with_limits(limits)?;
+    /// assert_eq!(m.limits().hold_below_hz, 0.0);
+    /// let bad = Limits { nyquist_fraction: 0.7, ..Limits::default() };
+    /// assert!(RippleModel::<f64, 2>::seed_4th_order(1000.0)?.with_limits(bad).is_err());
+    /// # Ok::<(), strainwave_core::Error>(())
+    /// ```
+    pub fn with_limits(mut self, limits: Limits<T>) -> Result<Self, Error> {
+        positive(limits.max_angle_step_rad, "max_angle_step_rad")?;
+        if limits.max_angle_step_rad >= T::PI && self.phase_source == PhaseSource::Angle {
+            return Err(Error::OutOfRange("max_angle_step_rad"));
+        }
+        if limits.max_step_change_rad.partial_cmp(&T::ZERO) != Some(Ordering::Greater) {
+            return Err(Error::NonPositive("max_step_change_rad"));
+        }
+        // ∞ is allowed (no gap detection); NaN and ≤ 0 are not.
+        if limits.max_gap_periods.partial_cmp(&T::ZERO) != Some(Ordering::Greater) {
+            return Err(Error::NonPositive("max_gap_periods"));
+        }
+        positive(limits.nyquist_fraction, "nyquist_fraction")?;
+        if limits.nyquist_fraction > T::HALF {
+            return Err(Error::OutOfRange("nyquist_fraction"));
+        }
+        non_negative(limits.hold_below_hz, "hold_below_hz")?;
+        non_negative(limits.covariance_inflation, "covariance_inflation")?;
+        non_negative(limits.load_step_nis, "load_step_nis")?;
+        self.limits = limits;
+        self.derive();
+        Ok(self)
+    }
+
+    fn derive(&mut self) {
+        let fs = self.sample_rate_hz;
+        self.dt_s = T::ONE / fs;
+        self.max_gap_s = self.limits.max_gap_periods / fs;
+        self.off_above_rad = self.limits.nyquist_fraction * T::TAU;
+        self.on_below_rad = self.off_above_rad * T::from_f64(0.9);
+        self.hold_below_rad = self.limits.hold_below_hz * T::TAU / fs;
+        self.uses = [false; 3];
+        for (o, p) in self.orders.iter().zip(self.power.iter_mut()) {
+            self.uses[o.reference.index()] = true;
+            let m = o.multiple.to_f64();
+            *p = if m == libm::round(m) && (1.0..=16.0).contains(&m) { m as u8 } else { 0 };
+        }
+        self.n_used = 0;
+        for r in 0..3u8 {
+            if self.uses[usize::from(r)] {
+                self.used_refs[usize::from(self.n_used)] = r;
+                self.n_used += 1;
+            }
+        }
+    }
+
+    /// The orders.
+    pub fn orders(&self) -> &[Order<T>; M] {
+        &self.orders
+    }
+    /// Measurement noise variance `R`, N·m².
+    pub fn r_nm2(&self) -> T {
+        self.r_nm2
+    }
+    /// Sample rate, Hz.
+    pub fn sample_rate_hz(&self) -> T {
+        self.sample_rate_hz
+    }
+    /// Bias random-walk variance per sample, if the model has the bias state.
+    pub fn bias_q_nm2(&self) -> Option<T> {
+        self.bias_q_nm2
+    }
+    /// Initial variances (oscillator component, bias), N·m².
+    pub fn initial_variance_nm2(&self) -> (T, T) {
+        (self.p0_oscillator_nm2, self.p0_bias_nm2)
+    }
+    /// Angle or velocity input.
+    pub fn phase_source(&self) -> PhaseSource {
+        self.phase_source
+    }
+    /// The robustness limits.
+    pub fn limits(&self) -> &Limits<T> {
+        &self.limits
+    }
+    /// Whether an order uses `reference` (the others' values are ignored, even NaN).
+    pub fn uses(&self, reference: Reference) -> bool {
+        self.uses[reference.index()]
+    }
+    /// State dimension: `2M`, plus 1 with the bias state.
+    pub fn state_len(&self) -> usize {
+        2 * M + usize::from(self.bias_q_nm2.is_some())
+    }
+}
