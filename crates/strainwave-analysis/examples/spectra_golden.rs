@@ -65,7 +65,10 @@ fn spectra_json() -> String {
         ("hann-255-odd", SpectralConfig::new(255).with_noverlap(100)),
         ("hann-200-nfft512", SpectralConfig::new(200).with_noverlap(50).with_nfft(512)),
         ("hann-301-nfft301-linear", SpectralConfig::new(301).with_noverlap(150).with_detrend(Detrend::Linear)),
-        ("boxcar-128-none", SpectralConfig::new(128).with_noverlap(0).with_window(Window::Rectangular).with_detrend(Detrend::None)),
+        (
+            "boxcar-128-none",
+            SpectralConfig::new(128).with_noverlap(0).with_window(Window::Rectangular).with_detrend(Detrend::None),
+        ),
     ];
     for (name, cfg) in &configs {
         let scaling = match cfg.scaling {

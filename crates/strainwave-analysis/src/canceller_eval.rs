@@ -124,7 +124,7 @@ fn run_kalman<const M: usize>(
     let mut state = RippleState::new(model);
     let n_s = gear.signed_ratio();
     let mut out = Vec::with_capacity(y.len());
-    for k in 0..y.len() {
+    for (k, &yk) in y.iter().enumerate() {
         let refs = if velocity {
             // The seed: 2×, 4× of the motor velocity, misalignment at velocity / ratio.
             let w = s.motor_velocity_rad_s[k];
@@ -132,7 +132,7 @@ fn run_kalman<const M: usize>(
         } else {
             ReferenceValues::from_gear(gear, s.motor_angle_rad[k], s.output_angle_rad[k])
         };
-        out.push(ripple_step(model, &mut state, &RippleInput::new(y[k], refs)).map_err(core_err("ripple filter"))?);
+        out.push(ripple_step(model, &mut state, &RippleInput::new(yk, refs)).map_err(core_err("ripple filter"))?);
     }
     Ok(out)
 }

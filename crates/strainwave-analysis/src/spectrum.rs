@@ -67,7 +67,7 @@ pub fn amplitude_spectrum(signal: &[f64], sample_rate_hz: f64) -> Result<Amplitu
         .iter()
         .enumerate()
         .map(|(k, c)| {
-            let one_sided = if k == 0 || (n % 2 == 0 && k == n / 2) { 1.0 } else { 2.0 };
+            let one_sided = if k == 0 || (n.is_multiple_of(2) && k == n / 2) { 1.0 } else { 2.0 };
             one_sided * c.norm() / gain
         })
         .collect();

@@ -141,6 +141,10 @@ pub fn run(a: &Args) -> Result<()> {
     out += &acc_text;
     let (cal_text, cal_html, cal_plots) = crate::demo_calibration::section()?;
     out += &cal_text;
+    let (est_text, est_html, est_plots) = crate::demo_estimate::section()?;
+    out += &est_text;
+    let (bench_text, bench_html, bench_plots) = crate::demo_bench::section()?;
+    out += &bench_text;
 
     // Report.
     std::fs::create_dir_all(&a.out)
@@ -205,6 +209,14 @@ pub fn run(a: &Args) -> Result<()> {
             Section {
                 title: "Sensor calibration".into(),
                 body: cal_html + &cal_plots.iter().map(LinePlot::to_svg).collect::<String>(),
+            },
+            Section {
+                title: "Link torque from two encoders".into(),
+                body: est_html + &est_plots.iter().map(LinePlot::to_svg).collect::<String>(),
+            },
+            Section {
+                title: "Motor test bench: hybrid torque".into(),
+                body: bench_html + &bench_plots.iter().map(LinePlot::to_svg).collect::<String>(),
             },
         ],
     };

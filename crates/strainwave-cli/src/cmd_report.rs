@@ -44,7 +44,8 @@ pub fn run(a: &Args) -> Result<()> {
         anyhow::bail!("{}: time column `{time_name}` does not increase", a.input.display());
     }
     let mut sections = Vec::new();
-    let mut torque_cols: Vec<String> = TORQUE_COLUMNS.iter().filter(|c| t.column(c).is_some()).map(|c| c.to_string()).collect();
+    let mut torque_cols: Vec<String> =
+        TORQUE_COLUMNS.iter().filter(|c| t.column(c).is_some()).map(|c| c.to_string()).collect();
     if let Some(c) = &cfg {
         let name = c.channels.torque.column_name().to_string();
         if t.column(&name).is_some() && !torque_cols.contains(&name) {
@@ -130,7 +131,12 @@ pub fn run(a: &Args) -> Result<()> {
         for c in torque_cols.iter().filter(|c| c.as_str() != "true_torque") {
             let y = t.column(c).unwrap_or(&[]);
             let e: Vec<f64> = y.iter().zip(truth).map(|(a, b)| a - b).filter(|x| x.is_finite()).collect();
-            rows.push(vec![c.clone(), format!("{:.5}", mean(&e)), format!("{:.5}", rms(&e)), format!("{:.5}", max_abs(&e))]);
+            rows.push(vec![
+                c.clone(),
+                format!("{:.5}", mean(&e)),
+                format!("{:.5}", rms(&e)),
+                format!("{:.5}", max_abs(&e)),
+            ]);
         }
         sections.push(Section {
             title: "Errors against true_torque".into(),
@@ -138,7 +144,10 @@ pub fn run(a: &Args) -> Result<()> {
         });
     }
     let report = Report {
-        title: format!("strainwave report: {}", a.input.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned())),
+        title: format!(
+            "strainwave report: {}",
+            a.input.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned())
+        ),
         subtitle: esc(&format!("strainwave {}", env!("CARGO_PKG_VERSION"))),
         sections,
     };

@@ -64,6 +64,10 @@ pub fn load_scenario(
 
 /// Runs `simulate`.
 pub fn run(a: &Args) -> Result<()> {
+    // The arm and bench twins have their own presets.
+    if crate::sim_arm::run(a)? || crate::sim_bench::run(a)? {
+        return Ok(());
+    }
     if a.print_scenario {
         match (&a.preset, &a.scenario) {
             (Some(name), _) if a.duration.is_none() && a.seed.is_none() => {

@@ -4,18 +4,28 @@
 //! errors once. Exit codes: 0 success, 1 user error (bad file, bad value), 2 bad usage.
 
 mod cmd_calibrate;
+mod cmd_campbell;
 mod cmd_convert;
 mod cmd_demo;
 mod cmd_design;
+mod cmd_estimate;
 mod cmd_filter;
 mod cmd_filter_smooth;
+mod cmd_fuse;
+mod cmd_identify;
 mod cmd_mcap;
+mod cmd_orders;
 mod cmd_report;
 mod cmd_simulate;
+mod cmd_spectrogram;
+mod demo_bench;
 mod demo_calibration;
+mod demo_estimate;
 mod joint_config;
 mod progress;
 mod report;
+mod sim_arm;
+mod sim_bench;
 mod stdout;
 
 use std::process::ExitCode;
@@ -47,6 +57,36 @@ enum Command {
         after_help = "Examples:\n  strainwave simulate --preset taghirad --out taghirad.csv\n  strainwave filter --config examples/joint-taghirad.toml --in taghirad.csv --out filtered.csv\n  cat log.csv | strainwave filter --config joint.toml --in - --out - > filtered.csv"
     )]
     Filter(cmd_filter::Args),
+    /// Link torque from a motor encoder and a link encoder (seed 002).
+    #[command(
+        after_help = "Example:\n  strainwave simulate --preset hda-arm --out arm.csv\n  strainwave estimate --config arm-model.toml --in arm.csv --out estimated.csv"
+    )]
+    Estimate(cmd_estimate::Args),
+    /// Identify the kinematic error and the compliance of a gear from recorded runs.
+    #[command(
+        after_help = "Example:\n  strainwave identify --config examples/arm-hda.toml --no-load noload.csv --loaded loaded.csv --out arm-model.toml"
+    )]
+    Identify(cmd_identify::Args),
+    /// Hybrid torque on a motor test bench: torsion shaft + accelerometers.
+    #[command(
+        after_help = "Example:\n  strainwave simulate --preset kit-bench --out bench.csv\n  strainwave fuse --config examples/bench-kit.toml --in bench.csv --out fused.csv"
+    )]
+    Fuse(cmd_fuse::Args),
+    /// Campbell diagram (frequency vs speed) as SVG.
+    #[command(
+        after_help = "Example:\n  strainwave campbell --in bench.csv --signal accel_torque --speed speed_rpm --out campbell.svg"
+    )]
+    Campbell(cmd_campbell::Args),
+    /// Spectrogram (frequency vs time) as SVG.
+    #[command(
+        after_help = "Example:\n  strainwave spectrogram --in sweep.csv --signal torsion_torque --out spectrogram.svg"
+    )]
+    Spectrogram(cmd_spectrogram::Args),
+    /// Order slices: amplitude and phase of orders vs speed (table and SVG).
+    #[command(
+        after_help = "Example:\n  strainwave orders --in bench.csv --signal accel_torque --speed speed_rpm --order 6 --order 12 --out orders.svg"
+    )]
+    Orders(cmd_orders::Args),
     /// Simulate the seed-000 joint and print the summary; write DIR/report.html.
     #[command(after_help = "Example:\n  strainwave demo --out demo-out\n  (then open demo-out/report.html)")]
     Demo(cmd_demo::Args),
@@ -56,10 +96,14 @@ enum Command {
     )]
     Design(cmd_design::Args),
     /// A self-contained HTML report of a recording (inline SVG, no scripts).
-    #[command(after_help = "Example:\n  strainwave filter --config examples/joint-taghirad.toml --in taghirad.csv --out filtered.csv\n  strainwave report --in filtered.csv --config examples/joint-taghirad.toml --out report.html")]
+    #[command(
+        after_help = "Example:\n  strainwave filter --config examples/joint-taghirad.toml --in taghirad.csv --out filtered.csv\n  strainwave report --in filtered.csv --config examples/joint-taghirad.toml --out report.html"
+    )]
     Report(cmd_report::Args),
     /// Print a shell completion script.
-    #[command(after_help = "Example:\n  strainwave completions bash > ~/.local/share/bash-completion/completions/strainwave")]
+    #[command(
+        after_help = "Example:\n  strainwave completions bash > ~/.local/share/bash-completion/completions/strainwave"
+    )]
     Completions {
         /// bash, zsh, fish, elvish or powershell.
         shell: clap_complete::Shell,
@@ -78,6 +122,12 @@ fn main() -> ExitCode {
         Command::Convert(a) => cmd_convert::run(&a),
         Command::Demo(a) => cmd_demo::run(&a),
         Command::Design(a) => cmd_design::run(&a),
+        Command::Estimate(a) => cmd_estimate::run(&a),
+        Command::Identify(a) => cmd_identify::run(&a),
+        Command::Fuse(a) => cmd_fuse::run(&a),
+        Command::Campbell(a) => cmd_campbell::run(&a),
+        Command::Spectrogram(a) => cmd_spectrogram::run(&a),
+        Command::Orders(a) => cmd_orders::run(&a),
         Command::Filter(a) => cmd_filter::run(&a),
         Command::Simulate(a) => cmd_simulate::run(&a),
         Command::Report(a) => cmd_report::run(&a),

@@ -63,7 +63,12 @@ fn filter_adds_its_columns_and_removes_ripple_at_constant_speed() {
         assert!(h.iter().any(|x| x == c), "{c}");
     }
     // The clean torque equals the calibrated input minus the predictions (no added delay).
-    let (meas, tq, rip, mis) = (col(&h, &rows, "measured_torque"), col(&h, &rows, "torque"), col(&h, &rows, "ripple"), col(&h, &rows, "misalignment"));
+    let (meas, tq, rip, mis) = (
+        col(&h, &rows, "measured_torque"),
+        col(&h, &rows, "torque"),
+        col(&h, &rows, "ripple"),
+        col(&h, &rows, "misalignment"),
+    );
     for k in 0..rows.len() {
         // bridge_voltage × the config's gain (6.611) vs the simulator's exact gain: 1e-4 relative.
         assert!((tq[k] + rip[k] + mis[k] - meas[k]).abs() < 1e-3 * meas[k].abs().max(1.0), "row {k}");
@@ -149,15 +154,27 @@ fn bad_inputs_are_one_line_errors_and_write_nothing() {
         (with("[filter]", "[filter]\ncutoff = 3"), "cutoff"),
     ];
     for (cfg, needle) in cases {
-        let o = run(&["filter", "--config", cfg.to_str().unwrap(), "--in", sim.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+        let o = run(&[
+            "filter",
+            "--config",
+            cfg.to_str().unwrap(),
+            "--in",
+            sim.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
         assert_user_error(&o, needle);
         assert!(!out.exists());
     }
     let empty = d.join("empty.csv");
     std::fs::write(&empty, "").unwrap();
-    assert_user_error(&run(&["filter", "--config", &config(), "--in", empty.to_str().unwrap(), "--out", out.to_str().unwrap()]), "empty file");
+    assert_user_error(
+        &run(&["filter", "--config", &config(), "--in", empty.to_str().unwrap(), "--out", out.to_str().unwrap()]),
+        "empty file",
+    );
     let header_only = d.join("header.csv");
-    std::fs::write(&header_only, std::fs::read_to_string(&sim).unwrap().lines().next().unwrap().to_string() + "\n").unwrap();
+    std::fs::write(&header_only, std::fs::read_to_string(&sim).unwrap().lines().next().unwrap().to_string() + "\n")
+        .unwrap();
     assert_user_error(
         &run(&["filter", "--config", &config(), "--in", header_only.to_str().unwrap(), "--out", out.to_str().unwrap()]),
         "no data rows",
@@ -170,7 +187,9 @@ fn report_renders_sections_for_a_filtered_recording() {
     let d = tmp("report");
     let sim = simulate(&d, "2");
     let f = d.join("f.csv");
-    assert!(run(&["filter", "--config", &config(), "--in", sim.to_str().unwrap(), "--out", f.to_str().unwrap(), "-q"]).status.success());
+    assert!(run(&["filter", "--config", &config(), "--in", sim.to_str().unwrap(), "--out", f.to_str().unwrap(), "-q"])
+        .status
+        .success());
     let html = d.join("r.html");
     let o = run(&["report", "--in", f.to_str().unwrap(), "--config", &config(), "--out", html.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));

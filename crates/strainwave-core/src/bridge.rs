@@ -216,7 +216,7 @@ impl<T: Real, const G: usize> Bridge<T, G> {
             positive(g.radius_m, "gauge radius_m")?;
             arm_counts[g.arm.index()] += 1;
         }
-        if arm_counts.iter().any(|&n| n == 0) {
+        if arm_counts.contains(&0) {
             return Err(Error::OutOfRange("gauges (every arm needs a gauge)"));
         }
         Ok(Self { gauges, gauge_factor, excitation_v, arm_counts })

@@ -41,6 +41,7 @@ fn close(a: f64, b: f64) -> bool {
     (a - b).abs() <= TOL_F64 * b.abs().max(1.0)
 }
 
+#[allow(clippy::needless_range_loop)] // P[i][j] against the reference, index by index
 fn equivalence<const M: usize>(model: RippleModel<f64, M>, n: usize) {
     let data = samples(n);
     let bias = model.bias_q_nm2().is_some();

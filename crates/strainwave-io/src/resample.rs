@@ -15,7 +15,7 @@ pub struct LinearResampler {
 impl LinearResampler {
     /// A resampler to `rate_hz` (> 0); the grid starts at the first row's time.
     pub fn new(time_index: usize, rate_hz: f64) -> Option<Self> {
-        (rate_hz.is_finite() && rate_hz > 0.0).then(|| Self {
+        (rate_hz.is_finite() && rate_hz > 0.0).then_some(Self {
             time_index,
             rate_hz,
             start_s: 0.0,
@@ -37,7 +37,7 @@ impl LinearResampler {
             return true;
         };
         let t0 = prev[self.time_index];
-        if !(t > t0) {
+        if t.is_nan() || t <= t0 {
             return false;
         }
         let mut out = vec![0.0; row.len()];

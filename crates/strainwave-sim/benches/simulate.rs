@@ -4,7 +4,7 @@
 //!
 //! `cargo bench -p strainwave-sim --bench simulate`
 
-use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
+use criterion::{black_box, Criterion, Throughput};
 use strainwave_sim::{presets::preset, Simulator};
 
 const SECONDS: f64 = 10.0;
@@ -32,5 +32,8 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench);
-criterion_main!(benches);
+fn main() {
+    let mut c = Criterion::default().configure_from_args();
+    bench(&mut c);
+    c.final_summary();
+}

@@ -140,8 +140,9 @@ impl LockedWgProcedure {
             let top = s.gear.rated_torque_nm * if range == 0 { self.low_range_fraction } else { 1.0 };
             let phi = pos * deg;
             let s_v_per_out = kernel.sensitivity_v_per_nm() * fs_per_out * p.amplifier_gain * k_scale;
-            // The reference is the nominal torque (weight × nominal arm); the real torque is `arm` × it.
-            true_gains.push(arm / s_v_per_out);
+            // The reference is the nominal torque (weight × nominal arm); the real torque is `arm` × it,
+            // so the gain that maps the reading to the logged reference is 1 / (arm · s).
+            true_gains.push(1.0 / (arm * s_v_per_out));
             let zero_v = self.zero_drift_v_per_c * (temp - 20.0);
             let mut profile = Vec::new();
             for dir in [1.0, -1.0] {
@@ -167,7 +168,7 @@ impl LockedWgProcedure {
                         dir * loading,
                         nominal,
                         v,
-                        arm / s_v_per_out,
+                        1.0 / (arm * s_v_per_out),
                     ]);
                     k += 1;
                 }

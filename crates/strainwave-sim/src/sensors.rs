@@ -101,7 +101,7 @@ impl TorqueSensor {
         let chain = SignalChain { amplifier_gain: p.amplifier_gain, adc_bits: p.adc_bits, adc_range_v: p.adc_range_v }
             .validated()?;
         let s_fs = bridge.sensitivity_v_per_nm(&field);
-        if !(s_fs.abs() > 0.0) || !s_fs.is_finite() {
+        if !s_fs.is_finite() || s_fs == 0.0 {
             return Err(SimError::invalid("sensor.placement", "leaves the bridge with no torque sensitivity".into()));
         }
         let gain_nm_per_v = 1.0 / (s_fs * fs_per_out * p.amplifier_gain);

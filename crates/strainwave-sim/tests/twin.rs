@@ -5,9 +5,6 @@ use strainwave_sim::presets::preset;
 use strainwave_sim::scenario::{GaugePlacement, MotionSegment, PlacementTolerance};
 use strainwave_sim::{simulate, Recording, Scenario};
 
-/// Constant-speed window of the taghirad preset (after the ramp, before the reversal), s.
-const HOLD_WINDOW_S: (f64, f64) = (0.8, 2.0);
-
 fn window(rec: &Recording, name: &str, t0: f64, t1: f64) -> Vec<f64> {
     let t = rec.column("time").unwrap();
     let x = rec.column(name).unwrap();
@@ -109,8 +106,9 @@ fn order_amplitudes(y: &[f64], phi: &[f64]) -> (f64, f64) {
         b.swap(c, p);
         for r in (c + 1)..5 {
             let f = a[r][c] / a[c][c];
-            for k in c..5 {
-                a[r][k] -= f * a[c][k];
+            let (top, bottom) = a.split_at_mut(r);
+            for (x, y) in bottom[0][c..].iter_mut().zip(&top[c][c..]) {
+                *x -= f * y;
             }
             b[r] -= f * b[c];
         }

@@ -30,7 +30,6 @@
 //!
 //! And the **calibration file** ([`CalibrationFile`], TOML, units in key names) that
 //! carries a fitted model to the controller, rejecting NaN/∞ on write and on read.
-
 //!
 //! | file | holds |
 //! |---|---|

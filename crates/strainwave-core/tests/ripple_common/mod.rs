@@ -217,7 +217,7 @@ pub fn is_psd(p: &[Vec<f64>], tol: f64) -> bool {
                 s -= l[i][k] * l[j][k];
             }
             if i == j {
-                if !(s > 0.0) {
+                if s.is_nan() || s <= 0.0 {
                     return false;
                 }
                 l[i][j] = s.sqrt();

@@ -1,0 +1,327 @@
+//! `strainwave fuse`: hybrid torque from a torsion shaft and two accelerometers (spec §6).
+//!
+//! `complementary` streams one sample at a time (constant memory, the HOKA online filter);
+//! `spectral` (the seed's post-processing) and `corrected` (each path corrected by an
+//! FIR inverse of its modelled response) read the whole recording.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use serde::Deserialize;
+use strainwave_analysis::bench::{
+    complementary, spectral_combination, to_complex, CorrectedFusion, CorrectionConfig, CrossoverBand,
+};
+use strainwave_core::fusion::{
+    AccelerometerModel, AccelerometerPair, ComplementaryFusion, CrossoverOrder, TorsionShaftModel,
+};
+use strainwave_io::{RecordingReader, RecordingWriter};
+
+/// Arguments of `fuse`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Bench configuration (TOML; see examples/bench-kit.toml).
+    #[arg(long)]
+    pub config: PathBuf,
+    /// Input recording.
+    #[arg(long = "in")]
+    pub input: PathBuf,
+    /// Output recording: the input columns plus `fused_torque`.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// complementary (online, streamed), spectral (seed's offline combination) or
+    /// corrected (offline, FIR-corrected paths).
+    #[arg(long, default_value = "complementary", value_parser = ["complementary", "spectral", "corrected"])]
+    pub method: String,
+}
+
+/// Column names in the recording.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Columns {
+    /// Time, s.
+    #[serde(default = "default_time")]
+    pub time: String,
+    /// Torsion-shaft torque, N·m.
+    pub torsion: String,
+    /// First accelerometer, m/s² (with `accel_2`).
+    pub accel_1: Option<String>,
+    /// Second accelerometer, m/s², mounted opposite.
+    pub accel_2: Option<String>,
+    /// Accelerometer torque `J_S (a1 + a2) / (2R)`, N·m (instead of `accel_1`/`accel_2`).
+    pub accel_torque: Option<String>,
+}
+
+fn default_time() -> String {
+    "time".into()
+}
+
+/// Mechanics used by the `corrected` method (Table I by default).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Model {
+    /// `J_R`, kg·m².
+    pub rotor_inertia_kg_m2: f64,
+    /// `J_B`, kg·m².
+    pub brake_inertia_kg_m2: f64,
+    /// `k`, N·m/rad.
+    pub shaft_stiffness_nm_per_rad: f64,
+    /// `Γ` (the shaft sees `2Γ`), N·m·s/rad.
+    pub bearing_damping_nm_s_per_rad: f64,
+    /// `k_S`, N·m/rad.
+    pub coupling_stiffness_nm_per_rad: f64,
+    /// `Γ_LS`, N·m·s/rad.
+    pub stator_damping_nm_s_per_rad: f64,
+    /// Taps of each correction FIR (odd).
+    #[serde(default = "default_taps")]
+    pub fir_taps: usize,
+}
+
+fn default_taps() -> usize {
+    8191
+}
+
+/// A bench configuration file.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BenchConfig {
+    /// Columns.
+    pub columns: Columns,
+    /// `J_S`, kg·m².
+    pub stator_inertia_kg_m2: f64,
+    /// `R`, m.
+    pub radius_m: f64,
+    /// Crossover, Hz.
+    pub crossover_hz: f64,
+    /// Order of the complementary pair: 1 or 2.
+    #[serde(default = "default_order")]
+    pub order: u32,
+    /// Sample rate, Hz (default: from the time column).
+    pub sample_rate_hz: Option<f64>,
+    /// Mechanics for `corrected`.
+    pub model: Option<Model>,
+}
+
+fn default_order() -> u32 {
+    2
+}
+
+impl BenchConfig {
+    /// Reads and checks a configuration.
+    pub fn load(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
+        let c: Self = toml::from_str(&text)
+            .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), e.to_string().replace('\n', " ").trim()))?;
+        for (v, key) in [
+            (c.stator_inertia_kg_m2, "stator_inertia_kg_m2"),
+            (c.radius_m, "radius_m"),
+            (c.crossover_hz, "crossover_hz"),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                bail!("{}: `{key}` must be positive, got {v}", path.display());
+            }
+        }
+        if !matches!(c.order, 1 | 2) {
+            bail!("{}: `order` must be 1 or 2, got {}", path.display(), c.order);
+        }
+        let cols = &c.columns;
+        match (&cols.accel_1, &cols.accel_2, &cols.accel_torque) {
+            (Some(_), Some(_), None) | (None, None, Some(_)) => {}
+            _ => bail!("{}: `columns` needs `accel_1` and `accel_2`, or `accel_torque`", path.display()),
+        }
+        Ok(c)
+    }
+
+    fn crossover_order(&self) -> CrossoverOrder {
+        if self.order == 1 {
+            CrossoverOrder::First
+        } else {
+            CrossoverOrder::Second
+        }
+    }
+
+    /// Checks the crossover against the sample rate.
+    fn check_crossover(&self, fs: f64) -> Result<()> {
+        if self.crossover_hz >= fs / 2.0 {
+            bail!("`crossover_hz` = {} Hz is at or above the Nyquist frequency {} Hz", self.crossover_hz, fs / 2.0);
+        }
+        Ok(())
+    }
+}
+
+fn column(cols: &[String], name: &str, path: &Path) -> Result<usize> {
+    cols.iter().position(|c| c == name).with_context(|| format!("{}: no column `{name}`", path.display()))
+}
+
+fn rate_from_time(t0: f64, t1: f64) -> Result<f64> {
+    let dt = t1 - t0;
+    if !(dt.is_finite() && dt > 0.0) {
+        bail!("`time`: samples must be increasing (first step {dt} s)");
+    }
+    Ok(1.0 / dt)
+}
+
+/// Runs `fuse`.
+pub fn run(a: &Args) -> Result<()> {
+    let cfg = BenchConfig::load(&a.config)?;
+    let pair = AccelerometerPair::new(cfg.radius_m, cfg.stator_inertia_kg_m2)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", a.config.display()))?;
+    if a.method == "complementary" {
+        stream(a, &cfg, &pair)
+    } else {
+        offline(a, &cfg, &pair)
+    }
+}
+
+/// Indices of torsion and accelerometer columns.
+struct Idx {
+    time: usize,
+    torsion: usize,
+    accel: Result<(usize, usize), usize>,
+}
+
+impl Idx {
+    fn new(cfg: &BenchConfig, cols: &[String], path: &Path) -> Result<Self> {
+        let c = &cfg.columns;
+        let accel = match (&c.accel_1, &c.accel_2, &c.accel_torque) {
+            (Some(a1), Some(a2), _) => Ok((column(cols, a1, path)?, column(cols, a2, path)?)),
+            (_, _, Some(t)) => Err(column(cols, t, path)?),
+            _ => unreachable!("checked on load"),
+        };
+        Ok(Self { time: column(cols, &c.time, path)?, torsion: column(cols, &c.torsion, path)?, accel })
+    }
+
+    fn accel_torque(&self, pair: &AccelerometerPair<f64>, row: &[f64]) -> f64 {
+        match self.accel {
+            Ok((i, j)) => pair.torque_nm(row[i], row[j]),
+            Err(k) => row[k],
+        }
+    }
+}
+
+fn output_columns(cols: &[String]) -> Result<Vec<&str>> {
+    if cols.iter().any(|c| c == "fused_torque") {
+        bail!("the input already has a `fused_torque` column");
+    }
+    let mut out: Vec<&str> = cols.iter().map(String::as_str).collect();
+    out.push("fused_torque");
+    Ok(out)
+}
+
+fn stream(a: &Args, cfg: &BenchConfig, pair: &AccelerometerPair<f64>) -> Result<()> {
+    let mut rdr = RecordingReader::open(&a.input)?;
+    let cols = rdr.columns().to_vec();
+    let idx = Idx::new(cfg, &cols, &a.input)?;
+    // The first two rows give the sample rate; they are held back and written first.
+    let mut first = Vec::new();
+    let mut second = Vec::new();
+    if !rdr.read_row(&mut first)? || !rdr.read_row(&mut second)? {
+        bail!("{}: needs at least 2 samples", a.input.display());
+    }
+    let fs = match cfg.sample_rate_hz {
+        Some(fs) => fs,
+        None => rate_from_time(first[idx.time], second[idx.time])?,
+    };
+    cfg.check_crossover(fs)?;
+    let fusion = ComplementaryFusion::new(cfg.crossover_hz, fs, cfg.crossover_order())
+        .map_err(|e| anyhow::anyhow!("{}: {e}", a.config.display()))?;
+    let mut wtr = RecordingWriter::create(&a.out, &output_columns(&cols)?)?;
+    let mut state = fusion.settled_state(first[idx.torsion], idx.accel_torque(pair, &first));
+    let mut out_row = Vec::with_capacity(cols.len() + 1);
+    let mut emit = |row: &[f64], wtr: &mut RecordingWriter| -> Result<()> {
+        let (t, acc) = (row[idx.torsion], idx.accel_torque(pair, row));
+        if !(t.is_finite() && acc.is_finite()) {
+            bail!("{}: row {}: torsion or accelerometer sample is not finite", a.input.display(), rdr_row_hint(row));
+        }
+        let y = fusion.step(&mut state, t, acc);
+        out_row.clear();
+        out_row.extend_from_slice(row);
+        out_row.push(y);
+        wtr.write_row(&out_row)?;
+        Ok(())
+    };
+    emit(&first, &mut wtr)?;
+    emit(&second, &mut wtr)?;
+    let mut row = Vec::with_capacity(cols.len());
+    while rdr.read_row(&mut row)? {
+        emit(&row, &mut wtr)?;
+    }
+    wtr.finish()?;
+    Ok(())
+}
+
+/// The time stamp of a row, for messages.
+fn rdr_row_hint(row: &[f64]) -> String {
+    row.first().map_or_else(String::new, |t| format!("at t = {t}"))
+}
+
+fn offline(a: &Args, cfg: &BenchConfig, pair: &AccelerometerPair<f64>) -> Result<()> {
+    let table = strainwave_io::read_all(&a.input)?;
+    let idx = Idx::new(cfg, &table.columns, &a.input)?;
+    let n = table.rows();
+    if n < 2 {
+        bail!("{}: needs at least 2 samples", a.input.display());
+    }
+    let fs = match cfg.sample_rate_hz {
+        Some(fs) => fs,
+        None => rate_from_time(table.data[idx.time][0], table.data[idx.time][1])?,
+    };
+    cfg.check_crossover(fs)?;
+    let torsion = &table.data[idx.torsion];
+    let accel: Vec<f64> = (0..n)
+        .map(|k| match idx.accel {
+            Ok((i, j)) => pair.torque_nm(table.data[i][k], table.data[j][k]),
+            Err(c) => table.data[c][k],
+        })
+        .collect();
+    let fused = match a.method.as_str() {
+        "spectral" => spectral_combination(torsion, &accel, fs, cfg.crossover_hz)?,
+        "corrected" => {
+            let m = cfg
+                .model
+                .as_ref()
+                .with_context(|| format!("{}: the `corrected` method needs a `[model]` section", a.config.display()))?;
+            let bad = |e: strainwave_core::Error| anyhow::anyhow!("{}: [model]: {e}", a.config.display());
+            let ts = TorsionShaftModel::new(
+                m.rotor_inertia_kg_m2,
+                m.brake_inertia_kg_m2,
+                m.shaft_stiffness_nm_per_rad,
+                m.bearing_damping_nm_s_per_rad,
+            )
+            .map_err(bad)?;
+            let acc = AccelerometerModel::new(
+                cfg.stator_inertia_kg_m2,
+                m.coupling_stiffness_nm_per_rad,
+                m.stator_damping_nm_s_per_rad,
+            )
+            .map_err(bad)?;
+            let mut cc = CorrectionConfig::new(m.fir_taps | 1);
+            cc.band = CrossoverBand::new(0.8 * cfg.crossover_hz, 1.2 * cfg.crossover_hz)?;
+            if cc.band.hi_hz >= fs / 2.0 {
+                bail!("`crossover_hz` = {} Hz: the crossover band reaches the Nyquist frequency", cfg.crossover_hz);
+            }
+            let f = CorrectedFusion::design(
+                |f| to_complex(ts.response(f)),
+                |f| to_complex(acc.torque_response(f)),
+                fs,
+                &cc,
+            )?;
+            f.apply(torsion, &accel)?
+        }
+        _ => {
+            let f = ComplementaryFusion::new(cfg.crossover_hz, fs, cfg.crossover_order())
+                .map_err(|e| anyhow::anyhow!("{}: {e}", a.config.display()))?;
+            complementary(torsion, &accel, &f)?
+        }
+    };
+    let mut wtr = RecordingWriter::create(&a.out, &output_columns(&table.columns)?)?;
+    let mut row = vec![0.0; table.columns.len() + 1];
+    for (k, y) in fused.iter().enumerate() {
+        for (c, v) in row.iter_mut().zip(&table.data) {
+            *c = v[k];
+        }
+        row[table.columns.len()] = *y;
+        wtr.write_row(&row)?;
+    }
+    wtr.finish()?;
+    Ok(())
+}

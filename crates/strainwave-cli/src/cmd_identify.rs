@@ -1,0 +1,703 @@
+//! `strainwave identify`: fit the kinematic error (no-load run) and the compliance (loaded
+//! run against a reference torque) of an encoder-based torque estimator (SPEC §5), and
+//! write the model `estimate` reads.
+//!
+//! The configuration (`--config ARM.toml`, see `examples/arm-hda.toml`) only maps the
+//! recordings and the model choices onto `strainwave_analysis::ident`.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use serde::{Deserialize, Serialize};
+use strainwave_analysis::ident::{
+    fit_compliance, fit_kinematic_error, select_kinematic_basis, ComplianceFit, ComplianceFitOptions, ComplianceForm,
+    ComplianceParams, FitMetrics, FittedHysteresis, HysteresisForm, JointAngles, KinematicBasis, KinematicFit,
+    KinematicFitOptions,
+};
+use strainwave_core::compliance::ThreeSlopeStiffness;
+use strainwave_core::gear::{FixedElement, Gear};
+use strainwave_core::torsion::{
+    EncoderConfig, EstimatorState, MeshAngle, NoKinematicError, TorqueSolver, TorsionEstimator,
+};
+use strainwave_io::Channel;
+
+/// Arguments of `identify`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Arm configuration (gear, channels, encoders, model choices); see examples/arm-hda.toml.
+    #[arg(long)]
+    pub config: PathBuf,
+    /// No-load recording (the joint turns slowly, no load): fits the kinematic error.
+    #[arg(long)]
+    pub no_load: PathBuf,
+    /// Loaded recording with a reference torque: fits the compliance.
+    #[arg(long)]
+    pub loaded: PathBuf,
+    /// Output model TOML (read by `estimate --config`).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// No metrics table on stdout.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// Which element is fixed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum Fixed {
+    /// Circular spline fixed (usual robot joint).
+    #[default]
+    CircularSpline,
+    /// Flexspline fixed.
+    Flexspline,
+}
+
+/// The gear.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GearConfig {
+    /// Ratio `N`.
+    pub ratio: f64,
+    /// Rated output torque, N·m (scales the fit, sets the solver).
+    pub rated_torque_nm: f64,
+    /// The fixed element.
+    #[serde(default)]
+    pub fixed: Fixed,
+}
+
+impl GearConfig {
+    /// The core's gear.
+    pub fn gear(&self) -> Result<Gear<f64>> {
+        let fixed = match self.fixed {
+            Fixed::CircularSpline => FixedElement::CircularSpline,
+            Fixed::Flexspline => FixedElement::Flexspline,
+        };
+        Gear::new(self.ratio, fixed).map_err(|e| anyhow::anyhow!("gear: {e}"))
+    }
+}
+
+/// Raw encoder counts (when absent, the motor and link channels are angles in rad).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EncodersConfig {
+    /// Motor (wave generator) counts per revolution.
+    pub motor_counts_per_rev: u64,
+    /// Link counts per revolution.
+    pub link_counts_per_rev: u64,
+    /// Counters wrap every revolution.
+    #[serde(default)]
+    pub single_turn: bool,
+    /// Raw motor count at zero angle.
+    #[serde(default)]
+    pub motor_offset_counts: i64,
+    /// Raw link count at zero angle.
+    #[serde(default)]
+    pub link_offset_counts: i64,
+    /// Interpolation noise, counts rms (sets the narrowest hysteresis play).
+    #[serde(default = "default_noise")]
+    pub noise_counts: f64,
+}
+
+fn default_noise() -> f64 {
+    0.2
+}
+
+impl EncodersConfig {
+    /// The core's encoder configurations `(motor, link)`.
+    pub fn configs(&self) -> Result<(EncoderConfig, EncoderConfig)> {
+        let mk = |cpr: u64, off: i64, what: &str| -> Result<EncoderConfig> {
+            let e = if self.single_turn { EncoderConfig::single_turn(cpr) } else { EncoderConfig::multi_turn(cpr) };
+            Ok(e.map_err(|e| anyhow::anyhow!("encoders.{what}_counts_per_rev: {e}"))?
+                .with_offset(off)
+                .with_max_step(cpr / 4))
+        };
+        Ok((
+            mk(self.motor_counts_per_rev, self.motor_offset_counts, "motor")?,
+            mk(self.link_counts_per_rev, self.link_offset_counts, "link")?,
+        ))
+    }
+}
+
+/// Columns of the recordings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Channels {
+    /// Motor encoder: counts with `[encoders]`, else angle (rad after scaling).
+    pub motor: Channel,
+    /// Link encoder: counts with `[encoders]`, else angle (rad after scaling).
+    pub link: Channel,
+    /// Time, s (for the sample rate when `sample_rate_hz` is not given).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time: Option<Channel>,
+    /// Reference link torque of the loaded run, N·m.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference_torque: Option<Channel>,
+}
+
+/// Order of the kinematic basis: a number or `"cv"` (chosen by 5-fold cross-validation).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(untagged)]
+pub enum Order {
+    /// Fixed.
+    Fixed(usize),
+    /// `"cv"`.
+    Named(String),
+}
+
+/// Kinematic-error model choice.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct KinematicConfig {
+    /// `fourier` or `polynomial`.
+    pub basis: String,
+    /// Output harmonics (Fourier) or power (polynomial), or `"cv"`.
+    pub order: Order,
+    /// Mesh (relative-angle) harmonics of a Fourier basis with a fixed order.
+    #[serde(default)]
+    pub mesh_harmonics: usize,
+}
+
+/// Compliance model choice.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ComplianceConfig {
+    /// `linear`, `cubic`, `three-slope` or `seed`.
+    pub spring: String,
+    /// Three-slope break torques, N·m (default 25 % and 60 % of rated).
+    #[serde(default)]
+    pub t1_nm: Option<f64>,
+    /// Second break torque, N·m.
+    #[serde(default)]
+    pub t2_nm: Option<f64>,
+    /// `plays` (default) or `none`.
+    #[serde(default = "default_hysteresis")]
+    pub hysteresis: String,
+    /// Fit structural damping.
+    #[serde(default = "yes")]
+    pub damping: bool,
+    /// Fit on every n-th sample.
+    #[serde(default = "five")]
+    pub decimation: usize,
+}
+
+fn default_hysteresis() -> String {
+    "plays".into()
+}
+fn yes() -> bool {
+    true
+}
+fn five() -> usize {
+    5
+}
+
+/// `identify --config` file.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ArmConfig {
+    /// Sample rate, Hz (else from the time channel).
+    #[serde(default)]
+    pub sample_rate_hz: Option<f64>,
+    /// Gear.
+    pub gear: GearConfig,
+    /// Raw counts.
+    #[serde(default)]
+    pub encoders: Option<EncodersConfig>,
+    /// Columns.
+    pub channels: Channels,
+    /// Kinematic model.
+    pub kinematic: KinematicConfig,
+    /// Compliance model.
+    pub compliance: ComplianceConfig,
+}
+
+/// Fitted spring parameters (mirror of `ComplianceParams`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "form", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum Spring {
+    /// `τ = K w`.
+    Linear {
+        /// N·m/rad.
+        k_nm_per_rad: f64,
+    },
+    /// `τ = k1 w + k3 w³`.
+    Cubic {
+        /// N·m/rad.
+        k1_nm_per_rad: f64,
+        /// N·m/rad³.
+        k3_nm_per_rad3: f64,
+    },
+    /// Catalogue three-slope.
+    ThreeSlope {
+        /// N·m/rad.
+        k1_nm_per_rad: f64,
+        /// N·m/rad.
+        k2_nm_per_rad: f64,
+        /// N·m/rad.
+        k3_nm_per_rad: f64,
+        /// N·m.
+        t1_nm: f64,
+        /// N·m.
+        t2_nm: f64,
+    },
+    /// Seed 002 springs.
+    Seed {
+        /// N·m/rad.
+        flexspline_k0_nm_per_rad: f64,
+        /// 1/(N·m).
+        flexspline_c_per_nm: f64,
+        /// N·m/rad at the WG.
+        wave_generator_k0_nm_per_rad: f64,
+        /// 1/(N·m).
+        wave_generator_c_per_nm: f64,
+        /// `N`.
+        ratio: f64,
+    },
+}
+
+impl From<ComplianceParams> for Spring {
+    fn from(p: ComplianceParams) -> Self {
+        match p {
+            ComplianceParams::Linear { k_nm_per_rad } => Spring::Linear { k_nm_per_rad },
+            ComplianceParams::Cubic { k1_nm_per_rad, k3_nm_per_rad3 } => {
+                Spring::Cubic { k1_nm_per_rad, k3_nm_per_rad3 }
+            }
+            ComplianceParams::ThreeSlope { k1_nm_per_rad, k2_nm_per_rad, k3_nm_per_rad, t1_nm, t2_nm } => {
+                Spring::ThreeSlope { k1_nm_per_rad, k2_nm_per_rad, k3_nm_per_rad, t1_nm, t2_nm }
+            }
+            ComplianceParams::Seed {
+                flexspline_k0_nm_per_rad,
+                flexspline_c_per_nm,
+                wave_generator_k0_nm_per_rad,
+                wave_generator_c_per_nm,
+                ratio,
+            } => Spring::Seed {
+                flexspline_k0_nm_per_rad,
+                flexspline_c_per_nm,
+                wave_generator_k0_nm_per_rad,
+                wave_generator_c_per_nm,
+                ratio,
+            },
+        }
+    }
+}
+
+impl From<Spring> for ComplianceParams {
+    fn from(s: Spring) -> Self {
+        match s {
+            Spring::Linear { k_nm_per_rad } => ComplianceParams::Linear { k_nm_per_rad },
+            Spring::Cubic { k1_nm_per_rad, k3_nm_per_rad3 } => {
+                ComplianceParams::Cubic { k1_nm_per_rad, k3_nm_per_rad3 }
+            }
+            Spring::ThreeSlope { k1_nm_per_rad, k2_nm_per_rad, k3_nm_per_rad, t1_nm, t2_nm } => {
+                ComplianceParams::ThreeSlope { k1_nm_per_rad, k2_nm_per_rad, k3_nm_per_rad, t1_nm, t2_nm }
+            }
+            Spring::Seed {
+                flexspline_k0_nm_per_rad,
+                flexspline_c_per_nm,
+                wave_generator_k0_nm_per_rad,
+                wave_generator_c_per_nm,
+                ratio,
+            } => ComplianceParams::Seed {
+                flexspline_k0_nm_per_rad,
+                flexspline_c_per_nm,
+                wave_generator_k0_nm_per_rad,
+                wave_generator_c_per_nm,
+                ratio,
+            },
+        }
+    }
+}
+
+/// Fitted hysteresis (mirror of `FittedHysteresis`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum Hysteresis {
+    /// None.
+    None,
+    /// Dahl law.
+    Dahl {
+        /// rad.
+        half_width_rad: f64,
+        /// rad.
+        memory_rad: f64,
+        /// rad.
+        deadband_rad: f64,
+    },
+    /// Play operators.
+    Plays {
+        /// rad.
+        half_widths_rad: Vec<f64>,
+        /// rad.
+        weights_rad: Vec<f64>,
+    },
+}
+
+/// The fitted kinematic error.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct KinematicModel {
+    /// `fourier` or `polynomial`.
+    pub basis: String,
+    /// Output harmonics or polynomial order.
+    pub order: usize,
+    /// Mesh harmonics (relative angle), Fourier only.
+    pub mesh_harmonics: usize,
+    /// Coefficients in the basis order, rad.
+    pub coefficients: Vec<f64>,
+}
+
+/// The fitted compliance.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ComplianceModel {
+    /// Structural damping, N·m·s/rad.
+    pub damping_nm_s_per_rad: f64,
+    /// Wind-up offset, rad.
+    pub windup_offset_rad: f64,
+    /// Rated torque the solver is set for, N·m.
+    pub rated_torque_nm: f64,
+    /// Spring.
+    pub spring: Spring,
+    /// Hysteresis.
+    pub hysteresis: Hysteresis,
+}
+
+/// `identify`'s output, `estimate --config`'s input.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelFile {
+    /// Sample rate the damping and plays were fitted at, Hz.
+    pub sample_rate_hz: f64,
+    /// Largest |torque| the model is valid for (1.25 × the loaded run's peak), N·m.
+    pub torque_range_nm: f64,
+    /// Gear.
+    pub gear: GearConfig,
+    /// Raw counts (absent: angle channels).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub encoders: Option<EncodersConfig>,
+    /// Columns of the encoder channels.
+    pub channels: Channels,
+    /// Kinematic error.
+    pub kinematic: KinematicModel,
+    /// Compliance.
+    pub compliance: ComplianceModel,
+}
+
+impl ModelFile {
+    /// Reads a model file.
+    pub fn load(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
+        toml::from_str(&text).with_context(|| format!("model {}", path.display()))
+    }
+
+    /// The library's kinematic fit.
+    pub fn kinematic_fit(&self) -> Result<KinematicFit> {
+        let k = &self.kinematic;
+        let basis = match k.basis.as_str() {
+            "fourier" => KinematicBasis::Fourier {
+                output_harmonics: k.order,
+                mesh_harmonics: k.mesh_harmonics,
+                mesh_angle: MeshAngle::Relative,
+            },
+            "polynomial" => KinematicBasis::Polynomial { order: k.order },
+            other => bail!("kinematic.basis: `{other}` is neither fourier nor polynomial"),
+        };
+        if k.coefficients.len() != basis.n_terms() {
+            bail!("kinematic.coefficients: {} values, the basis has {}", k.coefficients.len(), basis.n_terms());
+        }
+        Ok(KinematicFit {
+            basis,
+            coefficients: k.coefficients.clone(),
+            direction_offset_rad: 0.0,
+            metrics: FitMetrics::of(&[], &[]),
+        })
+    }
+
+    /// The library's compliance fit.
+    pub fn compliance_fit(&self) -> ComplianceFit {
+        let c = &self.compliance;
+        ComplianceFit {
+            params: c.spring.into(),
+            hysteresis: match &c.hysteresis {
+                Hysteresis::None => FittedHysteresis::None,
+                Hysteresis::Dahl { half_width_rad, memory_rad, deadband_rad } => FittedHysteresis::Dahl {
+                    half_width_rad: *half_width_rad,
+                    memory_rad: *memory_rad,
+                    deadband_rad: *deadband_rad,
+                },
+                Hysteresis::Plays { half_widths_rad, weights_rad } => FittedHysteresis::Plays {
+                    half_widths_rad: half_widths_rad.clone(),
+                    weights_rad: weights_rad.clone(),
+                },
+            },
+            damping_nm_s_per_rad: c.damping_nm_s_per_rad,
+            windup_offset_rad: c.windup_offset_rad,
+            rated_torque_nm: c.rated_torque_nm,
+            metrics: FitMetrics::of(&[], &[]),
+            iterations: 0,
+        }
+    }
+}
+
+/// Motor and link angles (gear convention, unwrapped) of a recording.
+struct Run {
+    motor: Vec<f64>,
+    link: Vec<f64>,
+    table: strainwave_io::Table,
+}
+
+fn column<'a>(t: &'a strainwave_io::Table, ch: &Channel, key: &str, path: &Path) -> Result<&'a [f64]> {
+    t.column(ch.column_name()).with_context(|| {
+        format!(
+            "{}: no column `{}` (channel `{key}`); columns: {}",
+            path.display(),
+            ch.column_name(),
+            t.columns.join(", ")
+        )
+    })
+}
+
+fn scaled(t: &strainwave_io::Table, ch: &Channel, key: &str, path: &Path) -> Result<Vec<f64>> {
+    let (s, o) = ch.scale_offset();
+    Ok(column(t, ch, key, path)?.iter().map(|v| v * s + o).collect())
+}
+
+/// Unwraps raw counts into angles through the core's estimator (identity spring, no
+/// kinematic error): the encoder handling is the one `estimate` uses.
+fn angles_from_counts(
+    gear: Gear<f64>,
+    enc: &EncodersConfig,
+    motor: &[f64],
+    link: &[f64],
+    path: &Path,
+) -> Result<(Vec<f64>, Vec<f64>)> {
+    let (m, l) = enc.configs()?;
+    let spring = ThreeSlopeStiffness::linear(1.0e4).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let solver = TorqueSolver::for_rated_torque(1.0e9).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let est = TorsionEstimator::new(gear, m, l, NoKinematicError, spring, solver);
+    let mut st = EstimatorState::new();
+    let n_s = gear.signed_ratio();
+    let (mut ma, mut la) = (Vec::with_capacity(motor.len()), Vec::with_capacity(motor.len()));
+    for (k, (mc, lc)) in motor.iter().zip(link).enumerate() {
+        let e = est
+            .step_counts(&mut st, *mc as i64, *lc as i64)
+            .map_err(|e| anyhow::anyhow!("{}: data row {}: {e}", path.display(), k + 1))?;
+        if e.flags.any_jump() {
+            bail!(
+                "{}: data row {}: encoder count jumped (wrapping counter? check encoders.single_turn)",
+                path.display(),
+                k + 1
+            );
+        }
+        la.push(e.output_angle_rad);
+        ma.push((e.output_angle_rad - e.torsion_rad) * n_s);
+    }
+    Ok((ma, la))
+}
+
+fn load_run(cfg: &ArmConfig, path: &Path) -> Result<Run> {
+    let table = strainwave_io::read_all(path).with_context(|| format!("{}", path.display()))?;
+    if table.rows() < 20 {
+        bail!("{}: {} rows, too short to identify from", path.display(), table.rows());
+    }
+    let gear = cfg.gear.gear()?;
+    let (motor, link) = match &cfg.encoders {
+        Some(enc) => {
+            let m = column(&table, &cfg.channels.motor, "motor", path)?;
+            let l = column(&table, &cfg.channels.link, "link", path)?;
+            angles_from_counts(gear, enc, m, l, path)?
+        }
+        None => {
+            (scaled(&table, &cfg.channels.motor, "motor", path)?, scaled(&table, &cfg.channels.link, "link", path)?)
+        }
+    };
+    Ok(Run { motor, link, table })
+}
+
+fn sample_rate(cfg: &ArmConfig, run: &Run, path: &Path) -> Result<f64> {
+    if let Some(fs) = cfg.sample_rate_hz {
+        return Ok(fs);
+    }
+    let Some(ch) = &cfg.channels.time else { bail!("give sample_rate_hz or channels.time") };
+    let t = scaled(&run.table, ch, "time", path)?;
+    let span = t[t.len() - 1] - t[0];
+    if !(span.is_finite() && span > 0.0) {
+        bail!("{}: time does not increase", path.display());
+    }
+    Ok((t.len() - 1) as f64 / span)
+}
+
+fn fit_kinematic(cfg: &KinematicConfig, gear: &Gear<f64>, angles: &JointAngles) -> Result<(KinematicFit, Option<f64>)> {
+    let opts = KinematicFitOptions::default();
+    let cv = match &cfg.order {
+        Order::Named(s) if s == "cv" => true,
+        Order::Named(s) => bail!("kinematic.order: `{s}` is neither a number nor \"cv\""),
+        Order::Fixed(_) => false,
+    };
+    let basis_of = |order: usize, mesh: usize| -> Result<KinematicBasis> {
+        Ok(match cfg.basis.as_str() {
+            "fourier" => KinematicBasis::Fourier {
+                output_harmonics: order,
+                mesh_harmonics: mesh,
+                mesh_angle: MeshAngle::Relative,
+            },
+            "polynomial" => KinematicBasis::Polynomial { order },
+            other => bail!("kinematic.basis: `{other}` is neither fourier nor polynomial"),
+        })
+    };
+    if cv {
+        let mut candidates = Vec::new();
+        if cfg.basis == "polynomial" {
+            for o in 1..=7 {
+                candidates.push(basis_of(o, 0)?);
+            }
+        } else {
+            for ho in 1..=3 {
+                for hr in [0, 2, 4, 6] {
+                    candidates.push(basis_of(ho, hr)?);
+                }
+            }
+        }
+        let (fit, cvs) = select_kinematic_basis(gear, angles, &candidates, 5, &opts)?;
+        let best = cvs.iter().cloned().fold(f64::INFINITY, f64::min);
+        Ok((fit, Some(best)))
+    } else {
+        let Order::Fixed(o) = cfg.order else { unreachable!() };
+        Ok((fit_kinematic_error(gear, angles, basis_of(o, cfg.mesh_harmonics)?, &opts)?, None))
+    }
+}
+
+fn kinematic_model(fit: &KinematicFit) -> KinematicModel {
+    let (basis, order, mesh) = match fit.basis {
+        KinematicBasis::Polynomial { order } => ("polynomial", order, 0),
+        KinematicBasis::Fourier { output_harmonics, mesh_harmonics, .. } => {
+            ("fourier", output_harmonics, mesh_harmonics)
+        }
+    };
+    KinematicModel { basis: basis.into(), order, mesh_harmonics: mesh, coefficients: fit.coefficients.clone() }
+}
+
+/// Runs `identify`.
+pub fn run(a: &Args) -> Result<()> {
+    let text = std::fs::read_to_string(&a.config).with_context(|| format!("{}", a.config.display()))?;
+    let cfg: ArmConfig = toml::from_str(&text).with_context(|| format!("config {}", a.config.display()))?;
+    let gear = cfg.gear.gear()?;
+    // Kinematic error from the no-load run.
+    let nl = load_run(&cfg, &a.no_load)?;
+    let fs = sample_rate(&cfg, &nl, &a.no_load)?;
+    let nl_angles = JointAngles { motor_angle_rad: &nl.motor, link_angle_rad: &nl.link, sample_rate_hz: fs };
+    let (kin, cv) = fit_kinematic(&cfg.kinematic, &gear, &nl_angles).context("kinematic-error fit")?;
+    // Compliance from the loaded run.
+    let ld = load_run(&cfg, &a.loaded)?;
+    let Some(ref_ch) = &cfg.channels.reference_torque else {
+        bail!("channels.reference_torque: needed for the loaded run")
+    };
+    let reference = scaled(&ld.table, ref_ch, "reference_torque", &a.loaded)?;
+    let ld_angles = JointAngles { motor_angle_rad: &ld.motor, link_angle_rad: &ld.link, sample_rate_hz: fs };
+    let c = &cfg.compliance;
+    let rated = cfg.gear.rated_torque_nm;
+    let form = match c.spring.as_str() {
+        "linear" => ComplianceForm::Linear,
+        "cubic" => ComplianceForm::Cubic,
+        "three-slope" => {
+            ComplianceForm::ThreeSlope { t1_nm: c.t1_nm.unwrap_or(0.25 * rated), t2_nm: c.t2_nm.unwrap_or(0.6 * rated) }
+        }
+        "seed" => ComplianceForm::Seed { ratio: cfg.gear.ratio },
+        other => bail!("compliance.spring: `{other}` is not linear, cubic, three-slope or seed"),
+    };
+    let mut opts = ComplianceFitOptions::new(form, rated);
+    opts.hysteresis = match c.hysteresis.as_str() {
+        "none" => HysteresisForm::None,
+        "plays" => {
+            // Narrowest play: the torsion's resolution plus noise, peak to peak.
+            let deadband = match &cfg.encoders {
+                Some(e) => {
+                    let link = std::f64::consts::TAU / e.link_counts_per_rev as f64;
+                    let motor = std::f64::consts::TAU / e.motor_counts_per_rev as f64 / cfg.gear.ratio;
+                    (1.0 + 4.0 * e.noise_counts) * (link + motor)
+                }
+                None => 1.0e-5,
+            };
+            HysteresisForm::geometric_plays(deadband, 2.0, 6)
+        }
+        other => bail!("compliance.hysteresis: `{other}` is neither plays nor none"),
+    };
+    opts.damping = c.damping;
+    opts.decimation = c.decimation.max(1);
+    let fit = fit_compliance(&gear, &kin, &ld_angles, &reference, &opts).context("compliance fit")?;
+    let peak = reference.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let model = ModelFile {
+        sample_rate_hz: fs,
+        torque_range_nm: 1.25 * peak,
+        gear: cfg.gear.clone(),
+        encoders: cfg.encoders.clone(),
+        channels: Channels {
+            motor: cfg.channels.motor.clone(),
+            link: cfg.channels.link.clone(),
+            time: None,
+            reference_torque: None,
+        },
+        kinematic: kinematic_model(&kin),
+        compliance: ComplianceModel {
+            damping_nm_s_per_rad: fit.damping_nm_s_per_rad,
+            windup_offset_rad: fit.windup_offset_rad,
+            rated_torque_nm: fit.rated_torque_nm,
+            spring: fit.params.into(),
+            hysteresis: match &fit.hysteresis {
+                FittedHysteresis::None => Hysteresis::None,
+                FittedHysteresis::Dahl { half_width_rad, memory_rad, deadband_rad } => Hysteresis::Dahl {
+                    half_width_rad: *half_width_rad,
+                    memory_rad: *memory_rad,
+                    deadband_rad: *deadband_rad,
+                },
+                FittedHysteresis::Plays { half_widths_rad, weights_rad } => {
+                    Hysteresis::Plays { half_widths_rad: half_widths_rad.clone(), weights_rad: weights_rad.clone() }
+                }
+            },
+        },
+    };
+    let text = toml::to_string(&model).context("serializing the model")?;
+    let header = format!("# strainwave identify: {} (no load), {} (loaded)\n", a.no_load.display(), a.loaded.display());
+    std::fs::write(&a.out, header + &text).with_context(|| format!("{}", a.out.display()))?;
+    if !a.quiet {
+        let kb = match kin.basis {
+            KinematicBasis::Polynomial { order } => format!("polynomial, order {order}"),
+            KinematicBasis::Fourier { output_harmonics, mesh_harmonics, .. } => {
+                format!("Fourier, {output_harmonics} output + {mesh_harmonics} mesh harmonics")
+            }
+        };
+        let m = &kin.metrics;
+        let f = &fit.metrics;
+        let mut rows = vec![vec![
+            "kinematic error (no-load torsion)".to_string(),
+            kb,
+            format!("{:.4}", m.r_squared),
+            format!("{:.3e} rad", m.rms),
+            format!("{:.3e} rad", m.mean_abs),
+            format!("{:.3e} rad", m.max_abs),
+        ]];
+        if let Some(cv) = cv {
+            rows.push(vec![
+                "  5-fold cross-validation".into(),
+                "best candidate".into(),
+                "".into(),
+                format!("{cv:.3e} rad"),
+                "".into(),
+                "".into(),
+            ]);
+        }
+        rows.push(vec![
+            "compliance (loaded, vs reference)".to_string(),
+            format!("{}, {} hysteresis, {} LM iterations", c.spring, c.hysteresis, fit.iterations),
+            format!("{:.4}", f.r_squared),
+            format!("{:.3} N·m", f.rms),
+            format!("{:.3} N·m", f.mean_abs),
+            format!("{:.3} N·m", f.max_abs),
+        ]);
+        let header = ["fit", "model", "R²", "rms", "mean |e|", "max |e|"];
+        let mut out = crate::report::text::text_table(&header, &rows);
+        out.push_str(&format!("model -> {}\n", a.out.display()));
+        crate::stdout::print(&out)?;
+    }
+    Ok(())
+}

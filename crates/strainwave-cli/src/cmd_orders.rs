@@ -1,0 +1,119 @@
+//! `strainwave orders`: amplitude and phase of orders against speed (angle-domain blocks),
+//! as a table on standard output and an SVG plot of the amplitudes.
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use strainwave_analysis::campbell::{order_slice, OrderSliceConfig};
+
+use crate::cmd_campbell::{column, sample_rate, speed_rpm};
+use crate::report::plot::{LinePlot, Series};
+use crate::report::text::text_table;
+
+/// Arguments of `orders`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Input recording.
+    #[arg(long = "in")]
+    pub input: PathBuf,
+    /// Signal column.
+    #[arg(long)]
+    pub signal: String,
+    /// Speed column.
+    #[arg(long)]
+    pub speed: String,
+    /// Unit of the speed column.
+    #[arg(long, default_value = "rpm", value_parser = ["rpm", "rad_s"])]
+    pub speed_unit: String,
+    /// Order (mechanical, cycles per revolution); repeat for several.
+    #[arg(long = "order", required = true)]
+    pub orders: Vec<f64>,
+    /// Revolutions per analysis block.
+    #[arg(long, default_value_t = 8.0)]
+    pub revs_per_block: f64,
+    /// Width of a speed bin of the table, rpm.
+    #[arg(long, default_value_t = 200.0)]
+    pub speed_bin: f64,
+    /// Output SVG (amplitude vs speed).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// Per speed bin: mean amplitude and circular mean phase of the blocks in it.
+fn bin(s: &strainwave_analysis::campbell::OrderSlice, width: f64, nbins: usize) -> Vec<Option<(f64, f64)>> {
+    let mut acc = vec![(0.0, 0.0, 0.0, 0usize); nbins];
+    for i in 0..s.speed_rpm.len() {
+        let b = ((s.speed_rpm[i].max(0.0) / width).floor() as usize).min(nbins - 1);
+        let (a, p) = (s.amplitude[i], s.phase_rad[i]);
+        acc[b].0 += a;
+        acc[b].1 += p.cos();
+        acc[b].2 += p.sin();
+        acc[b].3 += 1;
+    }
+    acc.into_iter().map(|(a, c, si, n)| (n > 0).then(|| (a / n as f64, si.atan2(c)))).collect()
+}
+
+/// Runs `orders`.
+pub fn run(a: &Args) -> Result<()> {
+    let t = strainwave_io::read_all(&a.input)?;
+    let x = column(&t, &a.signal, "--signal", &a.input)?;
+    let speed = speed_rpm(&t, &a.speed, &a.speed_unit, &a.input)?;
+    let fs = sample_rate(&t, &a.input)?;
+    if !(a.speed_bin.is_finite() && a.speed_bin > 0.0) {
+        bail!("--speed-bin: must be positive, got {}", a.speed_bin);
+    }
+    let cfg = OrderSliceConfig { revs_per_block: a.revs_per_block, ..Default::default() };
+    let mut slices = Vec::new();
+    for &o in &a.orders {
+        if !(o.is_finite() && o > 0.0) {
+            bail!("--order: must be positive, got {o}");
+        }
+        slices.push(order_slice(x, &speed, fs, o, &cfg).map_err(|e| anyhow::anyhow!("--order {o}: {e}"))?);
+    }
+    let top = speed.iter().copied().fold(0.0, f64::max);
+    let nbins = ((top / a.speed_bin).floor() as usize + 1).min(100_000);
+    let binned: Vec<_> = slices.iter().map(|s| bin(s, a.speed_bin, nbins)).collect();
+    let mut header = vec!["speed rpm".to_string()];
+    for o in &a.orders {
+        header.push(format!("{o}× amplitude"));
+        header.push(format!("{o}× phase °"));
+    }
+    let mut rows = Vec::new();
+    for b in 0..nbins {
+        if binned.iter().all(|v| v[b].is_none()) {
+            continue;
+        }
+        let mut r = vec![format!("{:.0}–{:.0}", b as f64 * a.speed_bin, (b + 1) as f64 * a.speed_bin)];
+        for v in &binned {
+            match v[b] {
+                Some((amp, ph)) => {
+                    r.push(format!("{amp:.4e}"));
+                    r.push(format!("{:+.1}", ph.to_degrees()));
+                }
+                None => {
+                    r.push("—".into());
+                    r.push("—".into());
+                }
+            }
+        }
+        rows.push(r);
+    }
+    let h: Vec<&str> = header.iter().map(String::as_str).collect();
+    let mut text =
+        format!("order slices of {} ({} revolutions per block; unit of {}):\n", a.signal, a.revs_per_block, a.signal);
+    text += &text_table(&h, &rows);
+    crate::stdout::print(&text)?;
+    let plot = LinePlot {
+        title: format!("Order amplitudes of {} vs speed", a.signal),
+        x_label: "speed (rpm)".into(),
+        y_label: format!("amplitude ({})", a.signal),
+        series: slices
+            .iter()
+            .map(|s| Series { name: format!("order {}", s.order), x: s.speed_rpm.clone(), y: s.amplitude.clone() })
+            .collect(),
+        log_y: true,
+        ..Default::default()
+    };
+    std::fs::write(&a.out, plot.to_svg()).with_context(|| format!("{}", a.out.display()))?;
+    Ok(())
+}

@@ -1,0 +1,208 @@
+//! The bench commands end to end: simulate kit-bench, fuse, campbell, orders, spectrogram,
+//! and their one-line errors.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn run(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_strainwave")).args(args).output().expect("run strainwave")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("sw-bench-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn config() -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/bench-kit.toml").to_str().unwrap().to_string()
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn assert_user_error(o: &Output, needle: &str) {
+    let e = stderr(o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(e.contains(needle), "`{needle}` not in: {e}");
+    assert_eq!(e.trim_end().lines().count(), 1, "one line: {e}");
+}
+
+fn simulate(d: &Path) -> PathBuf {
+    let f = d.join("bench.csv");
+    let o = run(&["simulate", "--preset", "kit-bench", "--duration", "4", "--seed", "5", "--out", s(&f), "-q"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    f
+}
+
+fn read(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap().split(',').map(String::from).collect();
+    (header, lines.map(|l| l.split(',').map(|v| v.parse().unwrap()).collect()).collect())
+}
+
+/// Rewrites a recording with one column transformed.
+fn rewrite(src: &Path, dst: &Path, column: &str, f: impl Fn(f64) -> f64, rows: usize) {
+    let (h, data) = read(src);
+    let i = h.iter().position(|c| c == column).unwrap();
+    let mut out = h.join(",") + "\n";
+    for r in data.iter().take(rows) {
+        let cells: Vec<String> =
+            r.iter().enumerate().map(|(k, v)| if k == i { f(*v).to_string() } else { v.to_string() }).collect();
+        out += &(cells.join(",") + "\n");
+    }
+    std::fs::write(dst, out).unwrap();
+}
+
+#[test]
+fn simulate_fuse_and_analyse() {
+    let d = tmp("flow");
+    let sim = simulate(&d);
+    let (h, rows) = read(&sim);
+    assert_eq!(rows.len(), 80_000);
+    for c in ["time", "speed_rpm", "torsion_torque", "accel_1", "accel_2", "accel_torque", "true_dut_torque"] {
+        assert!(h.iter().any(|x| x == c), "{c}");
+    }
+
+    for method in ["complementary", "spectral", "corrected"] {
+        let out = d.join(format!("fused-{method}.csv"));
+        let o = run(&["fuse", "--config", &config(), "--in", s(&sim), "--out", s(&out), "--method", method]);
+        assert!(o.status.success(), "{method}: {}", stderr(&o));
+        let (fh, frows) = read(&out);
+        assert_eq!(fh.len(), h.len() + 1);
+        assert_eq!(fh.last().unwrap(), "fused_torque");
+        assert_eq!(frows.len(), rows.len());
+        // The fused torque follows the true torque at low frequency: compare means over the
+        // last half second.
+        let (fi, ti) = (fh.len() - 1, fh.iter().position(|c| c == "true_shaft_torque").unwrap());
+        let tail = &frows[frows.len() - 10_000..];
+        let mf = tail.iter().map(|r| r[fi]).sum::<f64>() / tail.len() as f64;
+        let mt = tail.iter().map(|r| r[ti]).sum::<f64>() / tail.len() as f64;
+        assert!((mf - mt).abs() < 0.02, "{method}: {mf} vs {mt}");
+    }
+
+    let svg = d.join("campbell.svg");
+    let o = run(&[
+        "campbell",
+        "--in",
+        s(&sim),
+        "--signal",
+        "accel_torque",
+        "--speed",
+        "speed_rpm",
+        "--orders",
+        "18,36",
+        "--out",
+        s(&svg),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&svg).unwrap();
+    assert!(text.starts_with("<svg") && text.matches("<rect").count() > 100);
+    assert_eq!(text.matches("class=\"order-line\"").count(), 2);
+    assert!(text.contains("speed (rpm)") && text.contains("frequency (Hz)") && text.contains("18×"));
+
+    let svg = d.join("orders.svg");
+    let o = run(&[
+        "orders",
+        "--in",
+        s(&sim),
+        "--signal",
+        "accel_torque",
+        "--speed",
+        "speed_rpm",
+        "--order",
+        "18",
+        "--order",
+        "36",
+        "--speed-bin",
+        "100",
+        "--revs-per-block",
+        "2",
+        "--out",
+        s(&svg),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let table = String::from_utf8_lossy(&o.stdout);
+    assert!(table.contains("speed rpm") && table.contains("18× amplitude") && table.contains("36× phase °"), "{table}");
+    assert!(table.lines().count() > 4, "{table}");
+    assert!(std::fs::read_to_string(&svg).unwrap().starts_with("<svg"));
+
+    let svg = d.join("spectrogram.svg");
+    let o = run(&["spectrogram", "--in", s(&sim), "--signal", "torsion_torque", "--nperseg", "1024", "--out", s(&svg)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&svg).unwrap();
+    assert!(text.matches("<rect").count() > 100 && text.contains("time (s)"));
+}
+
+#[test]
+fn bad_inputs_give_one_line_errors() {
+    let d = tmp("bad");
+    let sim = simulate(&d);
+
+    // Crossover above Nyquist (20 kHz sampling).
+    let cfg = d.join("high.toml");
+    let text = std::fs::read_to_string(config()).unwrap().replace("crossover_hz = 250.0", "crossover_hz = 12000.0");
+    std::fs::write(&cfg, text).unwrap();
+    for method in ["complementary", "spectral", "corrected"] {
+        let o = run(&["fuse", "--config", s(&cfg), "--in", s(&sim), "--out", s(&d.join("x.csv")), "--method", method]);
+        assert_user_error(&o, "crossover_hz");
+    }
+
+    // Negative speed channel.
+    let neg = d.join("neg.csv");
+    rewrite(&sim, &neg, "speed_rpm", |v| -v - 1.0, usize::MAX);
+    let o = run(&[
+        "campbell",
+        "--in",
+        s(&neg),
+        "--signal",
+        "accel_torque",
+        "--speed",
+        "speed_rpm",
+        "--out",
+        s(&d.join("c.svg")),
+    ]);
+    assert_user_error(&o, "speed_rpm");
+    let o = run(&[
+        "orders",
+        "--in",
+        s(&neg),
+        "--signal",
+        "accel_torque",
+        "--speed",
+        "speed_rpm",
+        "--order",
+        "18",
+        "--out",
+        s(&d.join("o.svg")),
+    ]);
+    assert_user_error(&o, "speed_rpm");
+
+    // Fewer samples than one window.
+    let short = d.join("short.csv");
+    rewrite(&sim, &short, "time", |v| v, 500);
+    let o = run(&["spectrogram", "--in", s(&short), "--signal", "torsion_torque", "--out", s(&d.join("s.svg"))]);
+    assert_user_error(&o, "--nperseg");
+    let o = run(&[
+        "campbell",
+        "--in",
+        s(&short),
+        "--signal",
+        "accel_torque",
+        "--speed",
+        "speed_rpm",
+        "--out",
+        s(&d.join("c.svg")),
+    ]);
+    assert_user_error(&o, "--nperseg");
+
+    // Missing column.
+    let o = run(&["spectrogram", "--in", s(&sim), "--signal", "nope", "--out", s(&d.join("s.svg"))]);
+    assert_user_error(&o, "nope");
+}

@@ -1,0 +1,294 @@
+//! `strainwave calibrate` end to end: the seed-000 loop against the simulator's truth,
+//! seed 001's static and dynamic models, and bad input (one line, exit code 1, the
+//! file/row/column named, never a NaN in a calibration file).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use strainwave_analysis::calibration::{fit_affine, held_rows};
+
+/// Recovered gain against the simulator's true mean gain, relative (the 0.5 %).
+const GAIN_TOL: f64 = 0.005;
+/// Printed consistency against the true spread, percentage points.
+const CONSISTENCY_TOL_PT: f64 = 0.1;
+
+fn run(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_strainwave")).args(args).output().expect("run strainwave")
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("sw-cal-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Runs and expects success; returns stdout.
+fn ok(args: &[&str]) -> String {
+    let o = run(args);
+    assert!(o.status.success(), "{args:?}\n{}", stderr(&o));
+    stdout(&o)
+}
+
+/// Runs and expects a user error: exit code 1 and one line on stderr.
+fn user_error(args: &[&str]) -> String {
+    let o = run(args);
+    assert_eq!(o.status.code(), Some(1), "{args:?}\nstdout: {}\nstderr: {}", stdout(&o), stderr(&o));
+    let e = stderr(&o);
+    assert_eq!(e.trim_end().lines().count(), 1, "not one line: {e}");
+    assert!(e.starts_with("error: "), "{e}");
+    e
+}
+
+/// A number from a calibration file's `key = value` line (top level or `[metrics]`).
+fn toml_number(text: &str, key: &str) -> f64 {
+    let line = text.lines().find(|l| l.starts_with(&format!("{key} = "))).unwrap_or_else(|| panic!("{key}: {text}"));
+    line.split(" = ").nth(1).unwrap().trim().parse().unwrap()
+}
+
+/// A calibration file, checked for non-finite numbers.
+fn read_calibration(p: &Path) -> String {
+    let text = std::fs::read_to_string(p).unwrap();
+    let lower = text.to_lowercase();
+    for bad in ["nan", "inf"] {
+        let numbers = lower.lines().filter(|l| l.contains(" = ") && !l.starts_with("description"));
+        assert!(!numbers.clone().any(|l| l.contains(bad)), "{bad} in {text}");
+    }
+    text
+}
+
+fn write_csv(p: &Path, header: &str, rows: &[Vec<f64>]) {
+    let mut t = format!("{header}\n");
+    for r in rows {
+        t += &r.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(",");
+        t.push('\n');
+    }
+    std::fs::write(p, t).unwrap();
+}
+
+#[test]
+fn seed000_loop_recovers_the_true_gain_and_spread() {
+    let d = tmp("seed000");
+    let (rec, cal) = (d.join("locked.csv"), d.join("cal.toml"));
+    ok(&["simulate", "--preset", "taghirad", "--procedure", "locked-wg", "--out", s(&rec), "--quiet"]);
+    let out = ok(&[
+        "calibrate",
+        "--in",
+        s(&rec),
+        "--experiment-column",
+        "experiment",
+        "--reference",
+        "reference_torque",
+        "--sensor",
+        "bridge_voltage",
+        "--model",
+        "gain",
+        "--din",
+        "--out",
+        s(&cal),
+    ]);
+    // The truth: one true gain per experiment in the recording.
+    let t = strainwave_io::read_all(&rec).unwrap();
+    let (exp, truth) = (t.column("experiment").unwrap(), t.column("true_gain").unwrap());
+    let mut gains: Vec<(f64, f64)> = Vec::new();
+    for (e, g) in exp.iter().zip(truth) {
+        if !gains.iter().any(|(k, _)| k == e) {
+            gains.push((*e, *g));
+        }
+    }
+    let n = gains.len() as f64;
+    assert_eq!(n, 8.0);
+    let mean = gains.iter().map(|g| g.1).sum::<f64>() / n;
+    let sd = (gains.iter().map(|g| (g.1 - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+    let true_consistency_pct = 100.0 * sd / mean;
+
+    let text = read_calibration(&cal);
+    assert!(text.contains("model = \"gain\""), "{text}");
+    let gain = toml_number(&text, "gain_nm_per_v");
+    let printed: f64 = out
+        .lines()
+        .find_map(|l| l.split("experiments) ").nth(1))
+        .and_then(|v| v.trim_end_matches(" %").parse().ok())
+        .unwrap_or_else(|| panic!("no consistency line in\n{out}"));
+    assert!(out.contains("DIN 51309") && out.contains("h %"), "{out}");
+    // The reference is the nominal torque and the rig's arm is off by `arm` per mounting,
+    // so each experiment's recoverable gain is nominal torque per volt = 1 / (arm · s).
+    // A `true_gain` column holding arm / s instead fails here by about twice the mean
+    // arm error (and the consistency below by the flipped arm/temperature correlation).
+    assert!(
+        (gain / mean - 1.0).abs() < GAIN_TOL,
+        "gain {gain} vs true {mean} ({:+.3} %); consistency {printed} % vs true {true_consistency_pct:.3} %",
+        100.0 * (gain / mean - 1.0)
+    );
+    assert!(
+        (printed - true_consistency_pct).abs() < CONSISTENCY_TOL_PT,
+        "consistency {printed} % vs true {true_consistency_pct:.3} %"
+    );
+}
+
+#[test]
+fn seed001_static_and_dynamic_through_the_cli() {
+    let d = tmp("seed001");
+    let (st, dy) = (d.join("static.csv"), d.join("dynamic.csv"));
+    ok(&["simulate", "--preset", "flexspline-fixed-static", "--out", s(&st), "--quiet"]);
+    ok(&["simulate", "--preset", "flexspline-fixed-dynamic", "--out", s(&dy), "--quiet"]);
+    let common = ["--reference", "reference_torque", "--sensor", "measured_torque", "--full-scale", "20"];
+    let (st_cal, dy_cal, tab_cal) = (d.join("static.toml"), d.join("dynamic.toml"), d.join("table.toml"));
+    let plot = d.join("fit.svg");
+    let mut args = vec!["calibrate", "--in", s(&st), "--model", "static", "--held", "0.6", "--out", s(&st_cal)];
+    args.extend(["--plot", s(&plot)]);
+    args.extend(common);
+    let out = ok(&args);
+    assert!(out.contains("held rows:") && out.contains("RMS % FS"), "{out}");
+    assert!(std::fs::read_to_string(&plot).unwrap().matches("<svg").count() == 3);
+    let mut args = vec!["calibrate", "--in", s(&dy), "--model", "dynamic", "--speed", "motor_velocity"];
+    args.extend(["--out", s(&dy_cal)]);
+    args.extend(common);
+    let out = ok(&args);
+    assert!(out.contains("per speed bin"), "{out}");
+    let mut args = vec!["calibrate", "--in", s(&dy), "--model", "speed-table", "--speed", "motor_velocity"];
+    args.extend(["--bins", "3", "--out", s(&tab_cal)]);
+    args.extend(common);
+    let out = ok(&args);
+    assert!(out.contains("extrapolation `clamp`"), "{out}");
+
+    // The CLI's numbers are the library's on the same rows.
+    let t = strainwave_io::read_all(&st).unwrap();
+    let (time, r, m) =
+        (t.column("time").unwrap(), t.column("reference_torque").unwrap(), t.column("measured_torque").unwrap());
+    let span = r.iter().copied().fold(f64::MIN, f64::max) - r.iter().copied().fold(f64::MAX, f64::min);
+    let held = held_rows(time, r, 0.6, 0.02 * span).unwrap();
+    let pick = |x: &[f64]| x.iter().zip(&held).filter(|(_, &h)| h).map(|(v, _)| *v).collect::<Vec<f64>>();
+    let lib = fit_affine(&pick(m), &pick(r), Some(20.0)).unwrap();
+    let st_text = read_calibration(&st_cal);
+    assert!(st_text.contains("model = \"static\""));
+    assert!((toml_number(&st_text, "alpha") - lib.alpha).abs() < 1e-12);
+    assert!((toml_number(&st_text, "beta_nm") - lib.beta_nm).abs() < 1e-12);
+    assert_eq!(toml_number(&st_text, "rows") as usize, lib.metrics.rows);
+
+    // Seed 001's shape: a slope near the sensor's own scale, errors of a few tenths of a
+    // N·m, the dynamic fit worse than the static one.
+    let dy_text = read_calibration(&dy_cal);
+    assert!(dy_text.contains("model = \"dynamic\""));
+    let (st_rms, dy_rms) = (toml_number(&st_text, "rms_error_nm"), toml_number(&dy_text, "rms_error_nm"));
+    for (name, text) in [("static", &st_text), ("dynamic", &dy_text)] {
+        let a = toml_number(text, "alpha");
+        assert!((0.9..1.1).contains(&a), "{name} α {a}");
+    }
+    assert!((0.1..0.5).contains(&st_rms) && (0.1..0.6).contains(&dy_rms) && dy_rms > st_rms, "{st_rms} {dy_rms}");
+    assert!(toml_number(&dy_text, "rms_percent_fs") > toml_number(&st_text, "rms_percent_fs"));
+    let tab = read_calibration(&tab_cal);
+    assert!(tab.contains("model = \"speed_table\"") && tab.contains("extrapolation = \"clamp\""), "{tab}");
+}
+
+#[test]
+fn one_load_is_singular() {
+    let d = tmp("singular");
+    let p = d.join("one-load.csv");
+    // One applied load, the sensor reading it with a little scatter.
+    let rows: Vec<Vec<f64>> = (0..20).map(|k| vec![k as f64, 5.0, 0.75 + 0.001 * (k % 3) as f64]).collect();
+    write_csv(&p, "time,torque,volts", &rows);
+    let e =
+        user_error(&["calibrate", "--in", s(&p), "--reference", "torque", "--sensor", "volts", "--model", "static"]);
+    assert!(e.contains("singular") && e.contains("reference"), "{e}");
+    // Through the origin one load is solvable; a sensor stuck at zero is not.
+    let rows: Vec<Vec<f64>> = (0..20).map(|k| vec![k as f64, k as f64, 0.0]).collect();
+    write_csv(&p, "time,torque,volts", &rows);
+    let e = user_error(&["calibrate", "--in", s(&p), "--reference", "torque", "--sensor", "volts"]);
+    assert!(e.contains("singular") && e.contains("one-load.csv"), "{e}");
+}
+
+#[test]
+fn fewer_rows_than_unknowns() {
+    let d = tmp("few");
+    let p = d.join("one-row.csv");
+    write_csv(&p, "torque,volts", &[vec![5.0, 0.75]]);
+    let e =
+        user_error(&["calibrate", "--in", s(&p), "--reference", "torque", "--sensor", "volts", "--model", "static"]);
+    assert!(e.contains("1 rows, needs at least 2"), "{e}");
+    // α(ω), β(ω) quadratic in speed: 6 unknowns, 4 rows.
+    let rows = vec![vec![1.0, 1.0, 1.0], vec![2.0, 2.0, 1.0], vec![1.1, 1.0, 2.0], vec![2.2, 2.0, 2.0]];
+    write_csv(&p, "torque,volts,speed", &rows);
+    let e = user_error(&[
+        "calibrate",
+        "--in",
+        s(&p),
+        "--reference",
+        "torque",
+        "--sensor",
+        "volts",
+        "--speed",
+        "speed",
+        "--model",
+        "speed-poly",
+        "--degree",
+        "2",
+    ]);
+    assert!(e.contains("4 rows for 6 unknowns"), "{e}");
+}
+
+#[test]
+fn nan_row_and_missing_column_are_named() {
+    let d = tmp("nan");
+    let p = d.join("with-nan.csv");
+    std::fs::write(&p, "torque,volts\n0,0\n5,0.75\n10,NaN\n15,2.25\n").unwrap();
+    let cal = d.join("cal.toml");
+    let e = user_error(&["calibrate", "--in", s(&p), "--reference", "torque", "--sensor", "volts", "--out", s(&cal)]);
+    assert!(e.contains("with-nan.csv") && e.contains("row 3") && e.contains("`volts`") && e.contains("NaN"), "{e}");
+    assert!(!cal.exists(), "no file is written on error");
+    let e = user_error(&["calibrate", "--in", s(&p), "--reference", "torque_ref", "--sensor", "volts"]);
+    assert!(e.contains("no column `torque_ref`") && e.contains("--reference") && e.contains("with-nan.csv"), "{e}");
+}
+
+#[test]
+fn speeds_outside_the_table_reject_or_clamp() {
+    let d = tmp("speed");
+    let p = d.join("speeds.csv");
+    // α = 1.5 + 0.01 ω, β = −0.1 at speeds 0..=10 rad/s, loads 0..=5.
+    let mut rows = Vec::new();
+    for w in 0..=10 {
+        for l in 0..=5 {
+            let (w, l) = (w as f64, l as f64);
+            rows.push(vec![(1.5 + 0.01 * w) * l - 0.1, l, w]);
+        }
+    }
+    write_csv(&p, "torque,sensor,speed", &rows);
+    let base = [
+        "calibrate",
+        "--in",
+        s(&p),
+        "--reference",
+        "torque",
+        "--sensor",
+        "sensor",
+        "--speed",
+        "speed",
+        "--model",
+        "speed-table",
+    ];
+    let cal = d.join("table.toml");
+    let mut args = base.to_vec();
+    args.extend(["--speed-edges", "2,5,8", "--extrapolation", "reject", "--out", s(&cal)]);
+    let e = user_error(&args);
+    assert!(e.contains("outside") && e.contains("reject") && e.contains("speed"), "{e}");
+    assert!(!cal.exists());
+    let mut args = base.to_vec();
+    args.extend(["--speed-edges", "2,5,8", "--extrapolation", "clamp", "--out", s(&cal)]);
+    let out = ok(&args);
+    assert!(out.contains("extrapolation `clamp`") && out.contains("outside the bin edges: not fitted"), "{out}");
+    // 0, 1 and 9, 10 rad/s lie outside [2, 8]: 4 speeds × 6 loads.
+    assert!(out.contains("24 rows lie outside the bin edges"), "{out}");
+    let text = read_calibration(&cal);
+    assert!(text.contains("extrapolation = \"clamp\"") && text.contains("speed_rad_s = ["), "{text}");
+}

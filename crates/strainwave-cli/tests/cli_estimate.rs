@@ -1,0 +1,114 @@
+//! `simulate` (arm twin) → `identify` → `estimate` end to end, and bad input.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_strainwave"))
+}
+
+fn dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("strainwave-cli-estimate-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn ok(cmd: &mut Command) -> String {
+    let out = cmd.output().unwrap();
+    assert!(out.status.success(), "{:?}: {}", cmd, String::from_utf8_lossy(&out.stderr));
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+fn simulate(preset: &str, out: &Path) {
+    ok(bin().args(["simulate", "--preset", preset, "--quiet", "--out"]).arg(out));
+}
+
+fn examples() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/arm-hda.toml")
+}
+
+/// Largest RMS error of the estimate against the true link torque, N·m (measured 0.089 on step-hold).
+const RMS_BOUND_NM: f64 = 0.15;
+
+#[test]
+fn identify_then_estimate_tracks_true_link_torque() {
+    let d = dir("pipeline");
+    let (nl, ld, step, model, est) =
+        (d.join("nl.csv"), d.join("ld.csv"), d.join("step.csv"), d.join("model.toml"), d.join("est.csv"));
+    simulate("hda-arm-no-load", &nl);
+    simulate("hda-arm-loaded-hold", &ld);
+    simulate("hda-arm", &step);
+    let table = ok(bin()
+        .args(["identify", "--config"])
+        .arg(examples())
+        .arg("--no-load")
+        .arg(&nl)
+        .arg("--loaded")
+        .arg(&ld)
+        .arg("--out")
+        .arg(&model));
+    println!("{table}");
+    assert!(table.contains("compliance"), "{table}");
+    ok(bin().args(["estimate", "--quiet", "--config"]).arg(&model).arg("--in").arg(&step).arg("--out").arg(&est));
+    let text = std::fs::read_to_string(&est).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let ti = header.iter().position(|c| *c == "true_link_torque").unwrap();
+    let ei = header.iter().position(|c| *c == "torque").unwrap();
+    assert!(header.contains(&"estimate_flags") && header.contains(&"kinematic_error") && header.contains(&"torsion"));
+    let (mut sse, mut n) = (0.0, 0usize);
+    for l in lines {
+        let v: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
+        sse += (v[ei] - v[ti]).powi(2);
+        n += 1;
+    }
+    let rms = (sse / n as f64).sqrt();
+    println!("step-hold via the CLI: rms {rms:.4} N·m over {n} rows");
+    assert!(n == 6000, "{n} rows");
+    assert!(rms < RMS_BOUND_NM, "rms {rms} N·m ≥ {RMS_BOUND_NM}");
+}
+
+#[test]
+fn missing_encoder_column_is_a_one_line_error() {
+    let d = dir("missing");
+    let model = d.join("model.toml");
+    std::fs::write(
+        &model,
+        r#"sample_rate_hz = 1000.0
+torque_range_nm = 50.0
+[gear]
+ratio = 100.0
+rated_torque_nm = 40.0
+[channels]
+motor = "motor_angle"
+link = "link_angle"
+[kinematic]
+basis = "fourier"
+order = 1
+mesh_harmonics = 0
+coefficients = [0.0, 0.0, 0.0]
+[compliance]
+damping_nm_s_per_rad = 0.0
+windup_offset_rad = 0.0
+rated_torque_nm = 40.0
+spring = { form = "linear", k_nm_per_rad = 1.0e4 }
+hysteresis = { kind = "none" }
+"#,
+    )
+    .unwrap();
+    let input = d.join("in.csv");
+    std::fs::write(&input, "time,motor_angle,other\n0,0,0\n0.001,0,0\n").unwrap();
+    let out = bin()
+        .args(["estimate", "--config"])
+        .arg(&model)
+        .arg("--in")
+        .arg(&input)
+        .arg("--out")
+        .arg(d.join("out.csv"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(err.contains("link_angle"), "{err}");
+}
