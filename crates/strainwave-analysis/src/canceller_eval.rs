@@ -11,6 +11,11 @@
 //!   warm-up.
 //! - **step delay**: a torque step of 1 N·m fed through the method with the run's angles
 //!   and no ripple; samples from the input's 50 % crossing to the output's.
+//!
+//! The full configuration runs as in a product: its coefficients are learned first on a
+//! separate commissioning run of the same joint ([`commission`]), then it filters the
+//! run under test starting from them. [`Method::FullCold`] is the same model learning
+//! from nothing during the run itself.
 
 use strainwave_core::gear::Gear;
 use strainwave_core::iir::Biquad;
@@ -55,9 +60,16 @@ pub enum Method {
     Seed4th,
     /// Seed 000's 6th-order model (plus 1× output).
     Seed6th,
-    /// The product configuration (2×, 4× relative angle, 1× output, bias state).
+    /// The full configuration (2×, 4× relative angle, the same scaled by load, 1×
+    /// output, bias state) starting from what [`commission`] learned.
     Full,
+    /// The full configuration without commissioning: learning from zero during the run.
+    FullCold,
 }
+
+/// What the full configuration learned: per order, rotating-frame coefficients and
+/// their variance (see `RippleState::learned_all`).
+pub type Learned = [([f64; 2], f64); 5];
 
 impl Method {
     /// Label for tables.
@@ -68,7 +80,8 @@ impl Method {
             Method::Notch(f) => format!("notch at the 2× line {f:.1} Hz"),
             Method::Seed4th => "seed 4th-order (2×, 4× tacho)".into(),
             Method::Seed6th => "seed 6th-order (+1× output)".into(),
-            Method::Full => "strainwave full configuration".into(),
+            Method::Full => "strainwave full (commissioned)".into(),
+            Method::FullCold => "strainwave full, no commissioning".into(),
         }
     }
 }
@@ -82,7 +95,7 @@ pub struct EvalRow {
     pub suppression_db: f64,
     /// RMS error against `true_torque`, N·m.
     pub rms_error_nm: f64,
-    /// Step delay, samples (`None`: the output never reached 50 %).
+    /// Step delay, samples (`None`: the output did not reach 50 % before the run ended).
     pub step_delay_samples: Option<usize>,
 }
 
@@ -155,6 +168,7 @@ fn apply(
     y: &[f64],
     s: &RunSignals,
     noise_nm: f64,
+    learned: Option<&Learned>,
 ) -> Result<Vec<f64>, AnalysisError> {
     let fs = s.sample_rate_hz;
     Ok(match method {
@@ -176,7 +190,17 @@ fn apply(
             run_kalman(&m, gear, y, s, true)?.iter().map(|o| o.torque_nm).collect()
         }
         Method::Full => {
-            let m = RippleModel::<f64, 3>::product(fs, noise_nm).map_err(core_err("product model"))?;
+            let learned = learned.ok_or(AnalysisError::Invalid {
+                what: "full configuration",
+                why: "needs learned coefficients: run `commission` first".into(),
+            })?;
+            let m = RippleModel::<f64, 5>::full(fs, noise_nm)
+                .and_then(|m| m.with_priors(*learned))
+                .map_err(core_err("full model"))?;
+            run_kalman(&m, gear, y, s, false)?.iter().map(|o| o.torque_nm).collect()
+        }
+        Method::FullCold => {
+            let m = RippleModel::<f64, 5>::full_commissioning(fs, noise_nm).map_err(core_err("full model"))?;
             run_kalman(&m, gear, y, s, false)?.iter().map(|o| o.torque_nm).collect()
         }
     })
@@ -195,23 +219,47 @@ fn remaining(method: Method, output: &[f64], s: &RunSignals, periodic: &[f64]) -
     })
 }
 
-/// Samples from the input step's 50 % crossing to the output's, for a 1 N·m step at
-/// the middle of the run fed with the run's angles.
-fn step_delay(method: Method, gear: &Gear<f64>, s: &RunSignals, noise_nm: f64) -> Result<Option<usize>, AnalysisError> {
+/// Samples from the input step's 50 % crossing to the output's, for a 1 N·m step added
+/// to the run's measurement at its middle: the response is the difference between the
+/// method's outputs with and without the step, so what the method removes from the run
+/// itself does not count as delay.
+fn step_delay(
+    method: Method,
+    gear: &Gear<f64>,
+    s: &RunSignals,
+    noise_nm: f64,
+    learned: Option<&Learned>,
+) -> Result<Option<usize>, AnalysisError> {
     let n = s.measured_nm.len();
     let k0 = n / 2;
-    let y: Vec<f64> = (0..n).map(|k| if k >= k0 { 1.0 } else { 0.0 }).collect();
-    let out = apply(method, gear, &y, s, noise_nm)?;
-    Ok(out[k0..].iter().position(|v| *v >= 0.5))
+    let stepped: Vec<f64> = (0..n).map(|k| s.measured_nm[k] + if k >= k0 { 1.0 } else { 0.0 }).collect();
+    let with = apply(method, gear, &stepped, s, noise_nm, learned)?;
+    let without = apply(method, gear, s.measured_nm, s, noise_nm, learned)?;
+    Ok((k0..n).position(|k| with[k] - without[k] >= 0.5))
 }
 
-/// Evaluates the methods on a run. `warmup_s` is left out of the RMS error.
+/// Learns the full configuration's coefficients on a commissioning run (the
+/// commissioning tuning, forward pass; the final state is what was learned).
+pub fn commission(s: &RunSignals, gear: &Gear<f64>, noise_nm: f64) -> Result<Learned, AnalysisError> {
+    check(s)?;
+    let m = RippleModel::<f64, 5>::full_commissioning(s.sample_rate_hz, noise_nm).map_err(core_err("full model"))?;
+    let mut state = RippleState::new(&m);
+    for k in 0..s.measured_nm.len() {
+        let refs = ReferenceValues::from_gear(gear, s.motor_angle_rad[k], s.output_angle_rad[k]);
+        ripple_step(&m, &mut state, &RippleInput::new(s.measured_nm[k], refs)).map_err(core_err("ripple filter"))?;
+    }
+    Ok(state.learned_all())
+}
+
+/// Evaluates the methods on a run. `warmup_s` is left out of the RMS error; `learned`
+/// (from [`commission`]) is needed by [`Method::Full`].
 pub fn evaluate(
     s: &RunSignals,
     gear: &Gear<f64>,
     noise_nm: f64,
     methods: &[Method],
     warmup_s: f64,
+    learned: Option<&Learned>,
 ) -> Result<Vec<EvalRow>, AnalysisError> {
     let n = check(s)?;
     let periodic: Vec<f64> = (0..n).map(|k| s.true_ripple_nm[k] + s.true_misalignment_nm[k]).collect();
@@ -219,14 +267,14 @@ pub fn evaluate(
     let k_warm = ((warmup_s * s.sample_rate_hz) as usize).min(n - 1);
     let mut rows = Vec::with_capacity(methods.len());
     for &m in methods {
-        let out = apply(m, gear, s.measured_nm, s, noise_nm)?;
+        let out = apply(m, gear, s.measured_nm, s, noise_nm, learned)?;
         let left = remaining(m, &out, s, &periodic)?;
         let err: Vec<f64> = (k_warm..n).map(|k| out[k] - s.true_torque_nm[k]).collect();
         rows.push(EvalRow {
             method: m,
             suppression_db: 20.0 * (p_rms / rms(&left[k_warm..])).log10(),
             rms_error_nm: rms(&err),
-            step_delay_samples: step_delay(m, gear, s, noise_nm)?,
+            step_delay_samples: step_delay(m, gear, s, noise_nm, learned)?,
         });
     }
     Ok(rows)
@@ -254,8 +302,8 @@ pub fn lowpass_cutoff_for(s: &RunSignals, target_db: f64) -> Result<f64, Analysi
     Ok((0.5 * (lo + hi)).exp())
 }
 
-/// The full configuration's clean torque over a run.
-pub fn filtered(s: &RunSignals, gear: &Gear<f64>, noise_nm: f64) -> Result<Vec<f64>, AnalysisError> {
+/// The full configuration's clean torque over a run, from `learned`.
+pub fn filtered(s: &RunSignals, gear: &Gear<f64>, noise_nm: f64, learned: &Learned) -> Result<Vec<f64>, AnalysisError> {
     check(s)?;
-    apply(Method::Full, gear, s.measured_nm, s, noise_nm)
+    apply(Method::Full, gear, s.measured_nm, s, noise_nm, Some(learned))
 }

@@ -230,48 +230,52 @@ pub fn run(a: &Args) -> Result<()> {
 }
 
 /// Accuracy of the canceller and its alternatives on the free-motion, standstill and
-/// loaded runs: text, HTML table and plots.
+/// loaded runs: text, HTML table and plots. The full configuration first learns on the
+/// commissioning run of the same joint.
 fn canceller_section() -> Result<(String, String, Vec<LinePlot>)> {
-    use strainwave_analysis::canceller_eval::{evaluate, lowpass_cutoff_for, Method, RunSignals};
+    use strainwave_analysis::canceller_eval::{commission, evaluate, filtered, lowpass_cutoff_for, Method};
     let mut text = String::from("\nripple and misalignment cancellation against the simulator's truth:\n");
+    let commissioning = EvalRun::simulate("taghirad-commissioning")?;
+    let learned = commission(&commissioning.signals()?, &commissioning.gear, commissioning.noise_nm)?;
+    text += &format!(
+        "  the full configuration learned its coefficients on `taghirad-commissioning` ({:.0} s at 156 rad/s, \
+         load levels 0/+8/-8/+4/0 N·m, other noise), then filters each run from them;\n  \
+         misalignment learned {:.3} N·m peak (true {:.3}); `no commissioning` learns from zero during the run.\n",
+        commissioning.duration_s,
+        learned[4].0[0].hypot(learned[4].0[1]),
+        commissioning.misalignment_peak_nm,
+    );
     let header = ["run", "method", "ripple+mis left dB", "RMS err N·m", "RMS err % FS", "step delay samples"];
     let mut rows: Vec<Vec<String>> = Vec::new();
     let mut plots = Vec::new();
     let mut lowpass_hz = None;
     for name in ["taghirad", "taghirad-standstill", "taghirad-loaded"] {
-        let scenario = presets::preset(name)?;
-        let (rec, sim) = simulate(&scenario)?;
-        let col = |c: &str| rec.column(c).with_context(|| format!("simulator did not produce `{c}`"));
-        let signals = RunSignals {
-            sample_rate_hz: scenario.sample_rate_hz,
-            measured_nm: col("measured_torque")?,
-            motor_angle_rad: col("motor_angle")?,
-            output_angle_rad: col("output_angle")?,
-            motor_velocity_rad_s: col("motor_velocity")?,
-            true_torque_nm: col("true_torque")?,
-            true_ripple_nm: col("true_ripple")?,
-            true_misalignment_nm: col("true_misalignment")?,
-        };
-        let gear = sim.model().gear;
-        let noise = sim.sensor().noise_floor_nm();
-        let fs_nm = sim.sensor().full_scale_nm();
+        let run = EvalRun::simulate(name)?;
+        let signals = run.signals()?;
+        let (gear, noise) = (run.gear, run.noise_nm);
         // The low-pass gets the cutoff that matches the full configuration's suppression
         // on the free-motion run, and keeps it on the other runs.
-        let full = evaluate(&signals, &gear, noise, &[Method::Full], 0.3)?;
+        let full = evaluate(&signals, &gear, noise, &[Method::Full], 0.3, Some(&learned))?;
         let fc = *lowpass_hz.get_or_insert(lowpass_cutoff_for(&signals, full[0].suppression_db)?);
-        let top = scenario.top_motor_speed_rad_s() * (1.0 + 1.0 / scenario.gear.ratio);
-        let f2 = 2.0 * top / std::f64::consts::TAU;
-        let methods =
-            [Method::Raw, Method::LowPass(fc), Method::Notch(f2), Method::Seed4th, Method::Seed6th, Method::Full];
-        let eval = evaluate(&signals, &gear, noise, &methods, 0.3)?;
+        let f2 = 2.0 * run.top_relative_speed_rad_s / std::f64::consts::TAU;
+        let methods = [
+            Method::Raw,
+            Method::LowPass(fc),
+            Method::Notch(f2),
+            Method::Seed4th,
+            Method::Seed6th,
+            Method::FullCold,
+            Method::Full,
+        ];
+        let eval = evaluate(&signals, &gear, noise, &methods, 0.3, Some(&learned))?;
         for r in &eval {
             rows.push(vec![
                 name.to_string(),
                 r.method.label(),
                 format!("{:.1}", r.suppression_db),
                 format!("{:.4}", r.rms_error_nm),
-                format!("{:.3}", 100.0 * r.rms_error_nm / fs_nm),
-                r.step_delay_samples.map_or("never".into(), |d| d.to_string()),
+                format!("{:.3}", 100.0 * r.rms_error_nm / run.full_scale_nm),
+                r.step_delay_samples.map_or(format!("> {}", signals.measured_nm.len() / 2), |d| d.to_string()),
             ]);
         }
         let full_row = eval.last().context("no rows")?;
@@ -280,19 +284,19 @@ fn canceller_section() -> Result<(String, String, Vec<LinePlot>)> {
             "(white-noise floor)".into(),
             "".into(),
             format!("{noise:.4}"),
-            format!("{:.3}", 100.0 * noise / fs_nm),
+            format!("{:.3}", 100.0 * noise / run.full_scale_nm),
             format!("full/floor = {:.2}", full_row.rms_error_nm / noise),
         ]);
         if name == "taghirad-loaded" {
-            let t = col("time")?;
-            let m = RippleModelRun::full(&signals, &gear, noise)?;
+            let t = run.col("time")?;
+            let clean = filtered(&signals, &gear, noise, &learned)?;
             plots.push(LinePlot {
                 title: "Loaded run: measured, filtered and true torque".into(),
                 x_label: "time (s)".into(),
                 y_label: "output torque (N·m)".into(),
                 series: vec![
                     Series { name: "measured".into(), x: t.to_vec(), y: signals.measured_nm.to_vec() },
-                    Series { name: "strainwave filtered".into(), x: t.to_vec(), y: m },
+                    Series { name: "strainwave filtered".into(), x: t.to_vec(), y: clean },
                     Series { name: "true".into(), x: t.to_vec(), y: signals.true_torque_nm.to_vec() },
                 ],
                 x_range: Some((2.3, 2.8)),
@@ -304,15 +308,48 @@ fn canceller_section() -> Result<(String, String, Vec<LinePlot>)> {
     Ok((text, crate::report::html::table(&header, &rows), plots))
 }
 
-/// The full configuration's output over a run (for plots).
-struct RippleModelRun;
+/// One simulated run of the canceller table.
+struct EvalRun {
+    rec: strainwave_sim::Recording,
+    gear: strainwave_core::gear::Gear<f64>,
+    noise_nm: f64,
+    full_scale_nm: f64,
+    sample_rate_hz: f64,
+    duration_s: f64,
+    top_relative_speed_rad_s: f64,
+    misalignment_peak_nm: f64,
+}
 
-impl RippleModelRun {
-    fn full(
-        s: &strainwave_analysis::canceller_eval::RunSignals,
-        gear: &strainwave_core::gear::Gear<f64>,
-        noise: f64,
-    ) -> Result<Vec<f64>> {
-        Ok(strainwave_analysis::canceller_eval::filtered(s, gear, noise)?)
+impl EvalRun {
+    fn simulate(preset: &str) -> Result<Self> {
+        let scenario = presets::preset(preset)?;
+        let (rec, sim) = simulate(&scenario)?;
+        Ok(Self {
+            rec,
+            gear: sim.model().gear,
+            noise_nm: sim.sensor().noise_floor_nm(),
+            full_scale_nm: sim.sensor().full_scale_nm(),
+            sample_rate_hz: scenario.sample_rate_hz,
+            duration_s: scenario.duration_s,
+            top_relative_speed_rad_s: scenario.top_motor_speed_rad_s() * (1.0 + 1.0 / scenario.gear.ratio),
+            misalignment_peak_nm: scenario.misalignment.amplitude_nm,
+        })
+    }
+
+    fn col(&self, c: &str) -> Result<&[f64]> {
+        self.rec.column(c).with_context(|| format!("simulator did not produce `{c}`"))
+    }
+
+    fn signals(&self) -> Result<strainwave_analysis::canceller_eval::RunSignals<'_>> {
+        Ok(strainwave_analysis::canceller_eval::RunSignals {
+            sample_rate_hz: self.sample_rate_hz,
+            measured_nm: self.col("measured_torque")?,
+            motor_angle_rad: self.col("motor_angle")?,
+            output_angle_rad: self.col("output_angle")?,
+            motor_velocity_rad_s: self.col("motor_velocity")?,
+            true_torque_nm: self.col("true_torque")?,
+            true_ripple_nm: self.col("true_ripple")?,
+            true_misalignment_nm: self.col("true_misalignment")?,
+        })
     }
 }

@@ -8,6 +8,7 @@ pub const PRESETS: &[(&str, &str)] = &[
     ("taghirad", include_str!("../presets/taghirad.toml")),
     ("taghirad-standstill", include_str!("../presets/taghirad-standstill.toml")),
     ("taghirad-loaded", include_str!("../presets/taghirad-loaded.toml")),
+    ("taghirad-commissioning", include_str!("../presets/taghirad-commissioning.toml")),
     ("flexspline-fixed", include_str!("../presets/flexspline-fixed.toml")),
     ("flexspline-fixed-static", include_str!("../presets/flexspline-fixed-static.toml")),
     ("flexspline-fixed-dynamic", include_str!("../presets/flexspline-fixed-dynamic.toml")),

@@ -20,6 +20,11 @@ pub struct Scenario {
     pub duration_s: f64,
     /// Random seed (noise, random placement errors).
     pub seed: u64,
+    /// Seed of the measurement noise alone, if it should differ from `seed`: the same
+    /// `seed` draws the same gauge placement (the same sensor), so a run with another
+    /// `noise_seed` is the same joint measured again.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_seed: Option<u64>,
     /// The strain wave gear.
     pub gear: GearParams,
     /// Motor and its speed controller.

@@ -80,6 +80,10 @@ impl Simulator {
         let mut rng = Rng::new(s.seed);
         let fs_per_out = model.gear.flexspline_torque_from_output(1.0);
         let sensor = TorqueSensor::new(&s, fs_per_out, &mut rng)?;
+        if let Some(noise_seed) = s.noise_seed {
+            // Same sensor (placement drawn above), other noise.
+            rng = Rng::new(noise_seed);
+        }
         let controller = SpeedController::new(&model, s.motor.speed_loop_bandwidth_hz, s.motor.current_limit_a);
         let n_samples = (s.duration_s * s.sample_rate_hz).round() as u64;
         let tau = std::f64::consts::TAU;

@@ -105,10 +105,10 @@ impl<T: Real, const M: usize, const J: usize> RippleBank<T, M, J> {
         if l >= J {
             return;
         }
-        let p0 = model.p0_oscillator_nm2;
         for i in 0..M {
+            let p0 = model.p0_order[i];
             for r in 0..2 {
-                self.z[i][r][l] = T::ZERO;
+                self.z[i][r][l] = model.orders[i].prior_nm[r];
                 self.pb[i][r][l] = T::ZERO;
                 for j in 0..M {
                     for c in 0..2 {

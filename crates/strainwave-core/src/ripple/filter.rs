@@ -44,6 +44,29 @@ impl<T: Real, const M: usize> RippleState<T, M> {
         self.bank.covariance(model, 0, row, col)
     }
 
+    /// What order `order` has learned: its rotating-frame coefficients `[z₀, z₁]` (the
+    /// contribution is `z₀ cos ψ + z₁ sin ψ`, times `|T̂|` for a load-scaled order) and
+    /// the larger of their variances. Feed them back with [`RippleModel::with_priors`] so
+    /// the next run starts where this one ended (see [`Order::with_prior`](super::Order::with_prior)).
+    ///
+    /// ```
+    /// use strainwave_core::ripple::{RippleModel, RippleState};
+    /// let model = RippleModel::<f64, 2>::seed_4th_order(1000.0).unwrap();
+    /// let state = RippleState::new(&model);
+    /// assert_eq!(state.learned(1), Some(([0.0, 0.0], 1.0)));
+    /// assert_eq!(state.learned(2), None);
+    /// ```
+    pub fn learned(&self, order: usize) -> Option<([T; 2], T)> {
+        let z = self.bank.z.get(order)?;
+        let d = self.bank.p.get(order)?.get(order)?;
+        Some(([z[0][0], z[1][0]], d[0][0][0].max(d[1][1][0])))
+    }
+
+    /// [`Self::learned`] for every order.
+    pub fn learned_all(&self) -> [([T; 2], T); M] {
+        core::array::from_fn(|i| self.learned(i).unwrap_or(([T::ZERO; 2], T::ONE)))
+    }
+
     /// Status of order `order` after the last step.
     pub fn order_status(&self, order: usize) -> Option<OrderStatus> {
         self.bank.order_status(0, order)

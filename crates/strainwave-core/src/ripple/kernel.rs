@@ -74,7 +74,6 @@ pub(crate) fn run<T: Real, const M: usize, const J: usize>(
     let mut pl = Plan::new();
     plan(model, bank, input, &mut pl);
     let has_bias = model.bias_q_nm2.is_some();
-    let p0 = model.p0_oscillator_nm2;
 
     // Phasors: one sine/cosine per reference, whole multiples by complex squaring.
     let mut base = [[[T::ONE; J]; 2]; 3];
@@ -100,6 +99,22 @@ pub(crate) fn run<T: Real, const M: usize, const J: usize>(
             bank.phasor[i][1][l] = s;
         }
     }
+    if model.any_load_scaled {
+        // Load regressor |T_exp + b̂(k|k−1)| (the bias is not changed by the time update).
+        let mut load = [T::ZERO; J];
+        for l in 0..J {
+            load[l] = (input.expected_torque_nm[l] + bank.b[l]).abs();
+            load[l] = if load[l].is_finite() { load[l] } else { T::ZERO };
+        }
+        for i in 0..M {
+            if model.orders[i].load_scaled {
+                for l in 0..J {
+                    bank.phasor[i][0][l] *= load[l];
+                    bank.phasor[i][1][l] *= load[l];
+                }
+            }
+        }
+    }
 
     // Time update: resets and decoupling, process noise.
     for i in 0..M {
@@ -113,10 +128,12 @@ pub(crate) fn run<T: Real, const M: usize, const J: usize>(
             }
             continue;
         }
+        let (p0, mu) = (model.p0_order[i], model.orders[i].prior_nm);
         for l in 0..J {
             let k = pl.keep[i][l];
-            bank.z[i][0][l] *= k;
-            bank.z[i][1][l] *= k;
+            // A reset restarts the order from its prior (0 or learned coefficients).
+            bank.z[i][0][l] = k * bank.z[i][0][l] + (T::ONE - k) * mu[0];
+            bank.z[i][1][l] = k * bank.z[i][1][l] + (T::ONE - k) * mu[1];
             let fresh = (T::ONE - k) * p0 + pl.q[i][l];
             let d = &mut bank.p[i][i];
             // Isotropic inflation ρ (P_00 + P_11)/2 I₂: rotation invariant, like Q.

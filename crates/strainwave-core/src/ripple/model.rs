@@ -12,7 +12,7 @@
 
 use core::cmp::Ordering;
 
-use crate::error::{non_negative, positive, Error};
+use crate::error::{finite, non_negative, positive, Error};
 use crate::Real;
 
 /// The measured angle an order is periodic in. The caller supplies each per sample.
@@ -63,6 +63,9 @@ pub struct Order<T: Real> {
     pub(crate) multiple: T,
     pub(crate) q_per_sample_nm2: T,
     pub(crate) q_per_rad_nm2: T,
+    pub(crate) prior_nm: [T; 2],
+    pub(crate) prior_variance_nm2: Option<T>,
+    pub(crate) load_scaled: bool,
 }
 
 impl<T: Real> Order<T> {
@@ -76,7 +79,65 @@ impl<T: Real> Order<T> {
     /// ```
     pub fn new(reference: Reference, multiple: T) -> Result<Self, Error> {
         positive(multiple, "multiple")?;
-        Ok(Self { reference, multiple, q_per_sample_nm2: T::ZERO, q_per_rad_nm2: T::ZERO })
+        Ok(Self {
+            reference,
+            multiple,
+            q_per_sample_nm2: T::ZERO,
+            q_per_rad_nm2: T::ZERO,
+            prior_nm: [T::ZERO; 2],
+            prior_variance_nm2: None,
+            load_scaled: false,
+        })
+    }
+
+    /// Makes the order's amplitude proportional to the load: its contribution is
+    /// `|T̂| (z₀ cos ψ + z₁ sin ψ)` with `T̂ = T_exp + b̂(k|k−1)`, the expected torque plus
+    /// the bias prior (just `T_exp` without the bias state); `z` is then in N·m per N·m.
+    /// Beside an unscaled order on the same line it models ripple `A₀ + A₁ |τ|`, as
+    /// meshing ripple grows with load in strain wave gears.
+    ///
+    /// ```
+    /// use strainwave_core::ripple::{Order, Reference};
+    /// let o = Order::new(Reference::Relative, 2.0_f32).unwrap().scaled_by_load();
+    /// assert!(o.is_load_scaled());
+    /// ```
+    pub fn scaled_by_load(mut self) -> Self {
+        self.load_scaled = true;
+        self
+    }
+
+    /// A learned prior: the order's contribution starts (and restarts after a reset) as
+    /// `mean[0] cos(nθ) + mean[1] sin(nθ)` with variance `variance_nm2` per component,
+    /// instead of 0 with the model's initial variance. With angle input and a whole
+    /// multiple the phase is `n θ` of the absolute reference angle, so coefficients
+    /// learned on one run (see [`RippleState::learned`](super::RippleState::learned))
+    /// carry over to the next; with velocity input or a fractional multiple the phase
+    /// starts at 0 with each run and a learned mean does not carry over.
+    ///
+    /// ```
+    /// use strainwave_core::ripple::{Order, Reference};
+    /// let o = Order::new(Reference::Output, 1.0_f64)?.with_prior([0.5, -0.2], 1e-4)?;
+    /// assert_eq!(o.prior(), ([0.5, -0.2], Some(1e-4)));
+    /// assert!(o.with_prior([f64::NAN, 0.0], 1.0).is_err());
+    /// # Ok::<(), strainwave_core::Error>(())
+    /// ```
+    pub fn with_prior(mut self, mean_nm: [T; 2], variance_nm2: T) -> Result<Self, Error> {
+        for v in mean_nm {
+            finite(v, "prior mean_nm")?;
+        }
+        self.prior_variance_nm2 = Some(positive(variance_nm2, "prior variance_nm2")?);
+        self.prior_nm = mean_nm;
+        Ok(self)
+    }
+
+    /// The prior mean and its variance (`None`: the model's initial variance).
+    pub fn prior(&self) -> ([T; 2], Option<T>) {
+        (self.prior_nm, self.prior_variance_nm2)
+    }
+
+    /// Whether the amplitude scales with the load (see [`Self::scaled_by_load`]).
+    pub fn is_load_scaled(&self) -> bool {
+        self.load_scaled
     }
 
     /// Sets the process noise `Q_i = (q_per_sample + q_per_rad |n Δθ|) I₂`, N·m².
@@ -181,6 +242,10 @@ pub struct RippleModel<T: Real, const M: usize> {
     /// The references some order uses, in index order, and how many there are.
     pub(crate) used_refs: [u8; 3],
     pub(crate) n_used: u8,
+    /// Initial (and reset) variance of each order: its prior's, or the model's.
+    pub(crate) p0_order: [T; M],
+    /// Whether some order is scaled by the load.
+    pub(crate) any_load_scaled: bool,
 }
 
 impl<T: Real, const M: usize> RippleModel<T, M> {
@@ -203,6 +268,11 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
             positive(o.multiple, "multiple")?;
             non_negative(o.q_per_sample_nm2, "q_per_sample_nm2")?;
             non_negative(o.q_per_rad_nm2, "q_per_rad_nm2")?;
+            finite(o.prior_nm[0], "prior mean_nm")?;
+            finite(o.prior_nm[1], "prior mean_nm")?;
+            if let Some(v) = o.prior_variance_nm2 {
+                positive(v, "prior variance_nm2")?;
+            }
         }
         let mut m = Self {
             orders,
@@ -222,6 +292,8 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
             power: [0; M],
             used_refs: [0; 3],
             n_used: 0,
+            p0_order: [T::ONE; M],
+            any_load_scaled: false,
         };
         m.derive();
         Ok(m)
@@ -252,6 +324,25 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
     pub fn with_initial_variance(mut self, oscillator_nm2: T, bias_nm2: T) -> Result<Self, Error> {
         self.p0_oscillator_nm2 = positive(oscillator_nm2, "oscillator_nm2")?;
         self.p0_bias_nm2 = positive(bias_nm2, "bias_nm2")?;
+        self.derive();
+        Ok(self)
+    }
+
+    /// Sets every order's prior (mean coefficients, variance per component), e.g. what a
+    /// commissioning run learned ([`RippleState::learned_all`](super::RippleState::learned_all)).
+    ///
+    /// ```
+    /// use strainwave_core::ripple::RippleModel;
+    /// let m = RippleModel::<f64, 2>::seed_4th_order(1000.0)?;
+    /// let m = m.with_priors([([0.3, 0.1], 1e-4), ([0.0, -0.05], 1e-4)])?;
+    /// assert_eq!(m.orders()[0].prior(), ([0.3, 0.1], Some(1e-4)));
+    /// # Ok::<(), strainwave_core::Error>(())
+    /// ```
+    pub fn with_priors(mut self, priors: [([T; 2], T); M]) -> Result<Self, Error> {
+        for (o, (mean, var)) in self.orders.iter_mut().zip(priors) {
+            *o = o.with_prior(mean, var)?;
+        }
+        self.derive();
         Ok(self)
     }
 
@@ -311,6 +402,10 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
         self.on_below_rad = self.off_above_rad * T::from_f64(0.9);
         self.hold_below_rad = self.limits.hold_below_hz * T::TAU / fs;
         self.uses = [false; 3];
+        self.any_load_scaled = self.orders.iter().any(|o| o.load_scaled);
+        for (o, p0) in self.orders.iter().zip(self.p0_order.iter_mut()) {
+            *p0 = o.prior_variance_nm2.unwrap_or(self.p0_oscillator_nm2);
+        }
         for (o, p) in self.orders.iter().zip(self.power.iter_mut()) {
             self.uses[o.reference.index()] = true;
             let m = o.multiple.to_f64();

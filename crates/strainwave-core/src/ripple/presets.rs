@@ -97,3 +97,88 @@ impl<T: Real> RippleModel<T, 3> {
             .with_initial_variance(c(OSCILLATOR_P0_NM2), c(BIAS_P0_NM2))
     }
 }
+
+/// Tuning of the full configuration, documented in [`RippleModel::full`].
+const FULL_RIPPLE_BANDWIDTH_HZ: f64 = 0.2;
+const FULL_LOAD_RIPPLE_BANDWIDTH_HZ: f64 = 0.01;
+const FULL_MISALIGNMENT_BANDWIDTH_HZ: f64 = 0.01;
+const FULL_MISALIGNMENT_AT_LINE_HZ: f64 = 0.25;
+const FULL_BIAS_BANDWIDTH_HZ: f64 = 100.0;
+const COMMISSIONING_BIAS_BANDWIDTH_HZ: f64 = 1.0;
+/// Prior 1σ of the misalignment, N·m: learned over revolutions, never seized from the
+/// first load transient.
+const MISALIGNMENT_PRIOR_NM: f64 = 0.1;
+/// Prior 1σ of the load-proportional ripple, N·m per N·m (5 % of the load).
+const LOAD_RIPPLE_PRIOR_NM_PER_NM: f64 = 0.05;
+
+impl<T: Real> RippleModel<T, 5> {
+    /// The full configuration in operation: 2× and 4× relative-angle ripple, the same
+    /// two lines scaled by the load (ripple `A₀ + A₁ |τ|`, see
+    /// [`Order::scaled_by_load`]), 1× output misalignment and a torque/bias random walk;
+    /// measurement noise `noise_nm` (1σ). Orders 0–4 in that order.
+    ///
+    /// It is meant to start from coefficients learned on a commissioning run
+    /// ([`Self::full_commissioning`], then [`Self::with_priors`]): the misalignment line
+    /// (0.25 Hz at 1.5 rad/s of output) sits among the load's own frequencies, and only
+    /// several output revolutions tell it from load, which one run of operation cannot
+    /// promise. In operation the coefficients adapt slowly and the bias takes the rest:
+    ///
+    /// - bias: 100 Hz first-order random walk, the sink for every load the model does
+    ///   not know (steps, friction, sinusoids), so little of it reaches the oscillators;
+    /// - ripple orders: noise per radian of phase, 0.2 Hz half-width at a 20 Hz line
+    ///   (none at standstill); load-scaled orders 0.01 Hz, prior 1σ 0.05 N·m per N·m;
+    /// - misalignment: per radian of output travel, 0.01 Hz half-width at 0.25 Hz, prior
+    ///   1σ 0.1 N·m (so a first load transient is not taken for it);
+    /// - default [`Limits`]: held below 0.05 Hz, off above 0.45 fs, load steps beyond NIS 25.
+    ///
+    /// ```
+    /// use strainwave_core::ripple::RippleModel;
+    /// let m = RippleModel::<f32, 5>::full(1000.0, 0.0162).unwrap();
+    /// assert_eq!(m.state_len(), 11);
+    /// assert!(m.orders()[2].is_load_scaled());
+    /// ```
+    pub fn full(sample_rate_hz: T, noise_nm: T) -> Result<Self, Error> {
+        full_with_bias(sample_rate_hz, noise_nm, FULL_BIAS_BANDWIDTH_HZ)
+    }
+
+    /// The full configuration for learning on a commissioning run: the same orders and
+    /// noise as [`Self::full`] but a 1 Hz bias, so the oscillators, not the bias, explain
+    /// what repeats with the angles. The run should turn the output several times at a
+    /// steady speed through two or more load levels (steps go to the bias through the
+    /// load-step detector); then pass [`RippleState::learned_all`](super::RippleState::learned_all)
+    /// to [`Self::with_priors`] of the operating model.
+    ///
+    /// ```
+    /// use strainwave_core::ripple::RippleModel;
+    /// let m = RippleModel::<f64, 5>::full_commissioning(1000.0, 0.0162).unwrap();
+    /// assert!(m.bias_q_nm2().unwrap() < RippleModel::<f64, 5>::full(1000.0, 0.0162).unwrap().bias_q_nm2().unwrap());
+    /// ```
+    pub fn full_commissioning(sample_rate_hz: T, noise_nm: T) -> Result<Self, Error> {
+        full_with_bias(sample_rate_hz, noise_nm, COMMISSIONING_BIAS_BANDWIDTH_HZ)
+    }
+}
+
+fn full_with_bias<T: Real>(sample_rate_hz: T, noise_nm: T, bias_hz: f64) -> Result<RippleModel<T, 5>, Error> {
+    let fs = positive(sample_rate_hz, "sample_rate_hz")?;
+    let r = positive(noise_nm, "noise_nm")? * noise_nm;
+    let c = T::from_f64;
+    let line = c(RIPPLE_AT_LINE_HZ);
+    let ripple_q = per_radian(oscillator_q(c(FULL_RIPPLE_BANDWIDTH_HZ), fs, r)?, line, fs)?;
+    let load_q = per_radian(oscillator_q(c(FULL_LOAD_RIPPLE_BANDWIDTH_HZ), fs, r)?, line, fs)?;
+    let mis_q =
+        per_radian(oscillator_q(c(FULL_MISALIGNMENT_BANDWIDTH_HZ), fs, r)?, c(FULL_MISALIGNMENT_AT_LINE_HZ), fs)?;
+    let load_p0 = c(LOAD_RIPPLE_PRIOR_NM_PER_NM * LOAD_RIPPLE_PRIOR_NM_PER_NM);
+    let ripple = |n: f64, q: T| Order::new(Reference::Relative, c(n))?.with_noise(T::ZERO, q);
+    let orders = [
+        ripple(2.0, ripple_q)?,
+        ripple(4.0, ripple_q)?,
+        ripple(2.0, load_q)?.scaled_by_load().with_prior([T::ZERO; 2], load_p0)?,
+        ripple(4.0, load_q)?.scaled_by_load().with_prior([T::ZERO; 2], load_p0)?,
+        Order::new(Reference::Output, T::ONE)?
+            .with_noise(T::ZERO, mis_q)?
+            .with_prior([T::ZERO; 2], c(MISALIGNMENT_PRIOR_NM * MISALIGNMENT_PRIOR_NM))?,
+    ];
+    RippleModel::new(orders, r, fs)?
+        .with_bias_state(random_walk_q(c(bias_hz), fs, r)?)?
+        .with_initial_variance(c(OSCILLATOR_P0_NM2), c(BIAS_P0_NM2))
+}
