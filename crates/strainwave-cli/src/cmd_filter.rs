@@ -30,6 +30,10 @@ pub struct Args {
     /// Offline: forward filter plus Rauch–Tung–Striebel smoother (zero phase; reads the whole recording).
     #[arg(long)]
     pub smooth: bool,
+    /// Commissioning: learn the ripple and misalignment coefficients over this run (the
+    /// `full` model uses its learning tuning) and write them to FILE, for `filter.learned`.
+    #[arg(long, value_name = "FILE", conflicts_with = "smooth")]
+    pub learn: Option<PathBuf>,
     /// Prefix for the added columns (when the input already has a `torque` column).
     #[arg(long, default_value = "")]
     pub prefix: String,
@@ -90,6 +94,27 @@ pub fn run(a: &Args) -> Result<()> {
     };
     let core = |e: strainwave_core::Error| anyhow::anyhow!("{}: filter: {e}", a.config.display());
     match cfg.filter.model.as_str() {
+        "full" => {
+            let noise = cfg
+                .filter
+                .noise_nm
+                .with_context(|| format!("{}: `filter.noise_nm` is needed by the full model", a.config.display()))?;
+            // Learning (commissioning, or no learned file yet) or operating from learned priors.
+            let m = match (&a.learn, &cfg.filter.learned) {
+                (None, Some(_)) => RippleModel::<f64, 5>::full(fs, noise),
+                _ => RippleModel::<f64, 5>::full_commissioning(fs, noise),
+            }
+            .map_err(core)?
+            .with_phase_source(phase);
+            if a.learn.is_none() && cfg.filter.learned.is_none() && !a.quiet {
+                eprintln!(
+                    "note: {}: no `filter.learned` file, so the full model learns from zero in this run; \
+                     the misalignment needs several output revolutions (see `filter --learn`)",
+                    a.config.display()
+                );
+            }
+            stream(a, &cfg, &m)
+        }
         "product" => {
             let noise = cfg
                 .filter
@@ -138,13 +163,21 @@ pub fn run(a: &Args) -> Result<()> {
             with_m!(1 2 3 4 5 6 7 8)
         }
         other => bail!(
-            "{}: `filter.model` must be product, seed-4th-order, seed-6th-order or orders, got `{other}`",
+            "{}: `filter.model` must be full, product, seed-4th-order, seed-6th-order or orders, got `{other}`",
             a.config.display()
         ),
     }
 }
 
 fn stream<const M: usize>(a: &Args, cfg: &JointConfig, model: &RippleModel<f64, M>) -> Result<()> {
+    let learned_model;
+    let model = match (&cfg.filter.learned, &a.learn) {
+        (Some(path), None) => {
+            learned_model = crate::learned::LearnedFile::load(path)?.apply(*model, path)?;
+            &learned_model
+        }
+        _ => model,
+    };
     let gear = cfg.gear()?;
     let cal = cfg.calibration()?;
     let mut r = RecordingReader::open(&a.input)?;
@@ -166,8 +199,8 @@ fn stream<const M: usize>(a: &Args, cfg: &JointConfig, model: &RippleModel<f64, 
     }
     let refs: Vec<&str> = columns.iter().map(String::as_str).collect();
     if a.smooth {
-        return crate::cmd_filter_smooth::smooth(a, model, &gear, &cal, &mut r, &refs, |row| {
-            inputs(&ch, &gear, &cal, row, velocity)
+        return crate::cmd_filter_smooth::smooth(a, model, &mut r, &refs, |row| {
+            (inputs(&ch, &gear, &cal, row, velocity).0, ch.time.get(row))
         });
     }
     let mut w = RecordingWriter::create(&a.out, &refs)?;
@@ -213,6 +246,13 @@ fn stream<const M: usize>(a: &Args, cfg: &JointConfig, model: &RippleModel<f64, 
         bail!("{}: no data rows", a.input.display());
     }
     let rows = w.finish()?;
+    if let Some(path) = &a.learn {
+        let file = crate::learned::LearnedFile::from_state(model, &state);
+        file.save(path, &format!("learned by strainwave filter from {} ({rows} rows)", a.input.display()))?;
+        if !a.quiet {
+            eprintln!("learned coefficients -> {} (set `filter.learned` to use them)", path.display());
+        }
+    }
     if !a.quiet {
         eprintln!("filtered {rows} rows of {} -> {}", a.input.display(), a.out.display());
         if skipped > 0 {

@@ -69,7 +69,7 @@ pub struct CalibrationConfig {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FilterConfig {
-    /// `product`, `seed-4th-order`, `seed-6th-order` or `orders`.
+    /// `full`, `product`, `seed-4th-order`, `seed-6th-order` or `orders`.
     #[serde(default = "default_model")]
     pub model: String,
     /// Nominal sample rate, Hz.
@@ -86,6 +86,9 @@ pub struct FilterConfig {
     pub r_nm2: Option<f64>,
     /// `orders` model: torque/bias random-walk variance per sample, N·m² (absent: no bias state).
     pub bias_q_nm2: Option<f64>,
+    /// Coefficients learned on a commissioning run (`strainwave filter --learn FILE`);
+    /// relative paths are relative to the joint config. Absent: learn from zero.
+    pub learned: Option<PathBuf>,
 }
 
 fn default_model() -> String {
@@ -122,6 +125,11 @@ impl JointConfig {
                 if f.is_relative() {
                     *f = path.parent().unwrap_or(Path::new(".")).join(&*f);
                 }
+            }
+        }
+        if let Some(f) = c.filter.learned.as_mut() {
+            if f.is_relative() {
+                *f = path.parent().unwrap_or(Path::new(".")).join(&*f);
             }
         }
         c.gear().with_context(|| format!("{}", path.display()))?;

@@ -22,6 +22,7 @@ mod demo_bench;
 mod demo_calibration;
 mod demo_estimate;
 mod joint_config;
+mod learned;
 mod progress;
 mod report;
 mod sim_arm;
@@ -141,8 +142,25 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", one_line(&e));
             ExitCode::from(1)
         }
     }
+}
+
+/// The error and its causes on one line, each cause once (a cause whose text is already
+/// in the line, as when an error prints its source itself, is not repeated).
+fn one_line(e: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if line.contains(&text) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&text);
+    }
+    line
 }

@@ -32,6 +32,13 @@ fn assert_user_error(o: &Output, needle: &str) {
     assert_eq!(e.trim_end().lines().count(), 1, "one line: {e}");
 }
 
+/// The example config's text with its learned file as an absolute path (for copies
+/// written elsewhere).
+fn absolute_learned(cfg: &str) -> String {
+    let learned = root().join("examples/joint-taghirad-learned.toml");
+    cfg.replace("\"joint-taghirad-learned.toml\"", &format!("{:?}", learned.to_str().unwrap()))
+}
+
 fn simulate(d: &Path, seconds: &str) -> PathBuf {
     let f = d.join("sim.csv");
     let o = run(&["simulate", "--preset", "taghirad", "--duration", seconds, "--out", f.to_str().unwrap(), "-q"]);
@@ -143,14 +150,16 @@ fn bad_inputs_are_one_line_errors_and_write_nothing() {
         assert!(cfg_text.contains(from), "{from}");
         counter.set(counter.get() + 1);
         let p = d.join(format!("cfg-{}.toml", counter.get()));
-        std::fs::write(&p, cfg_text.replacen(from, to, 1)).unwrap();
+        std::fs::write(&p, absolute_learned(&cfg_text.replacen(from, to, 1))).unwrap();
         p
     };
     let cases = [
         (with("ratio = 100.0", "ratio = 0.0"), "gear.ratio"),
         (with("output_angle = \"output_angle\"", "output_angle = \"link_angle\""), "no column `link_angle`"),
         (with("noise_nm = 0.0162", "noise_nm = -1.0"), "noise_nm"),
-        (with("model = \"product\"", "model = \"magic\""), "filter.model"),
+        (with("model = \"full\"", "model = \"magic\""), "filter.model"),
+        (with("model = \"full\"", "model = \"product\""), "has 5 orders, the model has 3"),
+        (with("learned = \"joint-taghirad-learned.toml\"", "learned = \"missing.toml\""), "missing.toml"),
         (with("[filter]", "[filter]\ncutoff = 3"), "cutoff"),
     ];
     for (cfg, needle) in cases {
@@ -198,4 +207,84 @@ fn report_renders_sections_for_a_filtered_recording() {
         assert!(text.contains(s), "{s}");
     }
     assert!(!text.contains("<script"));
+}
+
+fn simulate_preset(d: &Path, preset: &str) -> PathBuf {
+    let f = d.join(format!("{preset}.csv"));
+    let o = run(&["simulate", "--preset", preset, "--out", f.to_str().unwrap(), "-q"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    f
+}
+
+fn rms_error(path: &Path, column: &str, after_s: f64) -> f64 {
+    let (h, rows) = read(path);
+    let (t, x, truth) = (col(&h, &rows, "time"), col(&h, &rows, column), col(&h, &rows, "true_torque"));
+    let e: Vec<f64> = (0..t.len()).filter(|&k| t[k] > after_s).map(|k| x[k] - truth[k]).collect();
+    (e.iter().map(|v| v * v).sum::<f64>() / e.len() as f64).sqrt()
+}
+
+/// Commissioning with `--learn`, then operation from the learned file: the loaded run's
+/// torque comes out within 1.5× the white-noise floor (0.0162 N·m), and `--smooth` too.
+#[test]
+fn learn_on_commissioning_then_filter_and_smooth_a_loaded_run() {
+    let d = tmp("learn");
+    let comm = simulate_preset(&d, "taghirad-commissioning");
+    let learned = d.join("learned.toml");
+    let o = run(&[
+        "filter",
+        "--config",
+        &config(),
+        "--in",
+        comm.to_str().unwrap(),
+        "--out",
+        d.join("comm-f.csv").to_str().unwrap(),
+        "--learn",
+        learned.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&learned).unwrap();
+    // Misalignment 0.8 sin(θ + 0.7): cos coefficient 0.8 sin 0.7, sin coefficient 0.8 cos 0.7.
+    let last = text.rsplit("[[orders]]").next().unwrap();
+    let value = |key: &str| -> f64 {
+        let line = last.lines().find(|l| l.starts_with(key)).unwrap();
+        line.split('=').nth(1).unwrap().trim().parse().unwrap()
+    };
+    assert!(last.contains("reference = \"output\""), "{last}");
+    assert!((value("cos_nm") - 0.8 * 0.7f64.sin()).abs() < 0.02, "{last}");
+    assert!((value("sin_nm") - 0.8 * 0.7f64.cos()).abs() < 0.02, "{last}");
+
+    let cfg = d.join("joint.toml");
+    let cfg_text = std::fs::read_to_string(config()).unwrap();
+    let learned_line = format!("learned = {:?}", learned.to_str().unwrap());
+    std::fs::write(&cfg, cfg_text.replace("learned = \"joint-taghirad-learned.toml\"", &learned_line)).unwrap();
+    let loaded = simulate_preset(&d, "taghirad-loaded");
+    let (out, smooth) = (d.join("loaded-f.csv"), d.join("loaded-s.csv"));
+    for (path, extra) in [(&out, None), (&smooth, Some("--smooth"))] {
+        let mut args = vec!["filter", "--config", cfg.to_str().unwrap(), "--in", loaded.to_str().unwrap(), "--out"];
+        args.push(path.to_str().unwrap());
+        args.extend(extra);
+        let o = run(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let raw = rms_error(&out, "measured_torque", 0.3);
+    let filtered = rms_error(&out, "torque", 0.3);
+    let smoothed = rms_error(&smooth, "torque", 0.3);
+    assert!(raw > 0.5, "raw {raw}");
+    assert!(filtered < 1.5 * 0.0162, "filtered {filtered}");
+    assert!(smoothed < 1.5 * 0.0162, "smoothed {smoothed}");
+
+    // Learning and smoothing together is a usage error (exit 2).
+    let o = run(&[
+        "filter",
+        "--config",
+        cfg.to_str().unwrap(),
+        "--in",
+        loaded.to_str().unwrap(),
+        "--out",
+        d.join("x.csv").to_str().unwrap(),
+        "--smooth",
+        "--learn",
+        d.join("x.toml").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
 }
