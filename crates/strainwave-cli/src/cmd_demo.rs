@@ -287,6 +287,29 @@ fn canceller_section() -> Result<(String, String, Vec<LinePlot>)> {
             format!("{:.3}", 100.0 * noise / run.full_scale_nm),
             format!("full/floor = {:.2}", full_row.rms_error_nm / noise),
         ]);
+        if name == "taghirad" {
+            // Spectrum before and after, over the first constant-speed hold.
+            let t = run.col("time")?;
+            let clean = filtered(&signals, &gear, noise, &learned)?;
+            let w = time_window(t, 0.6, 2.0);
+            let spectrum = |name: &str, x: &[f64]| -> Result<Series> {
+                let sp = amplitude_spectrum(&x[w.clone()], run.sample_rate_hz)?;
+                Ok(Series { name: name.into(), x: sp.freqs_hz, y: sp.amplitude })
+            };
+            plots.push(LinePlot {
+                title: "Free-motion run, 0.6–2.0 s at 156 rad/s: spectrum before and after the canceller (Hann)".into(),
+                x_label: "frequency (Hz)".into(),
+                y_label: "amplitude (N·m)".into(),
+                series: vec![
+                    spectrum("measured", signals.measured_nm)?,
+                    spectrum("strainwave filtered", &clean)?,
+                    spectrum("true", signals.true_torque_nm)?,
+                ],
+                markers: [2.0, 4.0].iter().map(|n| Marker { x: n * f2 / 2.0, label: format!("{n:.0}×") }).collect(),
+                log_y: true,
+                x_range: Some((0.0, 150.0)),
+            });
+        }
         if name == "taghirad-loaded" {
             let t = run.col("time")?;
             let clean = filtered(&signals, &gear, noise, &learned)?;
