@@ -38,6 +38,7 @@ use serde::{Deserialize, Serialize};
 use strainwave_core::compliance::{Compliance, FlexsplineStiffening, SeedCompliance, WaveGeneratorSoftening};
 use strainwave_core::torsion::TorqueSolver;
 
+use crate::check::{finite as fin, non_negative as nonneg, positive as pos};
 use crate::error::SimError;
 use crate::rng::Rng;
 
@@ -389,15 +390,7 @@ impl SeedExperiment {
 impl ArmScenario {
     /// Parses TOML; unknown keys and wrong types are errors; then validates.
     pub fn from_toml(text: &str) -> Result<Self, SimError> {
-        let s: ArmScenario = toml::from_str(text).map_err(|e| SimError::Parse {
-            message: e.message().to_string(),
-            location: e.span().map_or(String::new(), |sp| {
-                let upto = &text[..sp.start.min(text.len())];
-                let line = upto.matches('\n').count() + 1;
-                let col = upto.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
-                format!("line {line}, column {col}")
-            }),
-        })?;
+        let s: ArmScenario = crate::check::parse_toml(text)?;
         s.validate()?;
         Ok(s)
     }
@@ -486,27 +479,6 @@ impl ArmScenario {
 
     /// Checks every value; the error names the key.
     pub fn validate(&self) -> Result<(), SimError> {
-        let pos = |v: f64, key: &'static str| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(SimError::invalid(key, format!("must be positive, got {v}")))
-            }
-        };
-        let nonneg = |v: f64, key: &'static str| {
-            if v.is_finite() && v >= 0.0 {
-                Ok(())
-            } else {
-                Err(SimError::invalid(key, format!("must be ≥ 0, got {v}")))
-            }
-        };
-        let fin = |v: f64, key: &'static str| {
-            if v.is_finite() {
-                Ok(())
-            } else {
-                Err(SimError::invalid(key, format!("must be finite, got {v}")))
-            }
-        };
         pos(self.sample_rate_hz, "sample_rate_hz")?;
         pos(self.duration_s, "duration_s")?;
         if self.duration_s * self.sample_rate_hz > 1e9 {

@@ -16,6 +16,7 @@
 pub mod arm;
 pub mod bench;
 pub mod calibration_rig;
+mod check;
 pub mod design;
 pub mod error;
 pub mod joint;

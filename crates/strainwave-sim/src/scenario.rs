@@ -6,6 +6,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::check::{finite as fin, non_negative as nonneg, positive as pos};
 use crate::error::SimError;
 
 /// A full simulation scenario.
@@ -341,10 +342,7 @@ pub enum ExternalTorque {
 impl Scenario {
     /// Parses TOML; unknown keys and wrong types are errors naming the key.
     pub fn from_toml(text: &str) -> Result<Self, SimError> {
-        let s: Scenario = toml::from_str(text).map_err(|e| SimError::Parse {
-            message: e.message().to_string(),
-            location: toml_location(text, e.span()),
-        })?;
+        let s: Scenario = crate::check::parse_toml(text)?;
         s.validate()?;
         Ok(s)
     }
@@ -356,27 +354,6 @@ impl Scenario {
 
     /// Checks every value; the error names the key.
     pub fn validate(&self) -> Result<(), SimError> {
-        let pos = |v: f64, key: &'static str| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(SimError::invalid(key, format!("must be positive, got {v}")))
-            }
-        };
-        let nonneg = |v: f64, key: &'static str| {
-            if v.is_finite() && v >= 0.0 {
-                Ok(())
-            } else {
-                Err(SimError::invalid(key, format!("must be ≥ 0, got {v}")))
-            }
-        };
-        let fin = |v: f64, key: &'static str| {
-            if v.is_finite() {
-                Ok(())
-            } else {
-                Err(SimError::invalid(key, format!("must be finite, got {v}")))
-            }
-        };
         pos(self.sample_rate_hz, "sample_rate_hz")?;
         pos(self.duration_s, "duration_s")?;
         let g = &self.gear;
@@ -594,15 +571,4 @@ impl Scenario {
             })
             .sum()
     }
-}
-
-/// `line L, column C` of a byte span in TOML text.
-fn toml_location(text: &str, span: Option<std::ops::Range<usize>>) -> String {
-    let Some(span) = span else {
-        return String::new();
-    };
-    let upto = &text[..span.start.min(text.len())];
-    let line = upto.matches('\n').count() + 1;
-    let col = upto.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
-    format!("line {line}, column {col}")
 }

@@ -23,6 +23,7 @@ mod tests;
 
 use serde::{Deserialize, Serialize};
 
+use crate::check::{finite as fin, non_negative as nonneg, positive as pos};
 use crate::error::SimError;
 
 pub use simulator::{simulate_bench, BenchRecording, BenchSimulator, MEASURED_COLUMNS, TRUE_COLUMNS};
@@ -236,17 +237,6 @@ pub enum BenchProfile {
     },
 }
 
-/// `line L, column C` of a byte offset.
-fn location(text: &str, span: Option<std::ops::Range<usize>>) -> String {
-    let Some(span) = span else {
-        return String::new();
-    };
-    let upto = &text[..span.start.min(text.len())];
-    let line = upto.matches('\n').count() + 1;
-    let col = upto.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
-    format!("line {line}, column {col}")
-}
-
 impl BenchScenario {
     /// Parses TOML and validates it.
     ///
@@ -257,8 +247,7 @@ impl BenchScenario {
     /// assert!(strainwave_sim::bench::BenchScenario::from_toml("name = 1").is_err());
     /// ```
     pub fn from_toml(text: &str) -> Result<Self, SimError> {
-        let s: BenchScenario = toml::from_str(text)
-            .map_err(|e| SimError::Parse { message: e.message().to_string(), location: location(text, e.span()) })?;
+        let s: BenchScenario = crate::check::parse_toml(text)?;
         s.validate()?;
         Ok(s)
     }
@@ -270,27 +259,6 @@ impl BenchScenario {
 
     /// Checks every value; the error names the key.
     pub fn validate(&self) -> Result<(), SimError> {
-        let pos = |v: f64, key: &'static str| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(SimError::invalid(key, format!("must be positive, got {v}")))
-            }
-        };
-        let nonneg = |v: f64, key: &'static str| {
-            if v.is_finite() && v >= 0.0 {
-                Ok(())
-            } else {
-                Err(SimError::invalid(key, format!("must be ≥ 0, got {v}")))
-            }
-        };
-        let fin = |v: f64, key: &'static str| {
-            if v.is_finite() {
-                Ok(())
-            } else {
-                Err(SimError::invalid(key, format!("must be finite, got {v}")))
-            }
-        };
         pos(self.sample_rate_hz, "sample_rate_hz")?;
         pos(self.duration_s, "duration_s")?;
         if self.duration_s * self.sample_rate_hz > 1e9 {
