@@ -26,21 +26,26 @@
 //! fractional multiples (and velocity input) accumulate `ψ += a` instead. Both are
 //! exactly the seed's Φ sequence with `ω_i T` replaced by the measured `n_i Δθ(k)`.
 //!
-//! The per-joint decisions (skips, resets, statuses) are made first by
-//! the `plan` module; the arithmetic below applies them as 0/1 masks with the joint
-//! index innermost and no branch, so it vectorizes across joints.
+//! The common sample (every joint valid, caught up, no reset, every order active) takes
+//! the `fast` module's path; otherwise the per-joint decisions (skips, resets, statuses)
+//! are made first by the `plan` module and the arithmetic below applies them as 0/1
+//! masks. Both share the measurement update here, joint index innermost, no branch.
 
 // Lane loops index several arrays by the same joint index (structure of arrays), and
 // `!(x <= limit)` is deliberate: NaN must count as out of range.
 #![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 
 use super::bank::{BankInput, BankOutput, RippleBank};
+use super::fast;
 use super::filter::StepTrace;
 use super::io::StepFlags;
 use super::model::RippleModel;
 use super::plan::{plan, Plan};
-use super::trig::{phasor_power, sin_cos_small};
+use super::trig::phasors;
 use crate::Real;
+
+/// Per-order, per-component, per-joint values `[i][r][joint]`.
+pub(crate) type Lanes2<T, const M: usize, const J: usize> = [[[T; J]; 2]; M];
 
 /// Steps `J` joints sharing `model` by one sample. A joint whose covariance went bad is
 /// reset and flagged [`StepFlags::COVARIANCE_RESET`]; the others are unaffected.
@@ -56,6 +61,7 @@ use crate::Real;
 ///     assert!(out.torque_nm.iter().all(|t| t.is_finite()));
 /// }
 /// ```
+#[inline]
 pub fn step_many<T: Real, const M: usize, const J: usize>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
@@ -65,7 +71,24 @@ pub fn step_many<T: Real, const M: usize, const J: usize>(
 }
 
 /// The whole step; `trace` (for `J = 1`) records joint 0's intermediate quantities.
+#[inline]
 pub(crate) fn run<T: Real, const M: usize, const J: usize>(
+    model: &RippleModel<T, M>,
+    bank: &mut RippleBank<T, M, J>,
+    input: &BankInput<T, J>,
+    trace: Option<&mut StepTrace<T, M>>,
+) -> BankOutput<T, J> {
+    if trace.is_none() {
+        if let Some(out) = fast::step(model, bank, input) {
+            return out;
+        }
+    }
+    general(model, bank, input, trace)
+}
+
+/// Any sample: decisions as masks, then the same arithmetic as the fast path.
+#[inline(never)]
+pub(crate) fn general<T: Real, const M: usize, const J: usize>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
@@ -74,47 +97,7 @@ pub(crate) fn run<T: Real, const M: usize, const J: usize>(
     let mut pl = Plan::new();
     plan(model, bank, input, &mut pl);
     let has_bias = model.bias_q_nm2.is_some();
-
-    // Phasors: one sine/cosine per reference, whole multiples by complex squaring.
-    let mut base = [[[T::ONE; J]; 2]; 3];
-    for r in 0..3 {
-        if model.uses[r] {
-            for l in 0..J {
-                let (s, c) = sin_cos_small(bank.psi[r][l]);
-                base[r][0][l] = c;
-                base[r][1][l] = s;
-            }
-        }
-    }
-    for i in 0..M {
-        let (n, r) = (model.power[i], model.orders[i].reference.index());
-        for l in 0..J {
-            let (c, s) = if n > 0 {
-                phasor_power(base[r][0][l], base[r][1][l], n)
-            } else {
-                let (s, c) = sin_cos_small(bank.order_psi[i][l]);
-                (c, s)
-            };
-            bank.phasor[i][0][l] = c;
-            bank.phasor[i][1][l] = s;
-        }
-    }
-    if model.any_load_scaled {
-        // Load regressor |T_exp + b̂(k|k−1)| (the bias is not changed by the time update).
-        let mut load = [T::ZERO; J];
-        for l in 0..J {
-            load[l] = (input.expected_torque_nm[l] + bank.b[l]).abs();
-            load[l] = if load[l].is_finite() { load[l] } else { T::ZERO };
-        }
-        for i in 0..M {
-            if model.orders[i].load_scaled {
-                for l in 0..J {
-                    bank.phasor[i][0][l] *= load[l];
-                    bank.phasor[i][1][l] *= load[l];
-                }
-            }
-        }
-    }
+    phasors(model, bank, input);
 
     // Time update: resets and decoupling, process noise.
     for i in 0..M {
@@ -189,16 +172,56 @@ pub(crate) fn run<T: Real, const M: usize, const J: usize>(
         }
     }
 
-    // g = P hᵀ (symmetric P from its upper blocks), S = R + h g. Explicit 2×2 blocks
-    // keep the loops shallow enough to unroll; the joint index stays innermost.
+    let (g, gb) = gains(model, bank, &h, &pl.upd_b);
+    let mut inn = innovation(model, bank, &h, &g, gb, &pl.upd_b, &pl.y, &pl.meas_ok, [&ripple, &mis]);
+    for l in 0..J {
+        if inn.load_step[l] {
+            pl.flags[l].insert(StepFlags::LOAD_STEP);
+        }
+    }
+    if let Some(tr) = trace {
+        tr.record(
+            bank,
+            &pl.inc,
+            &pl.q,
+            &pl.keep,
+            &pl.pred,
+            &h,
+            &g,
+            (
+                lane0(&pl.q_b),
+                lane0(&pl.upd_b),
+                lane0(&gb),
+                lane0(&inn.s_var),
+                lane0(&inn.e_used),
+                lane0(&pl.y),
+                pl.reinflate.first().copied().unwrap_or(false),
+                inn.load_step.first().copied().unwrap_or(false),
+            ),
+        );
+    }
+    update(model, bank, &h, &g, &gb, &mut inn);
+    finish(model, bank, input, pl.flags, ripple, mis, &inn)
+}
+
+/// `g = P hᵀ` (symmetric P from its upper blocks) and its bias entry.
+#[inline(always)]
+pub(crate) fn gains<T: Real, const M: usize, const J: usize>(
+    model: &RippleModel<T, M>,
+    bank: &RippleBank<T, M, J>,
+    h: &Lanes2<T, M, J>,
+    upd_b: &[T; J],
+) -> (Lanes2<T, M, J>, [T; J]) {
+    let has_bias = model.bias_q_nm2.is_some();
+    // Explicit 2×2 blocks keep the loops shallow enough to unroll.
     let mut g = [[[T::ZERO; J]; 2]; M];
     let mut gb = [T::ZERO; J];
     for i in 0..M {
         let (mut g0, mut g1) = ([T::ZERO; J], [T::ZERO; J]);
         if has_bias {
             for l in 0..J {
-                g0[l] = bank.pb[i][0][l] * pl.upd_b[l];
-                g1[l] = bank.pb[i][1][l] * pl.upd_b[l];
+                g0[l] = bank.pb[i][0][l] * upd_b[l];
+                g1[l] = bank.pb[i][1][l] * upd_b[l];
             }
         }
         for j in 0..M {
@@ -221,7 +244,7 @@ pub(crate) fn run<T: Real, const M: usize, const J: usize>(
     }
     if has_bias {
         for l in 0..J {
-            gb[l] = bank.pbb[l] * pl.upd_b[l];
+            gb[l] = bank.pbb[l] * upd_b[l];
         }
         for j in 0..M {
             for l in 0..J {
@@ -229,60 +252,77 @@ pub(crate) fn run<T: Real, const M: usize, const J: usize>(
             }
         }
     }
-    let mut s_var = [model.r_nm2; J];
-    let mut e = [T::ZERO; J];
-    let mut e_used = [T::ZERO; J];
-    let mut inv = [T::ZERO; J];
+    (g, gb)
+}
+
+/// Innovation and its variance of each joint.
+pub(crate) struct Innovation<T, const J: usize> {
+    pub(crate) s_var: [T; J],
+    pub(crate) e: [T; J],
+    pub(crate) e_used: [T; J],
+    pub(crate) inv: [T; J],
+    pub(crate) load_step: [bool; J],
+}
+
+/// `S = R + h g`, `e = y − ŷ` and the load-step decision.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(crate) fn innovation<T: Real, const M: usize, const J: usize>(
+    model: &RippleModel<T, M>,
+    bank: &RippleBank<T, M, J>,
+    h: &Lanes2<T, M, J>,
+    g: &Lanes2<T, M, J>,
+    gb: [T; J],
+    upd_b: &[T; J],
+    y: &[T; J],
+    meas_ok: &[bool; J],
+    [ripple, mis]: [&[T; J]; 2],
+) -> Innovation<T, J> {
+    let has_bias = model.bias_q_nm2.is_some();
+    let mut n = Innovation {
+        s_var: [model.r_nm2; J],
+        e: [T::ZERO; J],
+        e_used: [T::ZERO; J],
+        inv: [T::ZERO; J],
+        load_step: [false; J],
+    };
     for l in 0..J {
-        let mut s = gb[l] * pl.upd_b[l];
+        let mut s = gb[l] * upd_b[l];
         for i in 0..M {
             s += h[i][0][l] * g[i][0][l] + h[i][1][l] * g[i][1][l];
         }
-        s_var[l] += s;
-        inv[l] = T::ONE / s_var[l];
+        n.s_var[l] += s;
+        n.inv[l] = T::ONE / n.s_var[l];
         let yhat = ripple[l] + mis[l] + bank.b[l];
-        e[l] = pl.y[l] - yhat;
-        e_used[l] = if pl.meas_ok[l] { e[l] } else { T::ZERO };
+        n.e[l] = y[l] - yhat;
+        n.e_used[l] = if meas_ok[l] { n.e[l] } else { T::ZERO };
     }
-    let s_out = s_var;
     // Load step: an innovation beyond the NIS limit is a jump of the bias, not of the
     // oscillators. The update is then the exact limit Var(b) → ∞: the bias takes the
     // whole innovation, the oscillators are not updated, and
     // Var(b) = R + h P_zz hᵀ, Cov(z, b) = −P_zz hᵀ (no cancellation, PSD by construction).
-    let mut load_step = [false; J];
     if has_bias && model.limits.load_step_nis > T::ZERO {
         for l in 0..J {
-            if e_used[l] * e_used[l] > model.limits.load_step_nis * s_var[l] {
-                load_step[l] = true;
-                inv[l] = T::ZERO;
-                pl.flags[l].insert(StepFlags::LOAD_STEP);
-            }
+            let step = n.e_used[l] * n.e_used[l] > model.limits.load_step_nis * n.s_var[l];
+            n.load_step[l] = step;
+            n.inv[l] = if step { T::ZERO } else { n.inv[l] };
         }
     }
+    n
+}
 
-    if let Some(tr) = trace {
-        tr.record(
-            bank,
-            &pl.inc,
-            &pl.q,
-            &pl.keep,
-            &pl.pred,
-            &h,
-            &g,
-            (
-                lane0(&pl.q_b),
-                lane0(&pl.upd_b),
-                lane0(&gb),
-                lane0(&s_var),
-                lane0(&e_used),
-                lane0(&pl.y),
-                pl.reinflate.first().copied().unwrap_or(false),
-                load_step.first().copied().unwrap_or(false),
-            ),
-        );
-    }
-
-    // Measurement update: ẑ += g e / S, P −= g gᵀ / S (upper blocks).
+/// Measurement update: `ẑ += g e / S`, `P −= g gᵀ / S` (upper blocks).
+#[inline(always)]
+pub(crate) fn update<T: Real, const M: usize, const J: usize>(
+    model: &RippleModel<T, M>,
+    bank: &mut RippleBank<T, M, J>,
+    h: &Lanes2<T, M, J>,
+    g: &Lanes2<T, M, J>,
+    gb: &[T; J],
+    n: &mut Innovation<T, J>,
+) {
+    let has_bias = model.bias_q_nm2.is_some();
+    let (inv, e_used) = (&n.inv, &n.e_used);
     let mut k = [[[T::ZERO; J]; 2]; M];
     for i in 0..M {
         for l in 0..J {
@@ -329,49 +369,52 @@ pub(crate) fn run<T: Real, const M: usize, const J: usize>(
             let v = bank.pbb[l];
             bank.pbb[l] = (v - k * gb[l]).max(v * model.r_nm2 * inv[l]);
         }
-        for l in 0..J {
-            if load_step[l] {
-                // P_zz hᵀ = g − Cov(z, b) since the bias entry of h is 1.
-                let mut s_z = T::ZERO;
-                for i in 0..M {
-                    for r in 0..2 {
-                        let pzh = g[i][r][l] - bank.pb[i][r][l];
-                        s_z += h[i][r][l] * pzh;
-                        bank.pb[i][r][l] = -pzh;
-                    }
-                }
-                bank.pbb[l] = model.r_nm2 + s_z;
-                bank.b[l] += e_used[l];
-            }
+        if n.load_step.iter().any(|&s| s) {
+            load_step(model, bank, h, g, n);
         }
     }
+}
 
-    finish(model, bank, input, pl, ripple, mis, e, s_out)
+/// The load-step limit: the bias takes the innovation (see [`innovation`]).
+#[inline(never)]
+fn load_step<T: Real, const M: usize, const J: usize>(
+    model: &RippleModel<T, M>,
+    bank: &mut RippleBank<T, M, J>,
+    h: &Lanes2<T, M, J>,
+    g: &Lanes2<T, M, J>,
+    n: &Innovation<T, J>,
+) {
+    for l in 0..J {
+        if n.load_step[l] {
+            // P_zz hᵀ = g − Cov(z, b) since the bias entry of h is 1.
+            let mut s_z = T::ZERO;
+            for i in 0..M {
+                for r in 0..2 {
+                    let pzh = g[i][r][l] - bank.pb[i][r][l];
+                    s_z += h[i][r][l] * pzh;
+                    bank.pb[i][r][l] = -pzh;
+                }
+            }
+            bank.pbb[l] = model.r_nm2 + s_z;
+            bank.b[l] += n.e_used[l];
+        }
+    }
 }
 
 /// Health check (reset on a bad covariance) and the outputs.
-#[allow(clippy::too_many_arguments)]
-fn finish<T: Real, const M: usize, const J: usize>(
+#[inline(always)]
+pub(crate) fn finish<T: Real, const M: usize, const J: usize>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
-    mut pl: Plan<T, M, J>,
+    mut flags: [StepFlags; J],
     ripple: [T; J],
     mis: [T; J],
-    e: [T; J],
-    s_var: [T; J],
+    n: &Innovation<T, J>,
 ) -> BankOutput<T, J> {
     let has_bias = model.bias_q_nm2.is_some();
-    let mut out = BankOutput {
-        torque_nm: [T::ZERO; J],
-        ripple_nm: ripple,
-        misalignment_nm: mis,
-        torque_state_nm: [T::ZERO; J],
-        innovation_nm: e,
-        innovation_variance_nm2: s_var,
-        nis: [T::ZERO; J],
-        flags: pl.flags,
-    };
+    let (e, s_var) = (n.e, n.s_var);
+    let mut bad = [false; J];
     for l in 0..J {
         let s = s_var[l];
         // One sum catches any NaN/∞, one minimum any negative variance.
@@ -386,15 +429,30 @@ fn finish<T: Real, const M: usize, const J: usize>(
             sum += d[0][0][l] + d[1][1][l] + bank.z[i][0][l] + bank.z[i][1][l];
             least = least.min(d[0][0][l]).min(d[1][1][l]);
         }
-        let ok = sum.is_finite() && least >= T::ZERO && s > T::ZERO;
-        if !ok {
-            bank.reset_lane(model, l);
-            pl.flags[l].insert(StepFlags::COVARIANCE_RESET);
+        bad[l] = !(sum.is_finite() && least >= T::ZERO && s > T::ZERO);
+    }
+    if bad.iter().any(|&b| b) {
+        for l in 0..J {
+            if bad[l] {
+                bank.reset_lane(model, l);
+                flags[l].insert(StepFlags::COVARIANCE_RESET);
+            }
         }
-        out.flags[l] = pl.flags[l];
+    }
+    let mut out = BankOutput {
+        torque_nm: [T::ZERO; J],
+        ripple_nm: ripple,
+        misalignment_nm: mis,
+        torque_state_nm: [T::ZERO; J],
+        innovation_nm: e,
+        innovation_variance_nm2: s_var,
+        nis: [T::ZERO; J],
+        flags,
+    };
+    for l in 0..J {
         out.torque_nm[l] = input.torque_nm[l] - ripple[l] - mis[l];
         out.torque_state_nm[l] = if has_bias { input.expected_torque_nm[l] + bank.b[l] } else { out.torque_nm[l] };
-        out.nis[l] = e[l] * e[l] / s;
+        out.nis[l] = e[l] * e[l] / s_var[l];
     }
     out
 }

@@ -47,6 +47,7 @@
 //! ```
 
 mod bank;
+mod fast;
 mod filter;
 mod io;
 pub mod kernel;

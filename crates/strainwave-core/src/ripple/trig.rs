@@ -1,4 +1,5 @@
-//! Branch-free sine and cosine of a wrapped phase, phasor powers and angle wrapping.
+//! Branch-free sine and cosine of a wrapped phase, phasor powers, the orders' phasors
+//! of a step and angle wrapping.
 //!
 //! The filter needs `(cos ψ, sin ψ)` of each oscillator's phase `ψ = n θ` every sample,
 //! with `θ` wrapped into `[−π, π]`, so the argument never needs a general range
@@ -16,6 +17,8 @@
 //! come from its phasor by complex squaring ([`phasor_power`]), so a step needs one
 //! sine/cosine per reference angle, not one per order.
 
+use super::bank::{BankInput, RippleBank};
+use super::model::RippleModel;
 use crate::Real;
 
 /// Whether the scalar is single precision (decides the series length; constant-folded).
@@ -49,10 +52,12 @@ const COS: [f64; 9] = [
 ];
 
 /// Horner evaluation of `Σ c[k] x^k` over the first `n` coefficients.
+/// Starts from the last coefficient: `0·x + c = c` for the finite `x` used here.
 #[inline(always)]
 fn horner<T: Real>(c: &[f64], n: usize, x: T) -> T {
-    let mut acc = T::ZERO;
-    for &ck in c.iter().take(n).rev() {
+    let n = n.min(c.len());
+    let mut acc = T::from_f64(c.get(n.wrapping_sub(1)).copied().unwrap_or(0.0));
+    for &ck in c[..n.saturating_sub(1)].iter().rev() {
         acc = acc * x + T::from_f64(ck);
     }
     acc
@@ -95,6 +100,72 @@ pub fn phasor_power<T: Real>(c: T, s: T, n: u8) -> (T, T) {
                 k >>= 1;
             }
             acc
+        }
+    }
+}
+
+/// `(cos ψ_i, sin ψ_i)` of every order (times the load for load-scaled orders):
+/// one sine/cosine per reference, whole multiples by complex squaring.
+// Lane loops index several arrays by the same joint index.
+#[allow(clippy::needless_range_loop)]
+#[inline(always)]
+pub(crate) fn phasors<T: Real, const M: usize, const J: usize>(
+    model: &RippleModel<T, M>,
+    bank: &mut RippleBank<T, M, J>,
+    input: &BankInput<T, J>,
+) {
+    let mut base = [[[T::ONE; J]; 2]; 3];
+    for r in 0..3 {
+        if model.uses[r] {
+            for l in 0..J {
+                let (s, c) = sin_cos_small(bank.psi[r][l]);
+                base[r][0][l] = c;
+                base[r][1][l] = s;
+            }
+        }
+    }
+    for i in 0..M {
+        let (n, r) = (model.power[i], model.orders[i].reference.index());
+        let ph = &mut bank.phasor[i];
+        match n {
+            0 => {
+                for l in 0..J {
+                    let (s, c) = sin_cos_small(bank.order_psi[i][l]);
+                    (ph[0][l], ph[1][l]) = (c, s);
+                }
+            }
+            1 => *ph = base[r],
+            2 => {
+                for l in 0..J {
+                    (ph[0][l], ph[1][l]) = phasor_power(base[r][0][l], base[r][1][l], 2);
+                }
+            }
+            4 => {
+                for l in 0..J {
+                    (ph[0][l], ph[1][l]) = phasor_power(base[r][0][l], base[r][1][l], 4);
+                }
+            }
+            _ => {
+                for l in 0..J {
+                    (ph[0][l], ph[1][l]) = phasor_power(base[r][0][l], base[r][1][l], n);
+                }
+            }
+        }
+    }
+    if model.any_load_scaled {
+        // Load regressor |T_exp + b̂(k|k−1)| (the bias is not changed by the time update).
+        let mut load = [T::ZERO; J];
+        for l in 0..J {
+            load[l] = (input.expected_torque_nm[l] + bank.b[l]).abs();
+            load[l] = if load[l].is_finite() { load[l] } else { T::ZERO };
+        }
+        for i in 0..M {
+            if model.orders[i].load_scaled {
+                for l in 0..J {
+                    bank.phasor[i][0][l] *= load[l];
+                    bank.phasor[i][1][l] *= load[l];
+                }
+            }
         }
     }
 }

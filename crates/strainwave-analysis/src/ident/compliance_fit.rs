@@ -1,0 +1,340 @@
+//! Fitting the compliance: linear solve or Levenberg–Marquardt on the estimator's residual.
+
+use super::*;
+
+/// Runs an estimator over a run (NaN where a sample fails).
+pub fn run_estimator<K: KinematicError<f64>, C: Compliance<f64>>(
+    est: &TorsionEstimator<f64, K, C>,
+    angles: &JointAngles,
+) -> Vec<f64> {
+    let mut st = EstimatorState::new();
+    angles
+        .motor_angle_rad
+        .iter()
+        .zip(angles.link_angle_rad)
+        .map(|(m, l)| est.step_angles(&mut st, *m, *l).map_or(f64::NAN, |e| e.link_torque_nm))
+        .collect()
+}
+
+/// Layout of the LM parameter vector.
+/// Bound of the log-stiffness parameters (1e3 either way).
+const LOG_STIFFNESS_RANGE: f64 = 6.907_755_278_982_137;
+
+struct Layout {
+    form: ComplianceForm,
+    dahl: bool,
+    hyst: Option<usize>,
+    offset: Option<usize>,
+    damping: Option<usize>,
+    len: usize,
+    theta_ref: f64,
+    k_ref: f64,
+    c_ref: f64,
+}
+
+impl Layout {
+    fn new(opts: &ComplianceFitOptions, k_ref: f64, sample_rate_hz: f64) -> Self {
+        let n_form = match opts.form {
+            ComplianceForm::Linear => 1,
+            ComplianceForm::Cubic => 2,
+            ComplianceForm::ThreeSlope { .. } => 3,
+            ComplianceForm::Seed { .. } => 4,
+            ComplianceForm::Fixed(_) => 0,
+        };
+        let mut len = n_form;
+        let mut take = |on: bool, k: usize| {
+            if on {
+                len += k;
+                Some(len - k)
+            } else {
+                None
+            }
+        };
+        let n_h = opts.hysteresis.n_params();
+        let hyst = take(n_h > 0, n_h);
+        let offset = take(opts.windup_offset, 1);
+        let damping = take(opts.damping, 1);
+        let theta_ref = opts.rated_torque_nm / k_ref;
+        Self {
+            form: opts.form,
+            dahl: matches!(opts.hysteresis, HysteresisForm::Dahl { .. }),
+            hyst,
+            offset,
+            damping,
+            len,
+            theta_ref,
+            k_ref,
+            c_ref: k_ref / (TAU * 10.0_f64.min(0.1 * sample_rate_hz)),
+        }
+    }
+
+    fn params(&self, p: &[f64], rated: f64) -> ComplianceParams {
+        // Stiffnesses stay within 1e-3 … 1e3 of the linear least-squares value (a slope
+        // running off to infinity would turn the curve into a dead band).
+        let k = |x: f64| self.k_ref * x.clamp(-LOG_STIFFNESS_RANGE, LOG_STIFFNESS_RANGE).exp();
+        match self.form {
+            ComplianceForm::Linear => ComplianceParams::Linear { k_nm_per_rad: k(p[0]) },
+            ComplianceForm::Cubic => {
+                let k1 = k(p[0]);
+                ComplianceParams::Cubic {
+                    k1_nm_per_rad: k1,
+                    k3_nm_per_rad3: p[1] * k1 / (self.theta_ref * self.theta_ref),
+                }
+            }
+            ComplianceForm::ThreeSlope { t1_nm, t2_nm } => ComplianceParams::ThreeSlope {
+                k1_nm_per_rad: k(p[0]),
+                k2_nm_per_rad: k(p[1]),
+                k3_nm_per_rad: k(p[2]),
+                t1_nm,
+                t2_nm,
+            },
+            ComplianceForm::Seed { ratio } => ComplianceParams::Seed {
+                flexspline_k0_nm_per_rad: k(p[0]),
+                flexspline_c_per_nm: p[1].clamp(-40.0, 40.0).exp() / rated,
+                wave_generator_k0_nm_per_rad: k(p[2]) / (ratio * ratio),
+                wave_generator_c_per_nm: p[3] * ratio / rated,
+                ratio,
+            },
+            ComplianceForm::Fixed(params) => params,
+        }
+    }
+
+    fn initial(&self, k_lin: f64) -> Vec<f64> {
+        let mut p = vec![0.0; self.len];
+        let lk = (k_lin / self.k_ref).ln();
+        match self.form {
+            ComplianceForm::Linear => p[0] = lk,
+            ComplianceForm::Cubic => p[0] = lk,
+            ComplianceForm::ThreeSlope { .. } => {
+                p[0] = lk;
+                p[1] = lk;
+                p[2] = lk;
+            }
+            ComplianceForm::Seed { .. } => {
+                // Two equal springs in series, each twice the linear stiffness, mildly stiffening.
+                p[0] = lk + 2f64.ln();
+                p[1] = 0.3f64.ln();
+                p[2] = lk + 2f64.ln();
+                p[3] = 0.3;
+            }
+            ComplianceForm::Fixed(_) => {}
+        }
+        if let (Some(i), true) = (self.hyst, self.dahl) {
+            p[i] = (0.05f64).ln();
+            p[i + 1] = (0.05f64).ln();
+        }
+        p
+    }
+
+    fn fit(&self, p: &[f64], opts: &ComplianceFitOptions, metrics: FitMetrics, iterations: usize) -> ComplianceFit {
+        ComplianceFit {
+            params: self.params(p, opts.rated_torque_nm),
+            hysteresis: match (&opts.hysteresis, self.hyst) {
+                (HysteresisForm::Dahl { deadband_rad }, Some(i)) => FittedHysteresis::Dahl {
+                    half_width_rad: self.theta_ref * p[i].exp(),
+                    memory_rad: self.theta_ref * p[i + 1].exp(),
+                    deadband_rad: *deadband_rad,
+                },
+                (HysteresisForm::Plays { half_widths_rad }, Some(i)) => FittedHysteresis::Plays {
+                    half_widths_rad: half_widths_rad.clone(),
+                    weights_rad: p[i..i + half_widths_rad.len()].iter().map(|b| 0.01 * self.theta_ref * b).collect(),
+                },
+                _ => FittedHysteresis::None,
+            },
+            damping_nm_s_per_rad: self.damping.map_or(0.0, |i| self.c_ref * p[i].exp()),
+            windup_offset_rad: self.offset.map_or(0.0, |i| self.theta_ref * p[i]),
+            rated_torque_nm: opts.rated_torque_nm,
+            metrics,
+            iterations,
+        }
+    }
+}
+
+/// Fits the compliance from a loaded run against a reference torque (N·m, the link
+/// torque's sign convention), with the kinematic error already known.
+///
+/// Errors: lengths differ, non-finite data, too short, no load variation (the wind-up or
+/// the reference does not move), or a failed fit.
+pub fn fit_compliance<K: KinematicError<f64> + Clone>(
+    gear: &Gear<f64>,
+    kinematic: &K,
+    angles: &JointAngles,
+    reference_torque_nm: &[f64],
+    opts: &ComplianceFitOptions,
+) -> Result<ComplianceFit, AnalysisError> {
+    let n = angles.check(20)?;
+    if reference_torque_nm.len() != n {
+        return Err(invalid("reference_torque_nm", "differs in length from the angles"));
+    }
+    check_finite("reference_torque_nm", reference_torque_nm)?;
+    if !(opts.rated_torque_nm.is_finite() && opts.rated_torque_nm > 0.0) {
+        return Err(invalid("rated_torque_nm", format!("must be positive, got {}", opts.rated_torque_nm)));
+    }
+    let torsion = angles.torsion_rad(gear);
+    let w: Vec<f64> = (0..n).map(|k| kinematic.kinematic_error_rad(&angles.angles(gear, k)) - torsion[k]).collect();
+    let spread = |x: &[f64]| {
+        let m = x.iter().sum::<f64>() / x.len() as f64;
+        (x.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / x.len() as f64).sqrt()
+    };
+    let ref_spread = spread(reference_torque_nm);
+    if ref_spread < 1e-3 * opts.rated_torque_nm {
+        return Err(invalid(
+            "reference_torque_nm",
+            format!("varies by {ref_spread:.2e} N·m rms: no load to identify the compliance from"),
+        ));
+    }
+    if spread(&w) == 0.0 {
+        return Err(invalid("windup_rad", "does not vary: the joint never twists"));
+    }
+    // Linear least squares: τ ≈ K w (+ c ẇ) (+ τ0): the start point and, when the model
+    // is linear in its parameters, the answer.
+    let fs = angles.sample_rate_hz;
+    let wdot: Vec<f64> = (0..n)
+        .map(|k| {
+            let (a, b) = (k.saturating_sub(1), (k + 1).min(n - 1));
+            (w[b] - w[a]) / (b - a) as f64 * fs
+        })
+        .collect();
+    let mut cols = vec![w.clone()];
+    if opts.form == ComplianceForm::Cubic {
+        cols.push(w.iter().map(|v| v * v * v).collect());
+    }
+    if opts.damping {
+        cols.push(wdot.clone());
+    }
+    if opts.windup_offset {
+        cols.push(vec![1.0; n]);
+    }
+    let lin = lstsq_qr(&cols, reference_torque_nm)?;
+    let k_lin = lin[0];
+    if k_lin.is_nan() || k_lin <= 0.0 {
+        return Err(invalid("reference_torque_nm", format!("gives a non-positive stiffness {k_lin:.3e} N·m/rad")));
+    }
+    let k_ref = k_lin;
+    let layout = Layout::new(opts, k_ref, fs);
+    if let HysteresisForm::Plays { half_widths_rad } = &opts.hysteresis {
+        if half_widths_rad.is_empty() || half_widths_rad.len() > MAX_PLAYS {
+            return Err(invalid("hysteresis", format!("needs 1 ..= {MAX_PLAYS} plays, got {}", half_widths_rad.len())));
+        }
+        if half_widths_rad.iter().any(|r| !(r.is_finite() && *r > 0.0)) {
+            return Err(invalid("hysteresis", "play half-widths must be positive"));
+        }
+    }
+    if layout.len == 0 {
+        // Nothing to fit: evaluate the known model.
+        let fit = layout.fit(&[], opts, FitMetrics::of(&[], &[]), 0);
+        let pred = fit.predict(gear, kinematic.clone(), angles)?;
+        return Ok(ComplianceFit { metrics: FitMetrics::of(&pred, reference_torque_nm), ..fit });
+    }
+    let linear_in_params = opts.hysteresis == HysteresisForm::None
+        && !opts.windup_offset
+        && matches!(opts.form, ComplianceForm::Linear | ComplianceForm::Cubic);
+    if linear_in_params {
+        let mut p = vec![0.0; layout.len];
+        p[0] = (k_lin / k_ref).ln();
+        if opts.form == ComplianceForm::Cubic {
+            p[1] = lin[1] * layout.theta_ref * layout.theta_ref / k_lin;
+        }
+        let mut fit = layout.fit(&p, opts, FitMetrics::of(&[], &[]), 0);
+        if opts.damping {
+            fit.damping_nm_s_per_rad = lin[cols.len() - 1].max(0.0);
+        }
+        let pred = fit.predict(gear, kinematic.clone(), angles)?;
+        let metrics = FitMetrics::of(&pred, reference_torque_nm);
+        return Ok(ComplianceFit { metrics, ..fit });
+    }
+    let mut p0 = layout.initial(k_lin);
+    if let Some(i) = layout.damping {
+        // c = c_ref e^p stays positive; start from the least-squares value (or 0.1 % of c_ref).
+        p0[i] = (lin[1 + usize::from(opts.form == ComplianceForm::Cubic)] / layout.c_ref).max(1e-3).ln();
+    }
+    if let Some(i) = layout.offset {
+        let tau0 = *lin.last().unwrap_or(&0.0);
+        p0[i] = tau0 / k_lin / layout.theta_ref;
+    }
+    // θ_k does not depend on the compliance parameters: fold it into the link angle once
+    // (θ' = θ − θ_k gives w = −θ_h' with no kinematic model) so that each evaluation of
+    // the residual runs only the springs.
+    let shifted: Vec<f64> = angles.link_angle_rad.iter().zip(&torsion).zip(&w).map(|((l, th), w)| l - th - w).collect();
+    let shifted_angles = JointAngles { link_angle_rad: &shifted, ..*angles };
+    let residual = |p: &[f64], r: &mut [f64]| -> bool {
+        let fit = layout.fit(p, opts, FitMetrics::of(&[], &[]), 0);
+        let Ok(est) = fit.estimator(*gear, NoKinematicError, fs) else {
+            return false;
+        };
+        let pred = run_estimator(&est, &shifted_angles);
+        for ((ri, pi), yi) in r.iter_mut().zip(&pred).zip(reference_torque_nm) {
+            *ri = pi - yi;
+        }
+        pred.iter().all(|v| v.is_finite())
+    };
+    let lm = if matches!(opts.hysteresis, HysteresisForm::Dahl { .. }) {
+        levenberg_marquardt(&p0, n, opts.max_iterations, residual)?
+    } else {
+        let rows = n.div_ceil(opts.decimation.max(1));
+        levenberg_marquardt(&p0, rows, opts.max_iterations, fast_residual(&layout, opts, &w, fs, reference_torque_nm))?
+    };
+    let fit = layout.fit(&lm.params, opts, FitMetrics::of(&[], &[]), lm.iterations);
+    let pred = fit.predict(gear, kinematic.clone(), angles)?;
+    Ok(ComplianceFit { metrics: FitMetrics::of(&pred, reference_torque_nm), ..fit })
+}
+
+/// The residual of a fit without a Dahl state, evaluated without the estimator loop: the
+/// play deflections `ζ_i` and the wind-up rate depend only on the wind-up, so they are
+/// computed once (with the core's own play operators, exactly as the estimator does);
+/// each evaluation then solves `θ(τ) = w + w0 + Σ β_i ζ_i` per sample, warm-started from
+/// the previous evaluation's torque at that sample.
+fn fast_residual<'a>(
+    layout: &'a Layout,
+    opts: &'a ComplianceFitOptions,
+    w: &'a [f64],
+    fs: f64,
+    reference_torque_nm: &'a [f64],
+) -> impl FnMut(&[f64], &mut [f64]) -> bool + 'a {
+    let n = w.len();
+    let widths: Vec<f64> = match &opts.hysteresis {
+        HysteresisForm::Plays { half_widths_rad } => half_widths_rad.clone(),
+        _ => Vec::new(),
+    };
+    let m = widths.len();
+    let mut zeta = vec![0.0; n * m];
+    if m > 0 {
+        if let Ok(ph) = PlayHysteresis::new(&widths, &vec![0.0; m]) {
+            let mut plays = ph.initial_state(w[0]);
+            let mut d = [0.0; MAX_PLAYS];
+            for (k, wk) in w.iter().enumerate() {
+                ph.advance(&mut plays, *wk);
+                ph.deflections(&plays, *wk, &mut d);
+                zeta[k * m..(k + 1) * m].copy_from_slice(&d[..m]);
+            }
+        }
+    }
+    let wdot: Vec<f64> = (0..n).map(|k| if k == 0 { 0.0 } else { (w[k] - w[k - 1]) * fs }).collect();
+    let step = opts.decimation.max(1);
+    let rows: Vec<usize> = (0..n).step_by(step).collect();
+    let mut guess = vec![0.0; rows.len()];
+    move |p: &[f64], r: &mut [f64]| -> bool {
+        let fit = layout.fit(p, opts, FitMetrics::of(&[], &[]), 0);
+        let (Ok(model), Ok(solver)) = (fit.params.model(), TorqueSolver::for_rated_torque(opts.rated_torque_nm)) else {
+            return false;
+        };
+        let weights: &[f64] = match &fit.hysteresis {
+            FittedHysteresis::Plays { weights_rad, .. } => weights_rad,
+            _ => &[],
+        };
+        for (j, &k) in rows.iter().enumerate() {
+            let mut e = w[k] + fit.windup_offset_rad;
+            for (b, z) in weights.iter().zip(&zeta[k * m..(k + 1) * m]) {
+                e += b * z;
+            }
+            match solver.solve(&model, e, guess[j]) {
+                Ok(s) => {
+                    guess[j] = s.torque_nm;
+                    r[j] = s.torque_nm + fit.damping_nm_s_per_rad * wdot[k] - reference_torque_nm[k];
+                }
+                Err(_) => return false,
+            }
+        }
+        true
+    }
+}

@@ -1,0 +1,251 @@
+//! The common sample, decided cheaply and computed without masks: every joint has a
+//! finite torque and finite references, is caught up (no skipped samples pending), not
+//! at its first sample, within the gap limit, without a jump, and every order stays
+//! active. Then the decisions of `plan` are all trivial (keep = couple = pred = upd = 1,
+//! no flags) and the step is the general one with the masks left out, bit for bit.
+//!
+//! The check runs before any state is written; if a joint fails it, nothing has changed
+//! and the caller takes the general path.
+
+// Lane loops index several arrays by the same joint index (structure of arrays), and
+// `!(x <= limit)` is deliberate: NaN must count as out of range.
+#![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+
+use super::bank::{BankInput, BankOutput, RippleBank};
+use super::io::{OrderStatus, StepFlags};
+use super::kernel::{finish, gains, innovation, update};
+use super::model::{PhaseSource, RippleModel};
+use super::trig::{phasors, wrap_angle};
+use crate::Real;
+
+/// Weight of the newest increment in the running mean that decides holding (as in `plan`).
+const HOLD_AVERAGE: f64 = 1.0 / 16.0;
+
+/// `wrap_angle` for `|x| ≤ 3π` as selects (vectorizes); larger `|x|` are fixed up after.
+#[inline(always)]
+fn wrap_near<T: Real>(x: T) -> T {
+    let up = if x < -T::PI { x + T::TAU } else { x };
+    if x > T::PI {
+        x - T::TAU
+    } else {
+        up
+    }
+}
+
+/// One step if every joint is in the common case, else `None` with nothing changed.
+#[inline(always)]
+pub(crate) fn step<T: Real, const M: usize, const J: usize>(
+    model: &RippleModel<T, M>,
+    bank: &mut RippleBank<T, M, J>,
+    input: &BankInput<T, J>,
+) -> Option<BankOutput<T, J>> {
+    let dt = input.dt_s.unwrap_or(model.dt_s);
+    // One interval for all joints: valid and no gap (`pending = 0`, so it is the total).
+    if !(dt.is_finite() && dt > T::ZERO && dt <= model.max_gap_s) {
+        return None;
+    }
+    let refs = [&input.references.relative, &input.references.output, &input.references.motor];
+    let angle_input = model.phase_source == PhaseSource::Angle;
+    let lim = &model.limits;
+    let three_pi = T::from_f64(3.0) * T::PI;
+
+    // Decide: increments, means and every condition, into temporaries. The conditions
+    // are accumulated without branches so the lane loops vectorize.
+    let mut ok = [true; J];
+    let mut y = [T::ZERO; J];
+    for l in 0..J {
+        y[l] = input.torque_nm[l] - input.expected_torque_nm[l];
+        ok[l] = y[l].is_finite() & bank.has_last[l] & (bank.pending_samples[l] == T::ZERO);
+    }
+    let used = &model.used_refs[..usize::from(model.n_used).min(3)];
+    let mut delta = [[T::ZERO; J]; 3];
+    let mut mean = [[T::ZERO; J]; 3];
+    for &r in used {
+        let r = usize::from(r);
+        let mut far = false;
+        for l in 0..J {
+            let (v, last) = (refs[r][l], bank.last[r][l]);
+            ok[l] &= v.is_finite();
+            delta[r][l] = if angle_input {
+                far |= !((v - last).abs() <= three_pi);
+                wrap_near(v - last)
+            } else {
+                (v + last) * T::HALF * dt
+            };
+        }
+        if far {
+            // Unwrapped input: exact wrapping where the near form does not apply.
+            for l in 0..J {
+                delta[r][l] = wrap_angle(refs[r][l] - bank.last[r][l]);
+            }
+        }
+        for l in 0..J {
+            let d = delta[r][l];
+            let changed = bank.delta_known[l] & !((d - bank.last_delta[r][l]).abs() <= lim.max_step_change_rad);
+            ok[l] &= (d.abs() <= lim.max_angle_step_rad) & !changed;
+            let m = bank.mean_delta[r][l];
+            mean[r][l] = m + (d - m) * T::from_f64(HOLD_AVERAGE);
+        }
+    }
+    let mut abs_a = [[T::ZERO; J]; M];
+    for i in 0..M {
+        let o = &model.orders[i];
+        let r = o.reference.index();
+        for l in 0..J {
+            let a = (o.multiple * delta[r][l]).abs();
+            let mean_a = (o.multiple * mean[r][l]).abs();
+            let active = bank.status[i][l] == OrderStatus::Active;
+            ok[l] &= active & (a <= model.off_above_rad) & !(mean_a < model.hold_below_rad);
+            abs_a[i][l] = a;
+        }
+    }
+    if !ok.iter().all(|&k| k) {
+        return None;
+    }
+
+    // Commit the phase-side state, as `plan` does for this case.
+    for l in 0..J {
+        bank.steps[l] = bank.steps[l].saturating_add(1);
+        bank.pending_dt[l] = T::ZERO;
+        bank.delta_known[l] = true;
+    }
+    for &r in used {
+        let r = usize::from(r);
+        let mut x = [T::ZERO; J];
+        let mut far = false;
+        for l in 0..J {
+            let v = refs[r][l];
+            bank.last_delta[r][l] = delta[r][l];
+            bank.mean_delta[r][l] = mean[r][l];
+            bank.last[r][l] = v;
+            x[l] = if angle_input { v } else { bank.psi[r][l] + delta[r][l] };
+            far |= !(x[l].abs() <= three_pi);
+            bank.psi[r][l] = wrap_near(x[l]);
+        }
+        if far {
+            for l in 0..J {
+                bank.psi[r][l] = wrap_angle(x[l]);
+            }
+        }
+    }
+    for i in 0..M {
+        if model.power[i] == 0 {
+            let o = &model.orders[i];
+            let r = o.reference.index();
+            for l in 0..J {
+                bank.order_psi[i][l] = wrap_angle(bank.order_psi[i][l] + o.multiple * delta[r][l]);
+            }
+        }
+    }
+
+    phasors(model, bank, input);
+
+    // Time update with keep = 1: inflation and process noise on the diagonal blocks.
+    let infl = lim.covariance_inflation;
+    for i in 0..M {
+        let o = &model.orders[i];
+        for l in 0..J {
+            let q = o.q_per_sample_nm2 + o.q_per_rad_nm2 * abs_a[i][l];
+            let d = &mut bank.p[i][i];
+            let grow = infl * T::HALF * (d[0][0][l] + d[1][1][l]);
+            d[0][0][l] = d[0][0][l] + grow + q;
+            d[1][1][l] = d[1][1][l] + grow + q;
+        }
+    }
+    let has_bias = model.bias_q_nm2.is_some();
+    let q_b = model.bias_q_nm2.unwrap_or(T::ZERO);
+    if has_bias {
+        for l in 0..J {
+            let v = bank.pbb[l];
+            bank.pbb[l] = v + v * infl + q_b;
+        }
+    }
+
+    // Prediction; the update row is the phasor itself.
+    let mut ripple = [T::ZERO; J];
+    let mut mis = [T::ZERO; J];
+    for i in 0..M {
+        let is_ripple = model.orders[i].reference.is_ripple();
+        let (ph, z) = (&bank.phasor[i], &bank.z[i]);
+        let sum = if is_ripple { &mut ripple } else { &mut mis };
+        for l in 0..J {
+            sum[l] += ph[0][l] * z[0][l] + ph[1][l] * z[1][l];
+        }
+    }
+    let h = bank.phasor;
+    let upd_b = [if has_bias { T::ONE } else { T::ZERO }; J];
+    let (g, gb) = gains(model, bank, &h, &upd_b);
+    let mut inn = innovation(model, bank, &h, &g, gb, &upd_b, &y, &[true; J], [&ripple, &mis]);
+    let mut flags = [StepFlags::empty(); J];
+    for l in 0..J {
+        if inn.load_step[l] {
+            flags[l].insert(StepFlags::LOAD_STEP);
+        }
+    }
+    update(model, bank, &h, &g, &gb, &mut inn);
+    Some(finish(model, bank, input, flags, ripple, mis, &inn))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::kernel::{general, run};
+    use super::super::{BankInput, PhaseSource, ReferenceValues, RippleBank, RippleModel};
+    use crate::Real;
+
+    /// The fast path and the general one give the same state and outputs, bit for bit.
+    fn same<T: Real, const M: usize>(model: RippleModel<T, M>, unwrapped: bool) {
+        let velocity = model.phase_source() == PhaseSource::Velocity;
+        let mut a = RippleBank::<T, M, 2>::new(&model);
+        let mut b = a;
+        let mut seed = 0x9E37_79B9_7F4A_7C15_u64;
+        let (mut fast_steps, c) = (0, T::from_f64);
+        for k in 0..6000 {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            let noise = (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+            let w = if k < 3000 { 0.08 } else { 0.3 };
+            let theta = |j: f64| {
+                let t = w * k as f64 + j + if k % 997 == 500 { 2.0 } else { 0.0 };
+                if velocity {
+                    w * 1000.0
+                } else if unwrapped {
+                    t
+                } else {
+                    t.rem_euclid(core::f64::consts::TAU)
+                }
+            };
+            let y = 2.0 + (2.0 * theta(0.0)).cos() + 0.1 * noise + if k % 1500 == 700 { 40.0 } else { 0.0 };
+            let mut input = BankInput::new(
+                [c(y), c(y * 0.5)],
+                ReferenceValues::new([c(theta(0.0)), c(theta(0.3))], [c(-theta(0.0) / 50.0); 2], [c(theta(0.1)); 2]),
+            );
+            input.expected_torque_nm = [c(1.5), c(-0.5)];
+            if k % 611 == 3 {
+                input.torque_nm[1] = T::from_f64(f64::NAN);
+            }
+            let before = a;
+            let fast = super::step(&model, &mut a, &input);
+            fast_steps += usize::from(fast.is_some());
+            if fast.is_none() {
+                assert_eq!(format!("{a:?}"), format!("{before:?}"), "k {k}: the check changed the state");
+            }
+            let out_a = fast.unwrap_or_else(|| run(&model, &mut a, &input, None));
+            let out_b = general(&model, &mut b, &input, None);
+            // Debug prints every bit that matters (NaN compares unequal to itself).
+            assert_eq!(format!("{out_a:?}"), format!("{out_b:?}"), "k {k}");
+            assert_eq!(format!("{a:?}"), format!("{b:?}"), "k {k}");
+        }
+        assert!(fast_steps > 4000, "{fast_steps}");
+    }
+
+    #[test]
+    fn fast_path_is_the_general_path() {
+        same(RippleModel::<f64, 2>::seed_4th_order(1000.0).unwrap(), false);
+        same(RippleModel::<f64, 3>::seed_6th_order(1000.0).unwrap(), true);
+        same(RippleModel::<f32, 3>::product(1000.0, 0.05).unwrap(), false);
+        same(RippleModel::<f64, 3>::product(1000.0, 0.05).unwrap().with_phase_source(PhaseSource::Velocity), false);
+        same(RippleModel::<f64, 5>::full(1000.0, 0.05).unwrap(), false);
+        same(RippleModel::<f32, 5>::full(1000.0, 0.05).unwrap(), true);
+    }
+}
