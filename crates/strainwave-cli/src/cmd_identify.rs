@@ -210,127 +210,11 @@ pub struct ArmConfig {
     pub compliance: ComplianceConfig,
 }
 
-/// Fitted spring parameters (mirror of `ComplianceParams`).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "form", rename_all = "kebab-case", deny_unknown_fields)]
-pub enum Spring {
-    /// `τ = K w`.
-    Linear {
-        /// N·m/rad.
-        k_nm_per_rad: f64,
-    },
-    /// `τ = k1 w + k3 w³`.
-    Cubic {
-        /// N·m/rad.
-        k1_nm_per_rad: f64,
-        /// N·m/rad³.
-        k3_nm_per_rad3: f64,
-    },
-    /// Catalogue three-slope.
-    ThreeSlope {
-        /// N·m/rad.
-        k1_nm_per_rad: f64,
-        /// N·m/rad.
-        k2_nm_per_rad: f64,
-        /// N·m/rad.
-        k3_nm_per_rad: f64,
-        /// N·m.
-        t1_nm: f64,
-        /// N·m.
-        t2_nm: f64,
-    },
-    /// Seed 002 springs.
-    Seed {
-        /// N·m/rad.
-        flexspline_k0_nm_per_rad: f64,
-        /// 1/(N·m).
-        flexspline_c_per_nm: f64,
-        /// N·m/rad at the WG.
-        wave_generator_k0_nm_per_rad: f64,
-        /// 1/(N·m).
-        wave_generator_c_per_nm: f64,
-        /// `N`.
-        ratio: f64,
-    },
-}
+/// Fitted spring parameters, as written to the model file.
+pub type Spring = ComplianceParams;
 
-impl From<ComplianceParams> for Spring {
-    fn from(p: ComplianceParams) -> Self {
-        match p {
-            ComplianceParams::Linear { k_nm_per_rad } => Spring::Linear { k_nm_per_rad },
-            ComplianceParams::Cubic { k1_nm_per_rad, k3_nm_per_rad3 } => {
-                Spring::Cubic { k1_nm_per_rad, k3_nm_per_rad3 }
-            }
-            ComplianceParams::ThreeSlope { k1_nm_per_rad, k2_nm_per_rad, k3_nm_per_rad, t1_nm, t2_nm } => {
-                Spring::ThreeSlope { k1_nm_per_rad, k2_nm_per_rad, k3_nm_per_rad, t1_nm, t2_nm }
-            }
-            ComplianceParams::Seed {
-                flexspline_k0_nm_per_rad,
-                flexspline_c_per_nm,
-                wave_generator_k0_nm_per_rad,
-                wave_generator_c_per_nm,
-                ratio,
-            } => Spring::Seed {
-                flexspline_k0_nm_per_rad,
-                flexspline_c_per_nm,
-                wave_generator_k0_nm_per_rad,
-                wave_generator_c_per_nm,
-                ratio,
-            },
-        }
-    }
-}
-
-impl From<Spring> for ComplianceParams {
-    fn from(s: Spring) -> Self {
-        match s {
-            Spring::Linear { k_nm_per_rad } => ComplianceParams::Linear { k_nm_per_rad },
-            Spring::Cubic { k1_nm_per_rad, k3_nm_per_rad3 } => {
-                ComplianceParams::Cubic { k1_nm_per_rad, k3_nm_per_rad3 }
-            }
-            Spring::ThreeSlope { k1_nm_per_rad, k2_nm_per_rad, k3_nm_per_rad, t1_nm, t2_nm } => {
-                ComplianceParams::ThreeSlope { k1_nm_per_rad, k2_nm_per_rad, k3_nm_per_rad, t1_nm, t2_nm }
-            }
-            Spring::Seed {
-                flexspline_k0_nm_per_rad,
-                flexspline_c_per_nm,
-                wave_generator_k0_nm_per_rad,
-                wave_generator_c_per_nm,
-                ratio,
-            } => ComplianceParams::Seed {
-                flexspline_k0_nm_per_rad,
-                flexspline_c_per_nm,
-                wave_generator_k0_nm_per_rad,
-                wave_generator_c_per_nm,
-                ratio,
-            },
-        }
-    }
-}
-
-/// Fitted hysteresis (mirror of `FittedHysteresis`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
-pub enum Hysteresis {
-    /// None.
-    None,
-    /// Dahl law.
-    Dahl {
-        /// rad.
-        half_width_rad: f64,
-        /// rad.
-        memory_rad: f64,
-        /// rad.
-        deadband_rad: f64,
-    },
-    /// Play operators.
-    Plays {
-        /// rad.
-        half_widths_rad: Vec<f64>,
-        /// rad.
-        weights_rad: Vec<f64>,
-    },
-}
+/// Fitted hysteresis, as written to the model file.
+pub type Hysteresis = FittedHysteresis;
 
 /// The fitted kinematic error.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -417,19 +301,8 @@ impl ModelFile {
     pub fn compliance_fit(&self) -> ComplianceFit {
         let c = &self.compliance;
         ComplianceFit {
-            params: c.spring.into(),
-            hysteresis: match &c.hysteresis {
-                Hysteresis::None => FittedHysteresis::None,
-                Hysteresis::Dahl { half_width_rad, memory_rad, deadband_rad } => FittedHysteresis::Dahl {
-                    half_width_rad: *half_width_rad,
-                    memory_rad: *memory_rad,
-                    deadband_rad: *deadband_rad,
-                },
-                Hysteresis::Plays { half_widths_rad, weights_rad } => FittedHysteresis::Plays {
-                    half_widths_rad: half_widths_rad.clone(),
-                    weights_rad: weights_rad.clone(),
-                },
-            },
+            params: c.spring,
+            hysteresis: c.hysteresis.clone(),
             damping_nm_s_per_rad: c.damping_nm_s_per_rad,
             windup_offset_rad: c.windup_offset_rad,
             rated_torque_nm: c.rated_torque_nm,
@@ -642,18 +515,8 @@ pub fn run(a: &Args) -> Result<()> {
             damping_nm_s_per_rad: fit.damping_nm_s_per_rad,
             windup_offset_rad: fit.windup_offset_rad,
             rated_torque_nm: fit.rated_torque_nm,
-            spring: fit.params.into(),
-            hysteresis: match &fit.hysteresis {
-                FittedHysteresis::None => Hysteresis::None,
-                FittedHysteresis::Dahl { half_width_rad, memory_rad, deadband_rad } => Hysteresis::Dahl {
-                    half_width_rad: *half_width_rad,
-                    memory_rad: *memory_rad,
-                    deadband_rad: *deadband_rad,
-                },
-                FittedHysteresis::Plays { half_widths_rad, weights_rad } => {
-                    Hysteresis::Plays { half_widths_rad: half_widths_rad.clone(), weights_rad: weights_rad.clone() }
-                }
-            },
+            spring: fit.params,
+            hysteresis: fit.hysteresis.clone(),
         },
     };
     let text = toml::to_string(&model).context("serializing the model")?;

@@ -41,8 +41,10 @@ pub enum ComplianceForm {
     Fixed(ComplianceParams),
 }
 
-/// Fitted compliance parameters (plain values; SI units).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Fitted compliance parameters (plain values; SI units). Serialized as a TOML table
+/// tagged `form = "linear" | "cubic" | "three-slope" | "seed"`.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(tag = "form", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum ComplianceParams {
     /// Linear stiffness, N·m/rad.
     Linear {
@@ -187,8 +189,9 @@ impl HysteresisForm {
     }
 }
 
-/// Fitted hysteresis.
-#[derive(Debug, Clone, PartialEq)]
+/// Fitted hysteresis. Serialized tagged `kind = "none" | "dahl" | "plays"`.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum FittedHysteresis {
     /// None.
     None,
