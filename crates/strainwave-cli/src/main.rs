@@ -55,7 +55,7 @@ enum Command {
     Convert(cmd_convert::Args),
     /// Cancel torque ripple and misalignment in a recording (real time, no added delay).
     #[command(
-        after_help = "Examples:\n  strainwave simulate --preset taghirad --out taghirad.csv\n  strainwave filter --config examples/joint-taghirad.toml --in taghirad.csv --out filtered.csv\n  cat log.csv | strainwave filter --config joint.toml --in - --out - > filtered.csv"
+        after_help = "Examples:\n  strainwave simulate --preset taghirad --out taghirad.csv\n  strainwave filter --config examples/joint-taghirad.toml --in taghirad.csv --out filtered.csv\n  strainwave filter --config joint.toml --in commissioning.csv --out c.csv --learn learned.toml   # then set filter.learned\n  strainwave filter --config examples/joint-taghirad.toml --in taghirad.csv --out smoothed.csv --smooth\n  cat log.csv | strainwave filter --config joint.toml --in - --out - > filtered.csv"
     )]
     Filter(cmd_filter::Args),
     /// Link torque from a motor encoder and a link encoder (seed 002).
