@@ -1,6 +1,18 @@
 //! The demo's bench section (spec §6): Table I figures from the models, then the hybrid
 //! fusion methods measured on the bench twin's current sweeps (calibrate on one sweep,
 //! validate on another against the true air-gap torque).
+//!
+//! What limits the corrected fusion is the calibration sweep, not the FIR design: a log
+//! sweep of length `T` puts energy `∝ T / f` into each bin, while the errors of the
+//! calibration reference (online eq. 12) do not shrink with it. At 1–4 kHz the sweep is
+//! fastest and the reference carries the current sensor's noise; at 1–20 Hz the reference
+//! leaves out the cogging torque, whose 36/rev line crosses the band as the free rotor
+//! creeps (the sweep's first slow half-cycles give it a net impulse). With 12 s sweeps the
+//! 1–4 kHz gain error was 1.4 dB and the 1–20 Hz phase error 5.9°; from about 24 s both
+//! stay well inside ±1 dB / ±5° (40 s, the library test's length, gains little more).
+//! Longer segments make it worse, not better: a sweep excites each bin in one segment only,
+//! while every segment adds noise to it; longer FIRs follow the noisier calibration H1
+//! more closely.
 
 use std::fmt::Write as _;
 
@@ -16,14 +28,16 @@ use crate::report::html::{esc, table};
 use crate::report::plot::{LinePlot, Marker, Series};
 use crate::report::text::text_table;
 
-/// Length of each demo sweep, s (the library test uses 40 s; shortened for run time).
-const SWEEP_S: f64 = 12.0;
+/// Length of each demo sweep, s (see the module doc; the library test uses 40 s).
+const SWEEP_S: f64 = 24.0;
 /// Lowest sweep frequency, Hz.
 const SWEEP_FROM_HZ: f64 = 0.5;
 /// Segment of every H1 estimate (2¹⁵ at 20 kHz: 0.61 Hz bins).
 const NPERSEG: usize = 1 << 15;
 /// Taps of each correction FIR.
 const FIR_TAPS: usize = (1 << 14) - 1;
+/// The corrected fusion's target over 1 Hz–4 kHz: |gain error| dB, |phase error| °.
+const TARGET: (f64, f64) = (1.0, 5.0);
 
 fn sweep(seed: u64, amplitude_a: f64) -> Result<strainwave_sim::bench::BenchRecording> {
     let mut s = preset("kit-bench-sweep")?;
@@ -57,8 +71,13 @@ pub fn section() -> Result<(String, String, Vec<LinePlot>)> {
 
     // Fusion accuracy on the twin.
     let fs = preset("kit-bench-sweep")?.sample_rate_hz;
-    let cal = sweep(3, 0.1)?;
-    let val = sweep(11, 0.15)?;
+    // The two sweeps are independent: simulate them side by side.
+    let (cal, val) = std::thread::scope(|s| {
+        let cal = s.spawn(|| sweep(3, 0.1));
+        let val = sweep(11, 0.15);
+        (cal.join().unwrap_or_else(|e| std::panic::resume_unwind(e)), val)
+    });
+    let (cal, val) = (cal?, val?);
     let mut cfg = AccuracyConfig::kit(fs);
     cfg.spectral = SpectralConfig::new(NPERSEG);
     cfg.correction = CorrectionConfig::new(FIR_TAPS);
@@ -90,13 +109,35 @@ pub fn section() -> Result<(String, String, Vec<LinePlot>)> {
     let note = format!(
         "  Fusion accuracy: worst |gain error| dB / |phase error| ° of T/T_e per band (H1 against the true\n  \
          air-gap torque, bins with coherence ≥ {}). Calibrated on a {SWEEP_S} s sweep (i_q 0.1 A, {SWEEP_FROM_HZ} Hz–8 kHz,\n  \
-         reference: online eq. 12), validated on another (other noise, 0.15 A). Shortened from the\n  \
-         library test's 40 s sweeps for run time ({NPERSEG}-sample segments, {FIR_TAPS}-tap FIRs);\n  \
-         crossover {} Hz.\n",
+         reference: online eq. 12), validated on another (other noise, 0.15 A); {NPERSEG}-sample\n  \
+         segments, {FIR_TAPS}-tap FIRs, crossover {} Hz. The calibration sweep's length sets the\n  \
+         corrected fusion's accuracy: its energy per bin against the current-sensor noise in the eq. 12\n  \
+         reference at 1–4 kHz (where the sweep is fastest) and against the cogging torque eq. 12 leaves\n  \
+         out at 1–20 Hz (the free rotor creeps, so the 36/rev cogging line crosses that band). 12 s\n  \
+         sweeps miss the target there; 24 s meet it, as the library test's 40 s do.\n",
         cfg.validation_min_coherence, cfg.crossover_hz
     );
     let _ = write!(out, "\n{note}");
     out += &text_table(&acc_h, &acc_rows);
+    let whole = report.bands_hz.iter().position(|&(lo, hi)| lo == 1.0 && hi == 4000.0);
+    let corrected = report.row(METHODS[5]).zip(whole).map(|(r, i)| r.bands[i]);
+    let verdict = corrected.map(|e| {
+        let met = e.max_gain_db <= TARGET.0 && e.max_phase_deg <= TARGET.1;
+        format!(
+            "  {} over 1–4000 Hz: {:.2} dB / {:.1}° (worst at {:.0} Hz / {:.0} Hz): the ±{} dB / ±{}° target is {}.\n",
+            METHODS[5],
+            e.max_gain_db,
+            e.max_phase_deg,
+            e.worst_gain_hz,
+            e.worst_phase_hz,
+            TARGET.0,
+            TARGET.1,
+            if met { "met" } else { "NOT met" }
+        )
+    });
+    if let Some(v) = &verdict {
+        out += v;
+    }
 
     // Fused responses.
     let spec = SpectralConfig::new(NPERSEG);
@@ -138,6 +179,9 @@ pub fn section() -> Result<(String, String, Vec<LinePlot>)> {
     html += &table(&fig_header, &fig_rows);
     let _ = write!(html, "<pre>{}</pre>", esc(note.trim_end()));
     html += &table(&acc_h, &acc_rows);
+    if let Some(v) = &verdict {
+        let _ = write!(html, "<p>{}</p>", esc(v.trim()));
+    }
     Ok((out, html, vec![plot]))
 }
 
@@ -149,7 +193,7 @@ mod tests {
         let t0 = std::time::Instant::now();
         let (text, html, plots) = super::section().unwrap();
         println!("{text}\n({:.1} s)", t0.elapsed().as_secs_f64());
-        for s in ["829.3 Hz", "23.73 Hz", "0.905", "0.1053 N·m", "corrected fusion (FIR)"] {
+        for s in ["829.3 Hz", "23.73 Hz", "0.905", "0.1053 N·m", "corrected fusion (FIR)", "target is met"] {
             assert!(text.contains(s), "{s}");
         }
         assert!(html.contains("<table>"));
