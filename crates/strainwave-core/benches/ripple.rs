@@ -11,6 +11,8 @@
 //! - adskalman: update (forced symmetric) then predict, given the increments; builds `Φ`.
 //!
 //! Run: `cargo bench -p strainwave-core --bench ripple -- --warm-up-time 1 --measurement-time 2`
+//! (optionally with `RUSTFLAGS="-C target-cpu=native"`: every variant then gets the same
+//! flags; the committed configuration targets any x86-64).
 
 use adskalman::{CovarianceUpdateMethod, ObservationModel, StateAndCovariance, TransitionModelLinearNoControl};
 use criterion::{black_box, Criterion, Throughput};
@@ -21,7 +23,6 @@ use strainwave_core::ripple::{
 use strainwave_core::Real;
 
 const N_SAMPLES: usize = 4096;
-const JOINTS: usize = 8;
 
 /// One recorded sample: torque, wrapped reference angles and the orders' increments.
 #[derive(Clone, Copy)]
@@ -213,7 +214,7 @@ macro_rules! bench_ads {
 bench_ads!(bench_ads4, 4);
 bench_ads!(bench_ads6, 6);
 
-fn bench_bank<T: Real, const M: usize>(c: &mut Criterion, name: &str, model: RippleModel<T, M>) {
+fn bench_bank<T: Real, const M: usize, const JOINTS: usize>(c: &mut Criterion, name: &str, model: RippleModel<T, M>) {
     let joints: Vec<Vec<Sample>> = (0..JOINTS).map(|j| samples(0.37 * j as f64)).collect();
     let cv = T::from_f64;
     let inputs: Vec<BankInput<T, JOINTS>> = (0..N_SAMPLES)
@@ -252,9 +253,10 @@ fn all(c: &mut Criterion) {
     bench_strainwave(c, "ripple/7-state-product/f32/strainwave", RippleModel::<f32, 3>::product(1000.0, 0.1).unwrap());
     bench_strainwave(c, "ripple/11-state-full/f64/strainwave", RippleModel::<f64, 5>::full(1000.0, 0.1).unwrap());
     bench_strainwave(c, "ripple/11-state-full/f32/strainwave", RippleModel::<f32, 5>::full(1000.0, 0.1).unwrap());
-    bench_bank(c, "6-state/f32/8-joints", RippleModel::<f32, 3>::seed_6th_order(1000.0).unwrap());
-    bench_bank(c, "6-state/f64/8-joints", RippleModel::<f64, 3>::seed_6th_order(1000.0).unwrap());
-    bench_bank(c, "7-state-product/f32/8-joints", RippleModel::<f32, 3>::product(1000.0, 0.1).unwrap());
+    bench_bank::<f32, 3, 8>(c, "6-state/f32/8-joints", RippleModel::seed_6th_order(1000.0).unwrap());
+    bench_bank::<f32, 3, 16>(c, "6-state/f32/16-joints", RippleModel::seed_6th_order(1000.0).unwrap());
+    bench_bank::<f64, 3, 8>(c, "6-state/f64/8-joints", RippleModel::seed_6th_order(1000.0).unwrap());
+    bench_bank::<f32, 3, 8>(c, "7-state-product/f32/8-joints", RippleModel::product(1000.0, 0.1).unwrap());
 }
 
 fn main() {

@@ -64,14 +64,18 @@ pub(crate) fn step<T: Real, const M: usize, const J: usize>(
         let r = usize::from(r);
         let mut far = false;
         for l in 0..J {
-            let (v, last) = (refs[r][l], bank.last[r][l]);
-            ok[l] &= v.is_finite();
-            delta[r][l] = if angle_input {
-                far |= !((v - last).abs() <= three_pi);
-                wrap_near(v - last)
-            } else {
-                (v + last) * T::HALF * dt
-            };
+            ok[l] &= refs[r][l].is_finite();
+        }
+        if angle_input {
+            for l in 0..J {
+                let d = refs[r][l] - bank.last[r][l];
+                far |= !(d.abs() <= three_pi);
+                delta[r][l] = wrap_near(d);
+            }
+        } else {
+            for l in 0..J {
+                delta[r][l] = (refs[r][l] + bank.last[r][l]) * T::HALF * dt;
+            }
         }
         if far {
             // Unwrapped input: exact wrapping where the near form does not apply.
@@ -111,14 +115,19 @@ pub(crate) fn step<T: Real, const M: usize, const J: usize>(
     }
     for &r in used {
         let r = usize::from(r);
-        let mut x = [T::ZERO; J];
+        bank.last_delta[r] = delta[r];
+        bank.mean_delta[r] = mean[r];
+        // New phase: the angle itself, or the accumulated increments. One loop per
+        // source and the range test as a lane-wise OR keep the loops branch-free.
+        let mut x = *refs[r];
+        if !angle_input {
+            for l in 0..J {
+                x[l] = bank.psi[r][l] + delta[r][l];
+            }
+        }
+        bank.last[r] = *refs[r];
         let mut far = false;
         for l in 0..J {
-            let v = refs[r][l];
-            bank.last_delta[r][l] = delta[r][l];
-            bank.mean_delta[r][l] = mean[r][l];
-            bank.last[r][l] = v;
-            x[l] = if angle_input { v } else { bank.psi[r][l] + delta[r][l] };
             far |= !(x[l].abs() <= three_pi);
             bank.psi[r][l] = wrap_near(x[l]);
         }

@@ -414,24 +414,33 @@ pub(crate) fn finish<T: Real, const M: usize, const J: usize>(
 ) -> BankOutput<T, J> {
     let has_bias = model.bias_q_nm2.is_some();
     let (e, s_var) = (n.e, n.s_var);
-    let mut bad = [false; J];
+    // One sum catches any NaN/∞, one minimum any negative variance. Joint index
+    // innermost and `&` instead of `&&`: no branch per lane, so the loops vectorize.
+    let mut sum = [T::ZERO; J];
+    let mut least = s_var;
     for l in 0..J {
-        let s = s_var[l];
-        // One sum catches any NaN/∞, one minimum any negative variance.
-        let mut sum = s + bank.b[l];
-        let mut least = s;
-        if has_bias {
-            sum += bank.pbb[l];
-            least = least.min(bank.pbb[l]);
-        }
-        for i in 0..M {
-            let d = &bank.p[i][i];
-            sum += d[0][0][l] + d[1][1][l] + bank.z[i][0][l] + bank.z[i][1][l];
-            least = least.min(d[0][0][l]).min(d[1][1][l]);
-        }
-        bad[l] = !(sum.is_finite() && least >= T::ZERO && s > T::ZERO);
+        sum[l] = s_var[l] + bank.b[l];
     }
-    if bad.iter().any(|&b| b) {
+    if has_bias {
+        for l in 0..J {
+            sum[l] += bank.pbb[l];
+            least[l] = least[l].min(bank.pbb[l]);
+        }
+    }
+    for i in 0..M {
+        let d = &bank.p[i][i];
+        for l in 0..J {
+            sum[l] += d[0][0][l] + d[1][1][l] + bank.z[i][0][l] + bank.z[i][1][l];
+            least[l] = least[l].min(d[0][0][l]).min(d[1][1][l]);
+        }
+    }
+    let mut bad = [false; J];
+    let mut any_bad = false;
+    for l in 0..J {
+        bad[l] = !(sum[l].is_finite() & (least[l] >= T::ZERO) & (s_var[l] > T::ZERO));
+        any_bad |= bad[l];
+    }
+    if any_bad {
         for l in 0..J {
             if bad[l] {
                 bank.reset_lane(model, l);
