@@ -198,14 +198,72 @@ pub(crate) fn step<T: Real, const M: usize, const J: usize>(
 #[cfg(test)]
 mod tests {
     use super::super::kernel::{general, run};
-    use super::super::{BankInput, PhaseSource, ReferenceValues, RippleBank, RippleModel};
+    use super::super::{BankInput, PhaseSource, ReferenceValues, RippleBank, RippleInput, RippleModel, RippleOutput};
     use crate::Real;
+
+    /// Joint `l` of `input` as a single-joint sample.
+    fn single<T: Real>(input: &BankInput<T, 2>, l: usize) -> RippleInput<T> {
+        let r = &input.references;
+        let mut one =
+            RippleInput::new(input.torque_nm[l], ReferenceValues::new(r.relative[l], r.output[l], r.motor[l]));
+        one.expected_torque_nm = input.expected_torque_nm[l];
+        one.dt_s = input.dt_s;
+        one
+    }
+
+    /// The single-joint lean path (or the general one after it declines) against the
+    /// general path, bit for bit; returns whether the lean path took the sample.
+    fn same_single<T: Real, const M: usize>(
+        model: &RippleModel<T, M>,
+        a: &mut RippleBank<T, M, 1>,
+        b: &mut RippleBank<T, M, 1>,
+        input: &RippleInput<T>,
+        k: usize,
+    ) -> bool {
+        let before = *a;
+        let lean = super::super::lean::step(model, a, input);
+        let bank_input = BankInput {
+            torque_nm: [input.torque_nm],
+            expected_torque_nm: [input.expected_torque_nm],
+            references: ReferenceValues::new(
+                [input.references.relative],
+                [input.references.output],
+                [input.references.motor],
+            ),
+            dt_s: input.dt_s,
+        };
+        let took = lean.is_some();
+        if !took {
+            assert_eq!(format!("{a:?}"), format!("{before:?}"), "k {k}: the lean check changed the state");
+        }
+        let o = general(model, b, &bank_input, None);
+        let want = RippleOutput {
+            torque_nm: o.torque_nm[0],
+            ripple_nm: o.ripple_nm[0],
+            misalignment_nm: o.misalignment_nm[0],
+            torque_state_nm: o.torque_state_nm[0],
+            innovation_nm: o.innovation_nm[0],
+            innovation_variance_nm2: o.innovation_variance_nm2[0],
+            nis: o.nis[0],
+            flags: o.flags[0],
+        };
+        if let Some(got) = lean {
+            assert_eq!(format!("{got:?}"), format!("{want:?}"), "k {k} (lean)");
+        } else {
+            let _ = general(model, a, &bank_input, None);
+        }
+        assert_eq!(format!("{a:?}"), format!("{b:?}"), "k {k} (lean)");
+        took
+    }
 
     /// The fast path and the general one give the same state and outputs, bit for bit.
     fn same<T: Real, const M: usize>(model: RippleModel<T, M>, unwrapped: bool) {
         let velocity = model.phase_source() == PhaseSource::Velocity;
         let mut a = RippleBank::<T, M, 2>::new(&model);
         let mut b = a;
+        let mut one_a = [RippleBank::<T, M, 1>::new(&model); 2];
+        let mut one_b = one_a;
+        let mut lean_steps = 0;
         let mut seed = 0x9E37_79B9_7F4A_7C15_u64;
         let (mut fast_steps, c) = (0, T::from_f64);
         for k in 0..6000 {
@@ -233,6 +291,12 @@ mod tests {
             if k % 611 == 3 {
                 input.torque_nm[1] = T::from_f64(f64::NAN);
             }
+            if k % 1777 == 900 {
+                input.dt_s = Some(c(if k % 2 == 0 { 0.01 } else { 0.0011 }));
+            }
+            for l in 0..2 {
+                lean_steps += usize::from(same_single(&model, &mut one_a[l], &mut one_b[l], &single(&input, l), k));
+            }
             let before = a;
             let fast = super::step(&model, &mut a, &input);
             fast_steps += usize::from(fast.is_some());
@@ -246,6 +310,7 @@ mod tests {
             assert_eq!(format!("{a:?}"), format!("{b:?}"), "k {k}");
         }
         assert!(fast_steps > 4000, "{fast_steps}");
+        assert!(lean_steps > 2 * 4000, "{lean_steps}");
     }
 
     #[test]

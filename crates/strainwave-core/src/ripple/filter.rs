@@ -4,6 +4,7 @@
 use super::bank::{BankInput, RippleBank};
 use super::io::{OrderStatus, ReferenceValues, RippleInput, RippleOutput, StepFlags};
 use super::kernel::run;
+use super::lean;
 use super::model::RippleModel;
 use crate::{Error, Real};
 
@@ -145,6 +146,15 @@ fn single<T: Real, const M: usize>(
     input: &RippleInput<T>,
     trace: Option<&mut StepTrace<T, M>>,
 ) -> Result<RippleOutput<T>, Error> {
+    // The common sample; the traced step keeps the general path for the smoother.
+    if trace.is_none() {
+        if let Some(o) = lean::step(model, &mut state.bank, input) {
+            if o.flags.contains(StepFlags::COVARIANCE_RESET) {
+                return Err(Error::NotPositiveDefinite("ripple covariance"));
+            }
+            return Ok(o);
+        }
+    }
     let r = &input.references;
     let bank_input = BankInput {
         torque_nm: [input.torque_nm],

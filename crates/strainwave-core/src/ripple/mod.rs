@@ -51,6 +51,7 @@ mod fast;
 mod filter;
 mod io;
 pub mod kernel;
+mod lean;
 mod model;
 mod plan;
 mod presets;
