@@ -189,22 +189,6 @@ pub fn section() -> Result<(String, String, Vec<LinePlot>)> {
     Ok((out, html, vec![plot]))
 }
 
-#[cfg(test)]
-mod tests {
-    /// `cargo test --release -p strainwave-cli --bin strainwave demo_bench -- --nocapture`
-    #[test]
-    fn section_prints_the_figures() {
-        let t0 = std::time::Instant::now();
-        let (text, html, plots) = super::section().unwrap();
-        println!("{text}\n({:.1} s)", t0.elapsed().as_secs_f64());
-        for s in ["829.3 Hz", "23.73 Hz", "0.905", "0.1053 N·m", "corrected fusion (FIR)", "target is met"] {
-            assert!(text.contains(s), "{s}");
-        }
-        assert!(html.contains("<table>"));
-        assert_eq!(plots.len(), 1);
-    }
-}
-
 /// The Campbell diagram of the accelerometer torque over the `kit-bench` ramp
 /// (0 → 3200 rpm), with the 6th and 12th electrical orders drawn as lines (mechanical
 /// orders `6p` and `12p` for `p` pole pairs).
@@ -241,4 +225,20 @@ fn campbell_section() -> Result<(String, String)> {
         scenario.duration_s, orders[0], orders[1]
     );
     Ok((text, map.to_svg()))
+}
+
+#[cfg(test)]
+mod tests {
+    /// `cargo test --release -p strainwave-cli --bin strainwave demo_bench -- --nocapture`
+    #[test]
+    fn section_prints_the_figures() {
+        let t0 = std::time::Instant::now();
+        let (text, html, plots) = super::section().unwrap();
+        println!("{text}\n({:.1} s)", t0.elapsed().as_secs_f64());
+        for s in ["829.3 Hz", "23.73 Hz", "0.905", "0.1053 N·m", "corrected fusion (FIR)", "target is met"] {
+            assert!(text.contains(s), "{s}");
+        }
+        assert!(html.contains("<table>"));
+        assert_eq!(plots.len(), 1);
+    }
 }
