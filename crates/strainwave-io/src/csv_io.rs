@@ -734,9 +734,8 @@ enum Sink {
 
 /// CSV writer; the file appears under its name only on [`CsvWriter::finish`].
 ///
-/// Rows are formatted straight into one buffer, written out when it holds
-/// [`FILE_WRITE_BUFFER_BYTES`] (standard output: [`STDOUT_WRITE_BUFFER_BYTES`]); a file
-/// is written on a thread of its own.
+/// Rows are formatted straight into one buffer, written out when it holds 1 MiB
+/// (standard output: 64 KiB); a file is written on a thread of its own.
 pub struct CsvWriter {
     path: PathBuf,
     sink: Option<Sink>,
