@@ -1,0 +1,210 @@
+//! CSV recordings: a header line of column names, then one row of numbers per sample.
+//! Reading streams: a background thread splits the input and parses its cells into
+//! batches of rows while the caller works on the previous batch. Writing formats rows
+//! into a buffer that a second thread writes to a temporary file, renamed into place on
+//! [`CsvWriter::finish`], so a failed run never leaves a half-written file behind under
+//! the requested name. `-` means standard input / output. Memory stays constant: a few
+//! buffers of a megabyte or less.
+//!
+//! Cells are parsed from the raw bytes of each record (no allocation per row or cell),
+//! with the values and messages of the `csv` crate's trimmed text records; numbers are
+//! written with the shortest text that parses back to the same bits, std's text.
+
+use std::fs::File;
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::{self, Receiver, Sender, SyncSender};
+
+use crate::error::IoError;
+
+/// Rows per chunk when streaming.
+pub const DEFAULT_CHUNK_ROWS: usize = 8192;
+
+/// Bytes asked of the input per read.
+const READ_BUFFER_BYTES: usize = 1 << 20;
+/// Bytes gathered before a write to an output file.
+const FILE_WRITE_BUFFER_BYTES: usize = 1 << 20;
+/// Bytes gathered before a write to standard output (flushed per chunk by the commands anyway).
+const STDOUT_WRITE_BUFFER_BYTES: usize = 1 << 16;
+/// Cells per batch handed from the parsing thread to the reader (512 KiB of `f64`).
+const BATCH_CELLS: usize = 1 << 16;
+/// Batches the parsing thread may have ready ahead of the reader.
+const BATCHES_AHEAD: usize = 2;
+
+mod format;
+mod parser;
+mod writer;
+
+use format::*;
+pub use format::{format_f64, format_row};
+use parser::*;
+pub use writer::CsvWriter;
+
+/// Streaming reader of a numeric CSV recording.
+///
+/// The header is read by [`CsvReader::open`]; the rows are tokenized and parsed on a
+/// background thread, a few batches ahead, in constant memory.
+pub struct CsvReader {
+    path: PathBuf,
+    columns: Vec<String>,
+    rows_read: u64,
+    batches: Receiver<Batch>,
+    spent: Sender<Vec<f64>>,
+    cells: Vec<f64>,
+    next: usize,
+    done: bool,
+}
+
+impl CsvReader {
+    /// Opens a file (or standard input for `-`) and reads its header.
+    pub fn open(path: &Path) -> Result<Self, IoError> {
+        let input: Box<dyn Read + Send> = if path == Path::new("-") {
+            Box::new(std::io::stdin())
+        } else {
+            if path.is_dir() {
+                return Err(IoError::IsDirectory(path.to_path_buf()));
+            }
+            Box::new(File::open(path).map_err(|source| IoError::Os { path: path.to_path_buf(), source })?)
+        };
+        Self::from_reader(path, input)
+    }
+
+    /// Reads from any byte source; `path` is used in messages.
+    pub fn from_reader(path: &Path, input: Box<dyn Read + Send>) -> Result<Self, IoError> {
+        let path = path.to_path_buf();
+        let (out, batches) = mpsc::sync_channel(BATCHES_AHEAD);
+        let (spent, spent_rx) = mpsc::channel();
+        let mut parser = Parser::new(path.clone(), input, out, spent_rx);
+        let header = parser.header()?;
+        if header.is_empty() || (header.len() == 1 && header[0].is_empty()) {
+            return Err(IoError::Empty(path));
+        }
+        let columns: Vec<String> = header.iter().map(str::to_string).collect();
+        let mut seen = std::collections::HashSet::with_capacity(columns.len());
+        if let Some(c) = columns.iter().find(|c| !seen.insert(c.as_str())) {
+            return Err(IoError::DuplicateColumn { path, column: c.clone() });
+        }
+        parser.columns = columns.clone();
+        std::thread::Builder::new()
+            .name("csv-parse".into())
+            .spawn(move || parser.run())
+            .map_err(|source| IoError::Os { path: path.clone(), source })?;
+        Ok(Self { path, columns, rows_read: 0, batches, spent, cells: Vec::new(), next: 0, done: false })
+    }
+
+    /// Column names in file order.
+    pub fn columns(&self) -> &[String] {
+        &self.columns
+    }
+
+    /// The file name used in messages.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Index of a column, or an error listing the columns there are.
+    pub fn column_index(&self, name: &str) -> Result<usize, IoError> {
+        self.columns.iter().position(|c| c == name).ok_or_else(|| IoError::MissingColumn {
+            path: self.path.clone(),
+            column: name.to_string(),
+            available: self.columns.join(", "),
+        })
+    }
+
+    /// Data rows read so far.
+    pub fn rows_read(&self) -> u64 {
+        self.rows_read
+    }
+
+    /// Reads the next row into `row`; `Ok(false)` at the end of the file.
+    /// Cells must parse as numbers (`NaN` and `inf` are numbers and pass through).
+    #[inline]
+    pub fn read_row(&mut self, row: &mut Vec<f64>) -> Result<bool, IoError> {
+        let n = self.columns.len();
+        while self.next + n > self.cells.len() {
+            if !self.next_batch()? {
+                return Ok(false);
+            }
+        }
+        row.clear();
+        row.extend_from_slice(&self.cells[self.next..self.next + n]);
+        self.next += n;
+        self.rows_read += 1;
+        Ok(true)
+    }
+
+    /// Takes the next batch from the parsing thread; `Ok(false)` at the end.
+    fn next_batch(&mut self) -> Result<bool, IoError> {
+        if self.done {
+            return Ok(false);
+        }
+        match self.batches.recv() {
+            Ok(Batch::Rows(cells)) => {
+                let spent = std::mem::replace(&mut self.cells, cells);
+                if spent.capacity() > 0 {
+                    let _ = self.spent.send(spent);
+                }
+                self.next = 0;
+                Ok(true)
+            }
+            Ok(Batch::End { rows, result }) => {
+                self.done = true;
+                self.rows_read = rows;
+                result.map(|()| false)
+            }
+            Err(_) => {
+                self.done = true;
+                Err(IoError::Csv { path: self.path.clone(), msg: "the CSV parsing thread stopped".into() })
+            }
+        }
+    }
+
+    /// Reads up to `max_rows` rows, row-major, into `out` (cleared first); returns rows read.
+    pub fn read_chunk(&mut self, out: &mut Vec<f64>, max_rows: usize) -> Result<usize, IoError> {
+        out.clear();
+        let mut row = Vec::with_capacity(self.columns.len());
+        let mut n = 0;
+        while n < max_rows && self.read_row(&mut row)? {
+            out.extend_from_slice(&row);
+            n += 1;
+        }
+        Ok(n)
+    }
+}
+
+/// A whole recording in memory, column-major.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Table {
+    /// Column names.
+    pub columns: Vec<String>,
+    /// `data[c][k]`.
+    pub data: Vec<Vec<f64>>,
+}
+
+impl Table {
+    /// A column by name.
+    pub fn column(&self, name: &str) -> Option<&[f64]> {
+        self.columns.iter().position(|c| c == name).map(|i| self.data[i].as_slice())
+    }
+
+    /// Number of rows.
+    pub fn rows(&self) -> usize {
+        self.data.first().map_or(0, Vec::len)
+    }
+}
+
+/// Reads a whole CSV recording into memory (for analyses that need every sample).
+pub fn read_table(path: &Path) -> Result<Table, IoError> {
+    let mut r = CsvReader::open(path)?;
+    let mut data = vec![Vec::new(); r.columns().len()];
+    let mut row = Vec::new();
+    while r.read_row(&mut row)? {
+        for (c, v) in data.iter_mut().zip(&row) {
+            c.push(*v);
+        }
+    }
+    Ok(Table { columns: r.columns().to_vec(), data })
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,348 @@
+//! The background parser: splits the input into records and cells into batches of rows.
+
+use super::*;
+
+/// What the parsing thread hands to the reader.
+pub(super) enum Batch {
+    /// Whole rows, row-major.
+    Rows(Vec<f64>),
+    /// No more rows: the end of the input or the error that stopped it, with the rows
+    /// counted (a row with a bad cell or the wrong length counts, as its message names it).
+    End { rows: u64, result: Result<(), IoError> },
+}
+
+/// The parsing side, run on its own thread.
+///
+/// A record without a quote (the numeric case) is split by hand: it ends at the first `\r`
+/// or `\n`, its cells at each `,`, and empty lines are skipped, as the `csv` crate does.
+/// A record with a quote goes through `csv_core`, the `csv` crate's own tokenizer. Any
+/// row that does not parse at once goes through [`Parser::slow_row`], which gives the
+/// values and errors of the crate's text records with trimmed cells (Unicode whitespace).
+pub(super) struct Parser {
+    path: PathBuf,
+    pub(super) columns: Vec<String>,
+    input: Box<dyn Read + Send>,
+    /// Input bytes; `buf[start..end]` is not consumed yet.
+    buf: Vec<u8>,
+    start: usize,
+    end: usize,
+    eof: bool,
+    /// The last read returned less than asked: the source may not be keeping up.
+    starved: bool,
+    core: csv_core::Reader,
+    /// Bytes consumed before `buf[start]`, and the line there (1-based), for messages.
+    consumed: u64,
+    line: u64,
+    /// Data rows parsed.
+    rows: u64,
+    /// Cells of quoted records, as `csv_core` writes them.
+    field_bytes: Vec<u8>,
+    field_ends: Vec<usize>,
+    /// The rows being gathered, and where they go.
+    batch: Vec<f64>,
+    out: SyncSender<Batch>,
+    spent: Receiver<Vec<f64>>,
+}
+
+impl Parser {
+    /// A parser at the start of `input`.
+    pub(super) fn new(
+        path: PathBuf,
+        input: Box<dyn Read + Send>,
+        out: SyncSender<Batch>,
+        spent: Receiver<Vec<f64>>,
+    ) -> Self {
+        Self {
+            path,
+            columns: Vec::new(),
+            input,
+            buf: vec![0; READ_BUFFER_BYTES],
+            start: 0,
+            end: 0,
+            eof: false,
+            starved: false,
+            core: csv_core::Reader::new(),
+            consumed: 0,
+            line: 1,
+            rows: 0,
+            field_bytes: vec![0; 1024],
+            field_ends: vec![0; 64],
+            batch: Vec::with_capacity(BATCH_CELLS),
+            out,
+            spent,
+        }
+    }
+
+    /// Reads the header record; its text and errors are the `csv` crate's (the column
+    /// names trimmed), as it reads exactly the header's bytes.
+    pub(super) fn header(&mut self) -> Result<csv::StringRecord, IoError> {
+        // `csv_core` drops a byte-order mark only when it sees it whole, and takes an
+        // input that is nothing but the mark for the end of the input.
+        while self.end < 4 && self.fill()? {}
+        let (first, _) = self.next_quoted_record()?;
+        let bytes = &self.buf[first..self.start];
+        let mut csv = csv::ReaderBuilder::new().has_headers(true).trim(csv::Trim::Headers).from_reader(bytes);
+        csv.headers().cloned().map_err(|e| csv_error(&self.path, e))
+    }
+
+    pub(super) fn run(mut self) {
+        let n = self.columns.len();
+        let result = loop {
+            match self.parse_row() {
+                Ok(true) => {
+                    if self.batch.len() + n > self.batch.capacity() && !self.send() {
+                        return;
+                    }
+                }
+                Ok(false) => break Ok(()),
+                Err(e) => break Err(e),
+            }
+        };
+        if self.send() {
+            let _ = self.out.send(Batch::End { rows: self.rows, result });
+        }
+    }
+
+    /// Passes the rows gathered so far on; `false` when the reader is gone.
+    pub(super) fn send(&mut self) -> bool {
+        if self.batch.is_empty() {
+            return true;
+        }
+        let mut next = self.spent.try_recv().unwrap_or_else(|_| Vec::with_capacity(BATCH_CELLS));
+        next.clear();
+        let full = std::mem::replace(&mut self.batch, next);
+        self.out.send(Batch::Rows(full)).is_ok()
+    }
+
+    /// Reads more input after `buf[start..end]`; `Ok(false)` at the end of the input.
+    pub(super) fn fill(&mut self) -> Result<bool, IoError> {
+        if self.eof {
+            return Ok(false);
+        }
+        // Rows gathered so far go on before a read that may wait for a slow source.
+        if self.starved && !self.send() {
+            return Err(IoError::Csv { path: self.path.clone(), msg: "the reader of the rows is gone".into() });
+        }
+        if self.start > 0 {
+            self.buf.copy_within(self.start..self.end, 0);
+            self.end -= self.start;
+            self.start = 0;
+        }
+        if self.end == self.buf.len() {
+            // One record longer than the buffer.
+            self.buf.resize(2 * self.buf.len(), 0);
+        }
+        loop {
+            match self.input.read(&mut self.buf[self.end..]) {
+                Ok(0) => {
+                    self.eof = true;
+                    return Ok(false);
+                }
+                Ok(n) => {
+                    self.starved = n < self.buf.len() - self.end;
+                    self.end += n;
+                    return Ok(true);
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(IoError::Csv { path: self.path.clone(), msg: e.to_string() }),
+            }
+        }
+    }
+
+    pub(super) fn consume(&mut self, n: usize) {
+        self.start += n;
+        self.consumed += n as u64;
+    }
+
+    /// Appends the next row to the batch; `Ok(false)` at the end of the input.
+    pub(super) fn parse_row(&mut self) -> Result<bool, IoError> {
+        // Where the `csv` crate puts the record, for messages: before the empty lines it skips.
+        let mut pos = csv::Position::new();
+        pos.set_byte(self.consumed).set_line(self.line).set_record(self.rows + 1);
+        loop {
+            while let Some(&c @ (b'\r' | b'\n')) = self.buf[self.start..self.end].first() {
+                self.line += u64::from(c == b'\n');
+                self.consume(1);
+            }
+            if self.start < self.end {
+                break;
+            }
+            if !self.fill()? {
+                return Ok(false);
+            }
+        }
+        let mut scanned = 0;
+        loop {
+            let rest = &self.buf[self.start + scanned..self.end];
+            match memchr::memchr3(b'\n', b'\r', b'"', rest) {
+                Some(i) if rest[i] == b'"' => {
+                    let (_, cells) = self.next_quoted_record()?;
+                    let record = self.quoted_record(cells, pos);
+                    self.slow_row(&record)?;
+                    return Ok(true);
+                }
+                Some(i) => {
+                    let t = self.start + scanned + i;
+                    self.fast_row(self.start, t, pos)?;
+                    self.line += u64::from(self.buf[t] == b'\n');
+                    self.consume(t + 1 - self.start);
+                    return Ok(true);
+                }
+                None => {
+                    scanned = self.end - self.start;
+                    if !self.fill()? {
+                        // The last record, without a line end.
+                        self.fast_row(self.start, self.end, pos)?;
+                        self.consume(self.end - self.start);
+                        return Ok(true);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Parses the quote-free record `buf[from..to]` into the batch.
+    #[inline]
+    pub(super) fn fast_row(&mut self, from: usize, to: usize, pos: csv::Position) -> Result<(), IoError> {
+        let line = &self.buf[from..to];
+        let n = self.columns.len();
+        let before = self.batch.len();
+        let mut cells = 0;
+        if let Ok(text) = std::str::from_utf8(line) {
+            let mut a = 0;
+            for b in memchr::memchr_iter(b',', line).chain(std::iter::once(line.len())) {
+                cells += 1;
+                match parse_cell(&text[a..b]) {
+                    Some(v) if cells <= n => self.batch.push(v),
+                    _ => {
+                        cells = 0;
+                        break;
+                    }
+                }
+                a = b + 1;
+            }
+        }
+        if cells == n {
+            self.rows += 1;
+            return Ok(());
+        }
+        self.batch.truncate(before);
+        let mut record = csv::ByteRecord::new();
+        for cell in line.split(|&c| c == b',') {
+            record.push_field(cell);
+        }
+        record.set_position(Some(pos));
+        self.slow_row(&record)
+    }
+
+    /// Runs `csv_core` over the record at `buf[start..]`: its cells go to `field_bytes`
+    /// and `field_ends`; returns where its bytes begin in the buffer (they stay there, and
+    /// `start` moves past them) and its number of cells (0 at the end of the input).
+    pub(super) fn next_quoted_record(&mut self) -> Result<(usize, usize), IoError> {
+        use csv_core::ReadRecordResult::*;
+        self.core.set_line(self.line);
+        let (mut first, mut nout, mut nend) = (self.start, 0, 0);
+        loop {
+            if self.start == self.end && !self.eof {
+                let keep = self.start - first;
+                self.start = first;
+                self.fill()?;
+                first = self.start;
+                self.start += keep;
+                continue;
+            }
+            // An empty input here is the end of the input: `csv_core` finishes the record.
+            let (res, nin, o, e) = self.core.read_record(
+                &self.buf[self.start..self.end],
+                &mut self.field_bytes[nout..],
+                &mut self.field_ends[nend..],
+            );
+            self.consume(nin);
+            nout += o;
+            nend += e;
+            match res {
+                InputEmpty => {}
+                OutputFull => self.field_bytes.resize(2 * self.field_bytes.len(), 0),
+                OutputEndsFull => self.field_ends.resize(2 * self.field_ends.len(), 0),
+                Record | End => break,
+            }
+        }
+        self.line = self.core.line();
+        Ok((first, nend))
+    }
+
+    /// The quoted record just read, with its position.
+    pub(super) fn quoted_record(&self, cells: usize, pos: csv::Position) -> csv::ByteRecord {
+        let mut record = csv::ByteRecord::new();
+        let mut a = 0;
+        for &b in &self.field_ends[..cells] {
+            record.push_field(&self.field_bytes[a..b]);
+            a = b;
+        }
+        record.set_position(Some(pos));
+        record
+    }
+
+    /// A row that does not parse at once: the values and errors of a text-record reader
+    /// with trimmed cells. The record's UTF-8 comes first, then its length, then each cell
+    /// with Unicode whitespace trimmed.
+    #[cold]
+    pub(super) fn slow_row(&mut self, record: &csv::ByteRecord) -> Result<(), IoError> {
+        utf8_check(&self.path, record)?;
+        self.rows += 1;
+        if record.len() != self.columns.len() {
+            return Err(IoError::RowLength {
+                path: self.path.clone(),
+                row: self.rows,
+                got: record.len(),
+                want: self.columns.len(),
+            });
+        }
+        let before = self.batch.len();
+        for (i, cell) in record.iter().enumerate() {
+            let cell = std::str::from_utf8(cell).unwrap_or_default().trim();
+            match cell.parse() {
+                Ok(v) => self.batch.push(v),
+                Err(_) => {
+                    self.batch.truncate(before);
+                    return Err(IoError::NotANumber {
+                        path: self.path.clone(),
+                        row: self.rows,
+                        column: self.columns[i].clone(),
+                        value: cell.chars().take(40).collect(),
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+pub(super) fn csv_error(path: &Path, e: csv::Error) -> IoError {
+    IoError::Csv { path: path.to_path_buf(), msg: e.to_string() }
+}
+
+/// The error the text-record reader gives for a record that is not UTF-8 (after
+/// trimming ASCII whitespace around its cells), with the same message.
+pub(super) fn utf8_check(path: &Path, record: &csv::ByteRecord) -> Result<(), IoError> {
+    if record.as_slice().is_ascii() {
+        return Ok(());
+    }
+    let mut trimmed = record.clone();
+    trimmed.trim();
+    let Err(e) = csv::StringRecord::from_byte_record(trimmed) else {
+        return Ok(());
+    };
+    let err = e.utf8_error();
+    let msg = match record.position() {
+        Some(pos) => format!(
+            "CSV parse error: record {} (line {}, field: {}, byte: {}): {err}",
+            pos.record(),
+            pos.line(),
+            err.field(),
+            pos.byte()
+        ),
+        None => format!("CSV parse error: field {}: {err}", err.field()),
+    };
+    Err(IoError::Csv { path: path.to_path_buf(), msg })
+}

@@ -1,0 +1,440 @@
+use super::*;
+
+fn reader(text: &'static str) -> Result<CsvReader, IoError> {
+    CsvReader::from_reader(Path::new("rec.csv"), Box::new(text.as_bytes()))
+}
+
+#[test]
+fn shortest_round_trip_formatting() {
+    for x in [0.0, 1.0, -2.5, 1e-7, 123456.789, 1.0 / 3.0, f64::MIN_POSITIVE, 6.02e23, -1e-300] {
+        let mut s = String::new();
+        format_f64(x, &mut s);
+        assert_eq!(s.parse::<f64>().unwrap().to_bits(), x.to_bits(), "{s}");
+        assert!(s.len() < 26, "{s}");
+    }
+}
+
+#[test]
+fn reads_rows_and_names_bad_cells() {
+    let mut r = reader("time,a\n0,1.5\n0.001,x\n").unwrap();
+    let mut row = Vec::new();
+    assert!(r.read_row(&mut row).unwrap());
+    assert_eq!(row, vec![0.0, 1.5]);
+    let e = r.read_row(&mut row).unwrap_err().to_string();
+    assert_eq!(e, "rec.csv: row 2, column `a`: `x` is not a number");
+}
+
+#[test]
+fn truncated_line_and_empty_file_and_missing_column() {
+    let mut r = reader("time,a,b\n0,1,2\n0.001,3").unwrap();
+    let mut row = Vec::new();
+    r.read_row(&mut row).unwrap();
+    assert!(matches!(r.read_row(&mut row), Err(IoError::RowLength { row: 2, got: 2, want: 3, .. })));
+    assert!(matches!(reader(""), Err(IoError::Empty(_))));
+    let r = reader("time,a\n").unwrap();
+    assert_eq!(r.column_index("b").unwrap_err().to_string(), "rec.csv: no column `b` (columns: time, a)");
+    assert!(matches!(reader("a,a\n1,2\n"), Err(IoError::DuplicateColumn { .. })));
+}
+
+#[test]
+fn nan_passes_through_as_a_number() {
+    let mut r = reader("a\nNaN\ninf\n").unwrap();
+    let mut row = Vec::new();
+    r.read_row(&mut row).unwrap();
+    assert!(row[0].is_nan());
+    r.read_row(&mut row).unwrap();
+    assert!(row[0].is_infinite());
+}
+
+#[test]
+fn writer_is_atomic_and_round_trips() {
+    let dir = std::env::temp_dir().join(format!("sw-io-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("out.csv");
+    let mut w = CsvWriter::create(&path, &["time", "x"]).unwrap();
+    w.write_row(&[0.0, 0.1]).unwrap();
+    assert!(!path.exists(), "visible before finish");
+    assert!(w.write_row(&[1.0]).is_err());
+    w.finish().unwrap();
+    let t = read_table(&path).unwrap();
+    assert_eq!(t.column("x").unwrap(), &[0.1]);
+    // Dropped without finish: nothing left behind.
+    let p2 = dir.join("never.csv");
+    drop(CsvWriter::create(&p2, &["a"]).unwrap());
+    assert!(!p2.exists() && !dir.join(".never.csv.partial").exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// std's shortest text, plain or exponent form: what `format_f64` must write.
+fn std_text(x: f64) -> String {
+    if x == 0.0 || (1e-5..1e16).contains(&x.abs()) || !x.is_finite() {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+/// A small xorshift generator, so the cases are the same in every run.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        self.0
+    }
+
+    fn below(&mut self, n: usize) -> usize {
+        (self.next() % n as u64) as usize
+    }
+}
+
+#[test]
+fn formatting_is_std_text_byte_for_byte() {
+    let mut values = vec![
+        0.0,
+        -0.0,
+        f64::NAN,
+        -f64::NAN,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::MAX,
+        f64::MIN,
+        f64::MIN_POSITIVE,
+        5e-324,
+        1e-5,
+        1e16,
+        9999999999999998.0,
+        0.1 + 0.2,
+        64.0,
+        -3.0,
+    ];
+    for e in -1074..1024 {
+        let x = 2f64.powi(e);
+        values.extend([x, x.next_up(), x.next_down(), -x]);
+    }
+    for e in -324..=308 {
+        let x: f64 = format!("1e{e}").parse().unwrap();
+        values.extend([x, x.next_up(), x.next_down()]);
+    }
+    // Exact ties between two shortest texts (e.g. 2^-25, 2^49 + 1/4), where ryu-style
+    // formatters pick the even digit and std the one away from zero.
+    for m in (1..2000u64).step_by(2) {
+        for p in -30..=25 {
+            values.push(m as f64 * 2f64.powi(p));
+        }
+    }
+    let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+    for _ in 0..100_000 {
+        values.push(f64::from_bits(rng.next()));
+        let odd = (rng.next() >> 11) | 1;
+        values.push(-(odd as f64) * 2f64.powi(-(rng.below(27) as i32) - 1));
+        values.push((rng.next() >> 11) as f64 / (1u64 << 53) as f64 * 200.0 - 100.0);
+    }
+    let mut line = Vec::new();
+    for x in values {
+        line.clear();
+        push_f64(x, &mut line);
+        let text = String::from_utf8(line.clone()).unwrap();
+        assert_eq!(text, std_text(x), "{:016x}", x.to_bits());
+        if !x.is_nan() {
+            assert_eq!(text.parse::<f64>().unwrap().to_bits(), x.to_bits(), "{text}");
+        }
+    }
+}
+
+#[test]
+fn values_are_bit_exact_and_quoted_cells_parse() {
+    let text = "time,\"torque, N·m\" ,x\n\
+                0.30000000000000004,5e-324,1.7976931348623157e308\n\
+                \"1.5\",\" -0 \",\"2.5e-8\"\r\n\
+                \n\
+                \u{feff}1,\"multi\nline\",3\r\
+                4 , 5\t,\u{a0}6\u{3000}\n";
+    let mut r = CsvReader::from_reader(Path::new("rec.csv"), Box::new(text.as_bytes())).unwrap();
+    assert_eq!(r.columns(), ["time", "torque, N·m", "x"]);
+    let mut row = Vec::new();
+    assert!(r.read_row(&mut row).unwrap());
+    let bits: Vec<u64> = row.iter().map(|v| v.to_bits()).collect();
+    assert_eq!(bits, [0.30000000000000004f64.to_bits(), 1, f64::MAX.to_bits()]);
+    assert!(r.read_row(&mut row).unwrap());
+    assert_eq!(row.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), [1.5f64, -0.0, 2.5e-8].map(f64::to_bits));
+    let e = r.read_row(&mut row).unwrap_err().to_string();
+    assert_eq!(e, "rec.csv: row 3, column `time`: `\u{feff}1` is not a number");
+    assert_eq!(r.rows_read(), 3);
+    let mut r = CsvReader::from_reader(Path::new("rec.csv"), Box::new(&text.as_bytes()[97..])).unwrap();
+    assert_eq!(r.columns(), ["1", "multi\nline", "3"]);
+    assert!(r.read_row(&mut row).unwrap());
+    assert_eq!(row, [4.0, 5.0, 6.0]);
+    assert!(!r.read_row(&mut row).unwrap());
+    assert_eq!(r.rows_read(), 1);
+}
+
+#[test]
+fn errors_name_file_row_and_column() {
+    let mut row = Vec::new();
+    let mut r = reader("time,a,b\n0,1,2\n1,2,\"x y\"\n").unwrap();
+    r.read_row(&mut row).unwrap();
+    let e = r.read_row(&mut row).unwrap_err().to_string();
+    assert_eq!(e, "rec.csv: row 2, column `b`: `x y` is not a number");
+    let mut r = reader("time,a,b\n0,1,2\n1,2,3,4\n").unwrap();
+    r.read_row(&mut row).unwrap();
+    let e = r.read_row(&mut row).unwrap_err().to_string();
+    assert_eq!(e, "rec.csv: row 2 has 4 cells, the header has 3 (truncated or malformed line)");
+    let bad = CsvReader::from_reader(Path::new("rec.csv"), Box::new(&b"a,b\n1,2\r\n3,\xff\n"[..]));
+    let e = bad.unwrap().read_chunk(&mut row, 10).unwrap_err().to_string();
+    assert_eq!(
+        e,
+        "rec.csv: CSV parse error: record 2 (line 2, field: 1, byte: 8): \
+         invalid utf-8: invalid UTF-8 in field 1 near byte index 0"
+    );
+    assert!(matches!(reader("\n\n"), Err(IoError::Empty(_))));
+    let mut r = reader("time\n").unwrap();
+    assert!(!r.read_row(&mut row).unwrap());
+    assert_eq!(r.rows_read(), 0);
+}
+
+/// Reads at most a few bytes per call, to cross every buffer boundary.
+struct Trickle {
+    data: Vec<u8>,
+    at: usize,
+    rng: Rng,
+}
+
+impl Read for Trickle {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = (1 + self.rng.below(7)).min(buf.len()).min(self.data.len() - self.at);
+        buf[..n].copy_from_slice(&self.data[self.at..self.at + n]);
+        self.at += n;
+        Ok(n)
+    }
+}
+
+/// What a reader gives for `data`: the header or its error, then each row's bits or
+/// error and the rows counted after it, up to the first error.
+type Outcome = (Result<Vec<String>, String>, Vec<(Result<Vec<u64>, String>, u64)>);
+
+/// The plain reader: the `csv` crate's text records, cells trimmed, `str::parse`.
+fn reference(data: &[u8]) -> Outcome {
+    let path = Path::new("rec.csv");
+    let mut csv = csv::ReaderBuilder::new().flexible(true).trim(csv::Trim::All).from_reader(data);
+    let header = match csv.headers() {
+        Ok(h) => h.clone(),
+        Err(e) => return (Err(csv_error(path, e).to_string()), Vec::new()),
+    };
+    if header.is_empty() || (header.len() == 1 && header[0].is_empty()) {
+        return (Err(IoError::Empty(path.into()).to_string()), Vec::new());
+    }
+    let columns: Vec<String> = header.iter().map(str::to_string).collect();
+    if let Some(c) = columns.iter().enumerate().find_map(|(i, c)| columns[..i].contains(c).then_some(c)) {
+        return (Err(IoError::DuplicateColumn { path: path.into(), column: c.clone() }.to_string()), Vec::new());
+    }
+    let mut rows = Vec::new();
+    let mut record = csv::StringRecord::new();
+    let mut n = 0;
+    loop {
+        let row = match csv.read_record(&mut record) {
+            Ok(false) => return (Ok(columns), rows),
+            Err(e) => Err(csv_error(path, e).to_string()),
+            Ok(true) => {
+                n += 1;
+                if record.len() != columns.len() {
+                    let (got, want) = (record.len(), columns.len());
+                    Err(IoError::RowLength { path: path.into(), row: n, got, want }.to_string())
+                } else {
+                    record
+                        .iter()
+                        .enumerate()
+                        .map(|(i, cell)| {
+                            cell.parse::<f64>().map(f64::to_bits).map_err(|_| {
+                                let value = cell.chars().take(40).collect();
+                                let column = columns[i].clone();
+                                IoError::NotANumber { path: path.into(), row: n, column, value }.to_string()
+                            })
+                        })
+                        .collect()
+                }
+            }
+        };
+        let stop = row.is_err();
+        rows.push((row, n));
+        if stop {
+            return (Ok(columns), rows);
+        }
+    }
+}
+
+fn ours(data: &[u8], seed: u64) -> Outcome {
+    let input = Trickle { data: data.to_vec(), at: 0, rng: Rng(seed) };
+    let mut r = match CsvReader::from_reader(Path::new("rec.csv"), Box::new(input)) {
+        Ok(r) => r,
+        Err(e) => return (Err(e.to_string()), Vec::new()),
+    };
+    let mut rows = Vec::new();
+    let mut row = Vec::new();
+    loop {
+        match r.read_row(&mut row) {
+            Ok(false) => return (Ok(r.columns().to_vec()), rows),
+            Ok(true) => rows.push((Ok(row.iter().map(|v| v.to_bits()).collect()), r.rows_read())),
+            Err(e) => {
+                rows.push((Err(e.to_string()), r.rows_read()));
+                return (Ok(r.columns().to_vec()), rows);
+            }
+        }
+    }
+}
+
+#[test]
+fn reads_what_the_csv_crate_reads() {
+    let cells: &[&[u8]] = &[
+        b"1.5",
+        b" 2 ",
+        b"-0",
+        b"1e-7",
+        b"NaN",
+        b"inf",
+        b"-inf",
+        b"+3",
+        b".5",
+        b"0.30000000000000004",
+        b"\"3.25\"",
+        b"\" 4 \"",
+        b"\"5,5\"",
+        b"\"a\"\"b\"",
+        b"\"7\r\n\"",
+        b"1\"2",
+        b"abc",
+        b"",
+        b" ",
+        "\u{a0}6\u{a0}".as_bytes(),
+        "\u{3000}7".as_bytes(),
+        b"\x0b8",
+        b"\x0c9\t",
+        b"\xff",
+        b"\xc3",
+        b"\xa9",
+        "é".as_bytes(),
+        b"1e400",
+        b"0x10",
+    ];
+    let ends: &[&[u8]] = &[b"\n", b"\n", b"\n", b"\r\n", b"\r", b"\n\n", b"\r\n\r\n"];
+    let mut rng = Rng(0x2545_F491_4F6C_DD1D);
+    for case in 0..3000 {
+        let mut data = Vec::new();
+        if rng.below(20) == 0 {
+            data.extend_from_slice("\u{feff}".as_bytes());
+        }
+        if rng.below(10) == 0 {
+            data.extend_from_slice(ends[rng.below(ends.len())]);
+        }
+        let columns = 1 + rng.below(4);
+        let names: &[&[u8]] = &[b"time", b" a ", b"\"b,c\"", b"d", b"e", b"\"\"", b"\xfe"];
+        for c in 0..columns {
+            if c > 0 {
+                data.push(b',');
+            }
+            data.extend_from_slice(names[(c + rng.below(3) * usize::from(rng.below(5) == 0)) % names.len()]);
+        }
+        for _ in 0..rng.below(12) {
+            data.extend_from_slice(ends[rng.below(ends.len())]);
+            let n = if rng.below(8) == 0 { rng.below(6) } else { columns };
+            for c in 0..n {
+                if c > 0 {
+                    data.push(b',');
+                }
+                if rng.below(3) == 0 {
+                    data.extend_from_slice(cells[rng.below(cells.len())]);
+                } else {
+                    data.extend_from_slice(std_text(f64::from_bits(rng.next())).as_bytes());
+                }
+            }
+        }
+        if rng.below(2) == 0 {
+            data.extend_from_slice(ends[rng.below(ends.len())]);
+        }
+        let (want, got) = (reference(&data), ours(&data, case));
+        assert_eq!(got, want, "case {case}: {:?}", String::from_utf8_lossy(&data));
+    }
+}
+
+#[test]
+fn long_records_cross_the_read_buffer() {
+    // Rows of about 1.5 MB: wide, with cells padded by spaces.
+    let columns = 2_500;
+    let mut text = (0..columns).map(|c| format!("c{c}")).collect::<Vec<_>>().join(",");
+    for k in 0..3 {
+        text.push('\n');
+        let cells: Vec<String> =
+            (0..columns).map(|c| format!("{:>600}", std_text((k * columns + c) as f64 / 7.0))).collect();
+        text.push_str(&cells.join(","));
+    }
+    assert!(text.len() > 2 * READ_BUFFER_BYTES);
+    let mut r = CsvReader::from_reader(Path::new("rec.csv"), Box::new(std::io::Cursor::new(text))).unwrap();
+    let mut row = Vec::new();
+    for k in 0..3 {
+        assert!(r.read_row(&mut row).unwrap());
+        assert_eq!(row.len(), columns);
+        assert_eq!(row[columns - 1], ((k + 1) * columns - 1) as f64 / 7.0);
+    }
+    assert!(!r.read_row(&mut row).unwrap());
+}
+
+/// A pipe: reads wait for what the other end sends.
+struct Pipe(std::sync::mpsc::Receiver<Vec<u8>>, Vec<u8>);
+
+impl Read for Pipe {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        if self.1.is_empty() {
+            self.1 = self.0.recv().unwrap_or_default();
+        }
+        let n = self.1.len().min(buf.len());
+        buf[..n].copy_from_slice(&self.1[..n]);
+        self.1.drain(..n);
+        Ok(n)
+    }
+}
+
+#[test]
+fn rows_from_a_live_pipe_arrive_without_waiting_for_a_batch() {
+    let (send, receive) = std::sync::mpsc::channel();
+    send.send(b"time,x\n0,1\n0.001,2\n".to_vec()).unwrap();
+    let mut r = CsvReader::from_reader(Path::new("-"), Box::new(Pipe(receive, Vec::new()))).unwrap();
+    let (done, wait) = std::sync::mpsc::channel();
+    let t = std::thread::spawn(move || {
+        let mut row = Vec::new();
+        for want in [[0.0, 1.0], [0.001, 2.0]] {
+            assert!(r.read_row(&mut row).unwrap());
+            assert_eq!(row, want);
+        }
+        done.send(()).unwrap();
+        assert!(r.read_row(&mut row).unwrap());
+        assert_eq!(row, [0.002, 3.0]);
+        assert!(!r.read_row(&mut row).unwrap());
+    });
+    // The two rows come while the pipe stays open.
+    wait.recv_timeout(std::time::Duration::from_secs(30)).expect("rows held back");
+    send.send(b"0.002,3\n".to_vec()).unwrap();
+    drop(send);
+    t.join().unwrap();
+}
+
+#[test]
+fn writer_output_is_byte_for_byte_the_std_text() {
+    let dir = std::env::temp_dir().join(format!("sw-io-w-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("out.csv");
+    let mut w = CsvWriter::create(&path, &["a", "b", "c"]).unwrap();
+    let mut want = String::from("a,b,c\n");
+    let mut rng = Rng(7);
+    // Enough rows to cross the write buffer a few times.
+    for k in 0..150_000 {
+        let row = [k as f64 * 1e-3, f64::from_bits(rng.next()), (k % 7) as f64 - 3.0];
+        w.write_row(&row).unwrap();
+        want.push_str(&row.map(std_text).join(","));
+        want.push('\n');
+    }
+    assert_eq!(w.finish().unwrap(), 150_000);
+    assert!(std::fs::read_to_string(&path).unwrap() == want, "output differs from std's text");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
