@@ -269,3 +269,19 @@ pub struct BankOutput<T: Real, const J: usize> {
     /// Flags; [`StepFlags::COVARIANCE_RESET`] marks a joint whose state was reset.
     pub flags: [StepFlags; J],
 }
+
+impl<T: Real> From<BankOutput<T, 1>> for super::RippleOutput<T> {
+    /// The single joint of a one-joint bank step.
+    fn from(o: BankOutput<T, 1>) -> Self {
+        Self {
+            torque_nm: o.torque_nm[0],
+            ripple_nm: o.ripple_nm[0],
+            misalignment_nm: o.misalignment_nm[0],
+            torque_state_nm: o.torque_state_nm[0],
+            innovation_nm: o.innovation_nm[0],
+            innovation_variance_nm2: o.innovation_variance_nm2[0],
+            nis: o.nis[0],
+            flags: o.flags[0],
+        }
+    }
+}

@@ -237,16 +237,7 @@ mod tests {
             assert_eq!(format!("{a:?}"), format!("{before:?}"), "k {k}: the lean check changed the state");
         }
         let o = general(model, b, &bank_input, None);
-        let want = RippleOutput {
-            torque_nm: o.torque_nm[0],
-            ripple_nm: o.ripple_nm[0],
-            misalignment_nm: o.misalignment_nm[0],
-            torque_state_nm: o.torque_state_nm[0],
-            innovation_nm: o.innovation_nm[0],
-            innovation_variance_nm2: o.innovation_variance_nm2[0],
-            nis: o.nis[0],
-            flags: o.flags[0],
-        };
+        let want = RippleOutput::from(o);
         if let Some(got) = lean {
             assert_eq!(format!("{got:?}"), format!("{want:?}"), "k {k} (lean)");
         } else {

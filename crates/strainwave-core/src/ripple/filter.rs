@@ -163,20 +163,10 @@ fn single<T: Real, const M: usize>(
         dt_s: input.dt_s,
     };
     let o = run(model, &mut state.bank, &bank_input, trace);
-    let [flags] = o.flags;
-    if flags.contains(StepFlags::COVARIANCE_RESET) {
+    if o.flags[0].contains(StepFlags::COVARIANCE_RESET) {
         return Err(Error::NotPositiveDefinite("ripple covariance"));
     }
-    Ok(RippleOutput {
-        torque_nm: o.torque_nm[0],
-        ripple_nm: o.ripple_nm[0],
-        misalignment_nm: o.misalignment_nm[0],
-        torque_state_nm: o.torque_state_nm[0],
-        innovation_nm: o.innovation_nm[0],
-        innovation_variance_nm2: o.innovation_variance_nm2[0],
-        nis: o.nis[0],
-        flags,
-    })
+    Ok(o.into())
 }
 
 /// Mean and covariance of the rotating-frame state `[z_1, …, z_M, b]` (length `2M+1`;
