@@ -67,11 +67,15 @@ pub fn step_many<T: Real, const M: usize, const J: usize>(
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
 ) -> BankOutput<T, J> {
+    #[cfg(all(feature = "std", target_arch = "x86_64"))]
+    if J > 1 && super::avx2::available() {
+        return super::avx2::step(model, bank, input);
+    }
     run(model, bank, input, None)
 }
 
 /// The whole step; `trace` (for `J = 1`) records joint 0's intermediate quantities.
-#[inline]
+#[inline(always)]
 pub(crate) fn run<T: Real, const M: usize, const J: usize>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,

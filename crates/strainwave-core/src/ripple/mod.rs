@@ -46,6 +46,8 @@
 //! # Ok::<(), strainwave_core::Error>(())
 //! ```
 
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+mod avx2;
 mod bank;
 mod fast;
 mod filter;
