@@ -22,7 +22,7 @@ const HOLD_AVERAGE: f64 = 1.0 / 16.0;
 
 /// `wrap_angle` for `|x| ≤ 3π` as selects (vectorizes); larger `|x|` are fixed up after.
 #[inline(always)]
-fn wrap_near<T: Real>(x: T) -> T {
+pub(super) fn wrap_near<T: Real>(x: T) -> T {
     let up = if x < -T::PI { x + T::TAU } else { x };
     if x > T::PI {
         x - T::TAU
@@ -54,16 +54,19 @@ pub(crate) fn step<T: Real, const M: usize, const J: usize>(
     let mut y = [T::ZERO; J];
     for l in 0..J {
         y[l] = input.torque_nm[l] - input.expected_torque_nm[l];
-        ok[l] = y[l].is_finite() & bank.has_last[l] & (bank.pending_samples[l] == T::ZERO);
+        ok[l] = finite(y[l]) & bank.has_last[l] & (bank.pending_samples[l] == T::ZERO);
     }
-    let used = &model.used_refs[..usize::from(model.n_used).min(3)];
     let mut delta = [[T::ZERO; J]; 3];
     let mut mean = [[T::ZERO; J]; 3];
-    for &r in used {
-        let r = usize::from(r);
+    // A constant reference index per iteration (not a list of the used ones) makes
+    // every access below a fixed offset.
+    for r in 0..3 {
+        if !model.uses[r] {
+            continue;
+        }
         let mut far = false;
         for l in 0..J {
-            ok[l] &= refs[r][l].is_finite();
+            ok[l] &= finite(refs[r][l]);
         }
         if angle_input {
             for l in 0..J {
@@ -112,8 +115,10 @@ pub(crate) fn step<T: Real, const M: usize, const J: usize>(
         bank.pending_dt[l] = T::ZERO;
         bank.delta_known[l] = true;
     }
-    for &r in used {
-        let r = usize::from(r);
+    for r in 0..3 {
+        if !model.uses[r] {
+            continue;
+        }
         bank.last_delta[r] = delta[r];
         bank.mean_delta[r] = mean[r];
         // New phase: the angle itself, or the accumulated increments. One loop per
@@ -150,7 +155,33 @@ pub(crate) fn step<T: Real, const M: usize, const J: usize>(
 
     // Everything after the phasors, one joint at a time: the temporaries stay in
     // registers and the loop vectorizes across joints as a whole.
-    let mut out = BankOutput {
+    let mut out = empty_output();
+    let mut load_step = [false; J];
+    let mut bad = [false; J];
+    // Local copies: the loop then reads and writes no memory the bank could share, so
+    // it vectorizes without run-time overlap checks.
+    let par = Params::new(model);
+    let (torque, expected) = (input.torque_nm, input.expected_torque_nm);
+    let abs_at = |l: usize| core::array::from_fn(|i| abs_a[i][l]);
+    if model.bias_q_nm2.is_some() {
+        for l in 0..J {
+            let h = core::array::from_fn(|i| [bank.phasor[i][0][l], bank.phasor[i][1][l]]);
+            (load_step[l], bad[l]) = joint::<T, M, J, true>(&par, bank, &torque, &expected, h, abs_at(l), l, &mut out);
+        }
+    } else {
+        for l in 0..J {
+            let h = core::array::from_fn(|i| [bank.phasor[i][0][l], bank.phasor[i][1][l]]);
+            (load_step[l], bad[l]) = joint::<T, M, J, false>(&par, bank, &torque, &expected, h, abs_at(l), l, &mut out);
+        }
+    }
+    settle(model, bank, input, &load_step, &bad, &mut out);
+    Some(out)
+}
+
+/// An output to fill in.
+#[inline(always)]
+pub(super) fn empty_output<T: Real, const J: usize>() -> BankOutput<T, J> {
+    BankOutput {
         torque_nm: [T::ZERO; J],
         ripple_nm: [T::ZERO; J],
         misalignment_nm: [T::ZERO; J],
@@ -159,25 +190,25 @@ pub(crate) fn step<T: Real, const M: usize, const J: usize>(
         innovation_variance_nm2: [T::ZERO; J],
         nis: [T::ZERO; J],
         flags: [StepFlags::empty(); J],
-    };
-    let mut load_step = [false; J];
-    let mut bad = [false; J];
-    // Local copies: the loop then reads and writes no memory the bank could share, so
-    // it vectorizes without run-time overlap checks.
-    let par = Params::new(model);
-    let (torque, expected) = (input.torque_nm, input.expected_torque_nm);
-    if model.bias_q_nm2.is_some() {
-        for l in 0..J {
-            (load_step[l], bad[l]) = joint::<T, M, J, true>(&par, bank, &torque, &expected, &abs_a, l, &mut out);
-        }
-    } else {
-        for l in 0..J {
-            (load_step[l], bad[l]) = joint::<T, M, J, false>(&par, bank, &torque, &expected, &abs_a, l, &mut out);
-        }
     }
-    for l in 0..J {
-        if load_step[l] {
-            out.flags[l].insert(StepFlags::LOAD_STEP);
+}
+
+/// Flags for the joints with a load step, and the reset of joints whose covariance
+/// went bad (rare, so after the loop).
+#[inline(always)]
+pub(super) fn settle<T: Real, const M: usize, const J: usize>(
+    model: &RippleModel<T, M>,
+    bank: &mut RippleBank<T, M, J>,
+    input: &BankInput<T, J>,
+    load_step: &[bool; J],
+    bad: &[bool; J],
+    out: &mut BankOutput<T, J>,
+) {
+    if load_step.iter().any(|&s| s) {
+        for l in 0..J {
+            if load_step[l] {
+                out.flags[l].insert(StepFlags::LOAD_STEP);
+            }
         }
     }
     if bad.iter().any(|&b| b) {
@@ -191,12 +222,11 @@ pub(crate) fn step<T: Real, const M: usize, const J: usize>(
             }
         }
     }
-    Some(out)
 }
 
 /// The model's numbers that one joint's update reads.
 #[derive(Clone, Copy)]
-struct Params<T: Real, const M: usize> {
+pub(super) struct Params<T: Real, const M: usize> {
     q_per_sample: [T; M],
     q_per_rad: [T; M],
     is_ripple: [bool; M],
@@ -208,7 +238,7 @@ struct Params<T: Real, const M: usize> {
 
 impl<T: Real, const M: usize> Params<T, M> {
     #[inline(always)]
-    fn new(model: &RippleModel<T, M>) -> Self {
+    pub(super) fn new(model: &RippleModel<T, M>) -> Self {
         Self {
             q_per_sample: core::array::from_fn(|i| model.orders[i].q_per_sample_nm2),
             q_per_rad: core::array::from_fn(|i| model.orders[i].q_per_rad_nm2),
@@ -221,16 +251,19 @@ impl<T: Real, const M: usize> Params<T, M> {
     }
 }
 
-/// Joint `l` from the time update to the outputs: the kernel's arithmetic in the same
-/// order of operations, with selects instead of branches (so the caller's loop over the
-/// joints vectorizes). Returns (load step, covariance bad); the caller resets bad joints.
+/// Joint `l` from the time update to the outputs, given its update row `h` (the
+/// phasors) and phase increments `abs_a`: the kernel's arithmetic in the same order of
+/// operations, with selects instead of branches (so the caller's loop over the joints
+/// vectorizes). Returns (load step, covariance bad); the caller resets bad joints.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
+pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
     par: &Params<T, M>,
     bank: &mut RippleBank<T, M, J>,
     torque_nm: &[T; J],
     expected_nm: &[T; J],
-    abs_a: &[[T; J]; M],
+    h: [[T; 2]; M],
+    abs_a: [T; M],
     l: usize,
     out: &mut BankOutput<T, J>,
 ) -> (bool, bool) {
@@ -238,7 +271,7 @@ fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
 
     // Time update: inflation and process noise on the diagonal blocks, and the bias.
     for i in 0..M {
-        let q = par.q_per_sample[i] + par.q_per_rad[i] * abs_a[i][l];
+        let q = par.q_per_sample[i] + par.q_per_rad[i] * abs_a[i];
         let d = &mut bank.p[i][i];
         let grow = infl * T::HALF * (d[0][0][l] + d[1][1][l]);
         d[0][0][l] = d[0][0][l] + grow + q;
@@ -250,10 +283,8 @@ fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
     }
 
     // Prediction; the update row is the phasor itself.
-    let mut h = [[T::ZERO; 2]; M];
     let (mut ripple, mut mis) = (T::ZERO, T::ZERO);
     for i in 0..M {
-        h[i] = [bank.phasor[i][0][l], bank.phasor[i][1][l]];
         let v = h[i][0] * bank.z[i][0][l] + h[i][1] * bank.z[i][1][l];
         if par.is_ripple[i] {
             ripple += v;
@@ -377,7 +408,7 @@ fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
 /// instructions instead of a classification).
 #[inline(always)]
 #[allow(clippy::eq_op)]
-fn finite<T: Real>(x: T) -> bool {
+pub(super) fn finite<T: Real>(x: T) -> bool {
     x - x == T::ZERO
 }
 

@@ -36,7 +36,7 @@
 #![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 
 use super::bank::{BankInput, BankOutput, RippleBank};
-use super::fast;
+use super::{fast, fused};
 use super::filter::StepTrace;
 use super::io::StepFlags;
 use super::model::RippleModel;
@@ -83,6 +83,9 @@ pub(crate) fn run<T: Real, const M: usize, const J: usize>(
     trace: Option<&mut StepTrace<T, M>>,
 ) -> BankOutput<T, J> {
     if trace.is_none() {
+        if let Some(out) = fused::step(model, bank, input) {
+            return out;
+        }
         if let Some(out) = fast::step(model, bank, input) {
             return out;
         }

@@ -50,6 +50,7 @@
 mod avx2;
 mod bank;
 mod fast;
+mod fused;
 mod filter;
 mod io;
 pub mod kernel;

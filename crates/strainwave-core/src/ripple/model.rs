@@ -242,6 +242,9 @@ pub struct RippleModel<T: Real, const M: usize> {
     /// The references some order uses, in index order, and how many there are.
     pub(crate) used_refs: [u8; 3],
     pub(crate) n_used: u8,
+    /// Orders on the relative (and output) angle, whole multiples 1, 2 or 4: the bank
+    /// step can run as one loop over the joints (`fused`).
+    pub(crate) single_pass: bool,
     /// Initial (and reset) variance of each order: its prior's, or the model's.
     pub(crate) p0_order: [T; M],
     /// Whether some order is scaled by the load.
@@ -292,6 +295,7 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
             power: [0; M],
             used_refs: [0; 3],
             n_used: 0,
+            single_pass: false,
             p0_order: [T::ONE; M],
             any_load_scaled: false,
         };
@@ -418,6 +422,7 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
                 self.n_used += 1;
             }
         }
+        self.single_pass = self.uses[0] && !self.uses[2] && self.power.iter().all(|&p| matches!(p, 1 | 2 | 4));
     }
 
     /// The orders.
