@@ -10,6 +10,10 @@
 //!   per order), no checks.
 //! - adskalman: update (forced symmetric) then predict, given the increments; builds `Φ`.
 //!
+//! - banks (`step_many`): as strainwave above, for `J` joints at once; on x86-64 CPUs
+//!   with AVX2 the library runs its AVX2 build (chosen at run time, same results), the
+//!   others run the portable build.
+//!
 //! Run: `cargo bench -p strainwave-core --bench ripple -- --warm-up-time 1 --measurement-time 2`
 //! (optionally with `RUSTFLAGS="-C target-cpu=native"`: every variant then gets the same
 //! flags; the committed configuration targets any x86-64).

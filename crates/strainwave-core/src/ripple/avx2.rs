@@ -43,37 +43,15 @@ fn step_avx2<T: Real, const M: usize, const J: usize>(
 
 #[cfg(test)]
 mod tests {
-    use super::super::{BankInput, ReferenceValues, RippleBank, RippleModel};
-    use super::{available, run, step};
+    use super::super::path_check::against_general;
+    use super::super::RippleModel;
+    use super::{available, step};
     use crate::Real;
 
-    /// The AVX2 build and the portable one give the same outputs and state, bit for bit,
-    /// through NaNs, jumps, gaps and load steps.
+    /// The AVX2 build against the portable general path, bit for bit.
     fn same<T: Real, const M: usize, const J: usize>(model: RippleModel<T, M>) {
-        let mut a = RippleBank::<T, M, J>::new(&model);
-        let mut b = a;
-        let c = T::from_f64;
-        for k in 0..4000 {
-            let theta = |j: usize| 0.11 * k as f64 + 0.3 * j as f64 + if k % 997 == 500 { 2.0 } else { 0.0 };
-            let mut input = BankInput::new(
-                core::array::from_fn(|j| c(2.0 + (2.0 * theta(j)).cos() + if k % 1500 == 700 { 40.0 } else { 0.0 })),
-                ReferenceValues::new(
-                    core::array::from_fn(|j| c(theta(j).rem_euclid(core::f64::consts::TAU))),
-                    core::array::from_fn(|j| c(-theta(j) / 50.0)),
-                    [T::ZERO; J],
-                ),
-            );
-            if k % 611 == 3 {
-                input.torque_nm[J - 1] = c(f64::NAN);
-            }
-            if k % 1777 == 900 {
-                input.dt_s = Some(c(0.01));
-            }
-            let out_a = step(&model, &mut a, &input);
-            let out_b = run(&model, &mut b, &input, None);
-            assert_eq!(format!("{out_a:?}"), format!("{out_b:?}"), "k {k}");
-            assert_eq!(format!("{a:?}"), format!("{b:?}"), "k {k}");
-        }
+        let took = against_general::<T, M, J>(&model, 5000, |m, b, i| Some(step(m, b, i)));
+        assert_eq!(took, 6000);
     }
 
     #[test]

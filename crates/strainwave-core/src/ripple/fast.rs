@@ -414,111 +414,47 @@ pub(super) fn finite<T: Real>(x: T) -> bool {
 
 #[cfg(test)]
 mod tests {
-    use super::super::kernel::{general, run};
+    use super::super::kernel::general;
+    use super::super::path_check::{against_general, sample};
     use super::super::{BankInput, PhaseSource, ReferenceValues, RippleBank, RippleInput, RippleModel, RippleOutput};
     use crate::Real;
 
-    /// Joint `l` of `input` as a single-joint sample.
-    fn single<T: Real>(input: &BankInput<T, 2>, l: usize) -> RippleInput<T> {
-        let r = &input.references;
-        let mut one =
-            RippleInput::new(input.torque_nm[l], ReferenceValues::new(r.relative[l], r.output[l], r.motor[l]));
-        one.expected_torque_nm = input.expected_torque_nm[l];
-        one.dt_s = input.dt_s;
-        one
-    }
-
-    /// The single-joint lean path (or the general one after it declines) against the
-    /// general path, bit for bit; returns whether the lean path took the sample.
-    fn same_single<T: Real, const M: usize>(
-        model: &RippleModel<T, M>,
-        a: &mut RippleBank<T, M, 1>,
-        b: &mut RippleBank<T, M, 1>,
-        input: &RippleInput<T>,
-        k: usize,
-    ) -> bool {
-        let before = *a;
-        let lean = super::super::lean::step(model, a, input);
-        let bank_input = BankInput {
-            torque_nm: [input.torque_nm],
-            expected_torque_nm: [input.expected_torque_nm],
-            references: ReferenceValues::new(
-                [input.references.relative],
-                [input.references.output],
-                [input.references.motor],
-            ),
-            dt_s: input.dt_s,
-        };
-        let took = lean.is_some();
-        if !took {
-            assert_eq!(format!("{a:?}"), format!("{before:?}"), "k {k}: the lean check changed the state");
+    /// The single-joint lean path against the general path, bit for bit; returns how
+    /// many samples it took.
+    fn lean_against_general<T: Real, const M: usize>(model: &RippleModel<T, M>, unwrapped_after: usize) -> usize {
+        let mut a = RippleBank::<T, M, 1>::new(model);
+        let mut b = a;
+        let mut took = 0;
+        for k in 0..6000 {
+            let input: BankInput<T, 1> = sample(model, k, unwrapped_after);
+            let r = &input.references;
+            let mut one =
+                RippleInput::new(input.torque_nm[0], ReferenceValues::new(r.relative[0], r.output[0], r.motor[0]));
+            one.expected_torque_nm = input.expected_torque_nm[0];
+            one.dt_s = input.dt_s;
+            let before = a;
+            let lean = super::super::lean::step(model, &mut a, &one);
+            took += usize::from(lean.is_some());
+            let want = RippleOutput::from(general(model, &mut b, &input, None));
+            match lean {
+                Some(got) => assert_eq!(format!("{got:?}"), format!("{want:?}"), "k {k} (lean)"),
+                None => {
+                    assert_eq!(format!("{a:?}"), format!("{before:?}"), "k {k}: the lean check changed the state");
+                    let _ = general(model, &mut a, &input, None);
+                }
+            }
+            assert_eq!(format!("{a:?}"), format!("{b:?}"), "k {k} (lean)");
         }
-        let o = general(model, b, &bank_input, None);
-        let want = RippleOutput::from(o);
-        if let Some(got) = lean {
-            assert_eq!(format!("{got:?}"), format!("{want:?}"), "k {k} (lean)");
-        } else {
-            let _ = general(model, a, &bank_input, None);
-        }
-        assert_eq!(format!("{a:?}"), format!("{b:?}"), "k {k} (lean)");
         took
     }
 
-    /// The fast path and the general one give the same state and outputs, bit for bit.
+    /// The fast path (two joints) and the lean one (one joint) against the general path.
     fn same<T: Real, const M: usize>(model: RippleModel<T, M>, unwrapped: bool) {
-        let velocity = model.phase_source() == PhaseSource::Velocity;
-        let mut a = RippleBank::<T, M, 2>::new(&model);
-        let mut b = a;
-        let mut one_a = [RippleBank::<T, M, 1>::new(&model); 2];
-        let mut one_b = one_a;
-        let mut lean_steps = 0;
-        let mut seed = 0x9E37_79B9_7F4A_7C15_u64;
-        let (mut fast_steps, c) = (0, T::from_f64);
-        for k in 0..6000 {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            let noise = (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
-            let w = if k < 3000 { 0.08 } else { 0.3 };
-            let theta = |j: f64| {
-                let t = w * k as f64 + j + if k % 997 == 500 { 2.0 } else { 0.0 };
-                if velocity {
-                    w * 1000.0
-                } else if unwrapped {
-                    t
-                } else {
-                    t.rem_euclid(core::f64::consts::TAU)
-                }
-            };
-            let y = 2.0 + (2.0 * theta(0.0)).cos() + 0.1 * noise + if k % 1500 == 700 { 40.0 } else { 0.0 };
-            let mut input = BankInput::new(
-                [c(y), c(y * 0.5)],
-                ReferenceValues::new([c(theta(0.0)), c(theta(0.3))], [c(-theta(0.0) / 50.0); 2], [c(theta(0.1)); 2]),
-            );
-            input.expected_torque_nm = [c(1.5), c(-0.5)];
-            if k % 611 == 3 {
-                input.torque_nm[1] = T::from_f64(f64::NAN);
-            }
-            if k % 1777 == 900 {
-                input.dt_s = Some(c(if k % 2 == 0 { 0.01 } else { 0.0011 }));
-            }
-            for l in 0..2 {
-                lean_steps += usize::from(same_single(&model, &mut one_a[l], &mut one_b[l], &single(&input, l), k));
-            }
-            let before = a;
-            let fast = super::step(&model, &mut a, &input);
-            fast_steps += usize::from(fast.is_some());
-            if fast.is_none() {
-                assert_eq!(format!("{a:?}"), format!("{before:?}"), "k {k}: the check changed the state");
-            }
-            let out_a = fast.unwrap_or_else(|| run(&model, &mut a, &input, None));
-            let out_b = general(&model, &mut b, &input, None);
-            // Debug prints every bit that matters (NaN compares unequal to itself).
-            assert_eq!(format!("{out_a:?}"), format!("{out_b:?}"), "k {k}");
-            assert_eq!(format!("{a:?}"), format!("{b:?}"), "k {k}");
-        }
-        assert!(fast_steps > 4000, "{fast_steps}");
-        assert!(lean_steps > 2 * 4000, "{lean_steps}");
+        let unwrapped_after = if unwrapped { 0 } else { usize::MAX };
+        let fast = against_general::<T, M, 2>(&model, unwrapped_after, super::step);
+        assert!(fast > 4000, "{fast}");
+        let lean = lean_against_general(&model, unwrapped_after);
+        assert!(lean > 4000, "{lean}");
     }
 
     #[test]

@@ -181,7 +181,13 @@ fn joint_step<T: Real, const M: usize, const J: usize, const BIAS: bool, const O
         // Both squarings, then selects: no branch in the loop.
         let c2 = phasor_power(c, s, 2);
         let c4 = phasor_power(c2.0, c2.1, 2);
-        let (c, s) = if sh.power[i] == 4 { c4 } else if sh.power[i] == 2 { c2 } else { (c, s) };
+        let (c, s) = if sh.power[i] == 4 {
+            c4
+        } else if sh.power[i] == 2 {
+            c2
+        } else {
+            (c, s)
+        };
         let (c, s) = if sh.load_scaled[i] { (c * load, s * load) } else { (c, s) };
         bank.phasor[i][0][l] = c;
         bank.phasor[i][1][l] = s;
@@ -193,73 +199,25 @@ fn joint_step<T: Real, const M: usize, const J: usize, const BIAS: bool, const O
 
 #[cfg(test)]
 mod tests {
-    use super::super::kernel::{general, run};
-    use super::super::{BankInput, Order, Reference, ReferenceValues, RippleBank, RippleModel};
+    use super::super::path_check::against_general;
+    use super::super::{Order, Reference, RippleModel};
     use crate::Real;
 
-    /// The one-loop step and the general path give the same state and outputs, bit for
-    /// bit, through NaNs, jumps, gaps, load steps and unwrapped angles (which it
-    /// declines); returns how many samples it took.
-    fn same<T: Real, const M: usize, const J: usize>(model: RippleModel<T, M>, unwrapped_after: usize) -> usize {
-        let mut a = RippleBank::<T, M, J>::new(&model);
-        let mut b = a;
-        let (mut took, c) = (0, T::from_f64);
-        let mut seed = 0x9E37_79B9_7F4A_7C15_u64;
-        for k in 0..6000 {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            let noise = (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
-            let w = if k < 3000 { 0.08 } else { 0.3 };
-            let theta = |j: usize| {
-                let t = w * k as f64 + 0.3 * j as f64 + if k % 997 == 500 { 2.0 } else { 0.0 };
-                if k >= unwrapped_after {
-                    t
-                } else {
-                    t.rem_euclid(core::f64::consts::TAU)
-                }
-            };
-            let step = if k % 1500 == 700 { 40.0 } else { 0.0 };
-            let mut input = BankInput::new(
-                core::array::from_fn(|j| c(2.0 + (2.0 * theta(j)).cos() + 0.1 * noise + step)),
-                ReferenceValues::new(
-                    core::array::from_fn(theta).map(c),
-                    core::array::from_fn(|j| c(-theta(j) / 50.0)),
-                    [T::ZERO; J],
-                ),
-            );
-            input.expected_torque_nm = core::array::from_fn(|j| c(1.5 - j as f64));
-            if k % 611 == 3 {
-                input.torque_nm[J - 1] = c(f64::NAN);
-            }
-            if k % 1777 == 900 {
-                input.dt_s = Some(c(0.01));
-            }
-            let before = a;
-            let fused = super::step(&model, &mut a, &input);
-            took += usize::from(fused.is_some());
-            if fused.is_none() {
-                assert_eq!(format!("{a:?}"), format!("{before:?}"), "k {k}: the check changed the state");
-            }
-            let out_a = fused.unwrap_or_else(|| run(&model, &mut a, &input, None));
-            let out_b = general(&model, &mut b, &input, None);
-            assert_eq!(format!("{out_a:?}"), format!("{out_b:?}"), "k {k}");
-            assert_eq!(format!("{a:?}"), format!("{b:?}"), "k {k}");
-        }
-        took
+    fn took<T: Real, const M: usize, const J: usize>(model: RippleModel<T, M>, unwrapped_after: usize) -> usize {
+        against_general::<T, M, J>(&model, unwrapped_after, super::step)
     }
 
     #[test]
     fn one_loop_step_is_the_general_path() {
-        assert!(same::<f64, 2, 3>(RippleModel::seed_4th_order(1000.0).unwrap(), usize::MAX) > 4000);
-        assert!(same::<f32, 3, 8>(RippleModel::seed_6th_order(1000.0).unwrap(), usize::MAX) > 4000);
-        assert!(same::<f32, 3, 2>(RippleModel::product(1000.0, 0.05).unwrap(), usize::MAX) > 4000);
-        assert!(same::<f64, 5, 4>(RippleModel::full(1000.0, 0.05).unwrap(), usize::MAX) > 4000);
+        assert!(took::<f64, 2, 3>(RippleModel::seed_4th_order(1000.0).unwrap(), usize::MAX) > 4000);
+        assert!(took::<f32, 3, 8>(RippleModel::seed_6th_order(1000.0).unwrap(), usize::MAX) > 4000);
+        assert!(took::<f32, 3, 2>(RippleModel::product(1000.0, 0.05).unwrap(), usize::MAX) > 4000);
+        assert!(took::<f64, 5, 4>(RippleModel::full(1000.0, 0.05).unwrap(), usize::MAX) > 4000);
         // Unwrapped angles: taken only while within ±3π (the first ~118 samples at
         // 0.08 rad/sample), then declined and the `fast` path takes them.
-        assert!(same::<f64, 3, 2>(RippleModel::seed_6th_order(1000.0).unwrap(), 0) < 150);
+        assert!(took::<f64, 3, 2>(RippleModel::seed_6th_order(1000.0).unwrap(), 0) < 150);
         // Motor-angle orders are not its case.
         let motor = [Order::new(Reference::Motor, 1.0).unwrap()];
-        assert_eq!(same::<f64, 1, 2>(RippleModel::new(motor, 1.0, 1000.0).unwrap(), usize::MAX), 0);
+        assert_eq!(took::<f64, 1, 2>(RippleModel::new(motor, 1.0, 1000.0).unwrap(), usize::MAX), 0);
     }
 }

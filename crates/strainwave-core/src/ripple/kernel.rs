@@ -26,22 +26,30 @@
 //! fractional multiples (and velocity input) accumulate `ψ += a` instead. Both are
 //! exactly the seed's Φ sequence with `ω_i T` replaced by the measured `n_i Δθ(k)`.
 //!
-//! The common sample (every joint valid, caught up, no reset, every order active) takes
-//! the `fast` module's path; otherwise the per-joint decisions (skips, resets, statuses)
-//! are made first by the `plan` module and the arithmetic below applies them as 0/1
-//! masks. Both share the measurement update here, joint index innermost, no branch.
+//! Three paths, the same arithmetic bit for bit (tested sample for sample):
+//! - `fused`: the common sample (every joint valid, caught up, no reset, every order
+//!   active) of the common models (relative and output orders of multiple 1, 2, 4):
+//!   one loop over the joints that vectorizes as a whole;
+//! - `fast`: the common sample of any model, phase bookkeeping per quantity, then the
+//!   same per-joint update (`fast::joint`);
+//! - otherwise the per-joint decisions (skips, resets, statuses) are made first by the
+//!   `plan` module and the arithmetic below applies them as 0/1 masks, joint index
+//!   innermost, no branch.
+//!
+//! Banks of more than one joint run a build for AVX2 when the CPU has it (`avx2`); a
+//! single joint (`step`) takes the scalar `lean` path.
 
 // Lane loops index several arrays by the same joint index (structure of arrays), and
 // `!(x <= limit)` is deliberate: NaN must count as out of range.
 #![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 
 use super::bank::{BankInput, BankOutput, RippleBank};
-use super::{fast, fused};
 use super::filter::StepTrace;
 use super::io::StepFlags;
 use super::model::RippleModel;
 use super::plan::{plan, Plan};
 use super::trig::phasors;
+use super::{fast, fused};
 use crate::Real;
 
 /// Per-order, per-component, per-joint values `[i][r][joint]`.

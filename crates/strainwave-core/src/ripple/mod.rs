@@ -50,12 +50,14 @@
 mod avx2;
 mod bank;
 mod fast;
-mod fused;
 mod filter;
+mod fused;
 mod io;
 pub mod kernel;
 mod lean;
 mod model;
+#[cfg(test)]
+mod path_check;
 mod plan;
 mod presets;
 mod trig;
