@@ -14,14 +14,12 @@
 #![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 
 use super::bank::{BankInput, BankOutput, RippleBank};
-use super::fast::{empty_output, finite, joint, settle, wrap_near, Params};
 use super::io::OrderStatus;
+use super::joint::{empty_output, finite, joint, settle, Params};
 use super::model::{PhaseSource, RippleModel};
-use super::trig::{phasor_power, sin_cos_small};
+use super::plan::HOLD_AVERAGE;
+use super::trig::{phasor_power, sin_cos_small, wrap_near};
 use crate::Real;
-
-/// Weight of the newest increment in the running mean that decides holding (as in `plan`).
-const HOLD_AVERAGE: f64 = 1.0 / 16.0;
 
 /// One step if the model and every joint qualify, else `None` with nothing changed.
 #[inline(always)]

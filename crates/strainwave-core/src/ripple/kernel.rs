@@ -31,7 +31,7 @@
 //!   active) of the common models (relative and output orders of multiple 1, 2, 4):
 //!   one loop over the joints that vectorizes as a whole;
 //! - `fast`: the common sample of any model, phase bookkeeping per quantity, then the
-//!   same per-joint update (`fast::joint`);
+//!   same per-joint update (the `joint` module);
 //! - otherwise the per-joint decisions (skips, resets, statuses) are made first by the
 //!   `plan` module and the arithmetic below applies them as 0/1 masks, joint index
 //!   innermost, no branch.

@@ -10,20 +10,11 @@
 
 use super::bank::RippleBank;
 use super::io::{OrderStatus, RippleInput, RippleOutput, StepFlags};
+use super::joint::finite;
 use super::model::{PhaseSource, RippleModel};
+use super::plan::HOLD_AVERAGE;
 use super::trig::{phasor_power, sin_cos_small, wrap_angle};
 use crate::Real;
-
-/// Weight of the newest increment in the running mean that decides holding (as in `plan`).
-const HOLD_AVERAGE: f64 = 1.0 / 16.0;
-
-/// Whether `x` is neither infinite nor NaN: `x − x` is 0 exactly then (two
-/// instructions instead of a classification).
-#[inline(always)]
-#[allow(clippy::eq_op)]
-fn finite<T: Real>(x: T) -> bool {
-    x - x == T::ZERO
-}
 
 /// One step of joint 0 if the sample is the common case, else `None` with nothing changed.
 #[inline(always)]

@@ -53,6 +53,7 @@ mod fast;
 mod filter;
 mod fused;
 mod io;
+mod joint;
 pub mod kernel;
 mod lean;
 mod model;

@@ -38,7 +38,7 @@ pub(crate) struct Plan<T: Real, const M: usize, const J: usize> {
 }
 
 /// Weight of the newest increment in the running mean that decides holding (1/16).
-const HOLD_AVERAGE: f64 = 1.0 / 16.0;
+pub(super) const HOLD_AVERAGE: f64 = 1.0 / 16.0;
 
 fn classify<T: Real, const M: usize>(model: &RippleModel<T, M>, abs_a: T) -> OrderStatus {
     if abs_a < model.hold_below_rad {

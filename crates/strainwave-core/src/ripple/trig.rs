@@ -182,6 +182,17 @@ pub(crate) fn phasors<T: Real, const M: usize, const J: usize>(
     }
 }
 
+/// `wrap_angle` for `|x| ≤ 3π` as selects (vectorizes); larger `|x|` are fixed up after.
+#[inline(always)]
+pub(super) fn wrap_near<T: Real>(x: T) -> T {
+    let up = if x < -T::PI { x + T::TAU } else { x };
+    if x > T::PI {
+        x - T::TAU
+    } else {
+        up
+    }
+}
+
 /// Wraps an angle into `[−π, π]`; cheap for inputs within `±3π` (wrapped encoders),
 /// exact in the general case. Non-finite inputs come back non-finite.
 #[inline(always)]

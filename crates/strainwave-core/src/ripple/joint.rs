@@ -1,0 +1,248 @@
+//! One joint's filter update in a bank, from the time update to the outputs, written
+//! so that a loop over the joints vectorizes: the kernel's arithmetic in the same order
+//! of operations, selects instead of branches, and the model's numbers copied into
+//! locals (so the loop needs no run-time overlap checks against the bank). Used by the
+//! `fast` and `fused` paths.
+
+// Several arrays share the joint index, and `!(x <= limit)` is deliberate: NaN must
+// count as out of range.
+#![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+
+use super::bank::{BankInput, BankOutput, RippleBank};
+use super::io::StepFlags;
+use super::model::RippleModel;
+use crate::Real;
+
+/// An output to fill in.
+#[inline(always)]
+pub(super) fn empty_output<T: Real, const J: usize>() -> BankOutput<T, J> {
+    BankOutput {
+        torque_nm: [T::ZERO; J],
+        ripple_nm: [T::ZERO; J],
+        misalignment_nm: [T::ZERO; J],
+        torque_state_nm: [T::ZERO; J],
+        innovation_nm: [T::ZERO; J],
+        innovation_variance_nm2: [T::ZERO; J],
+        nis: [T::ZERO; J],
+        flags: [StepFlags::empty(); J],
+    }
+}
+
+/// Flags for the joints with a load step, and the reset of joints whose covariance
+/// went bad (rare, so after the loop).
+#[inline(always)]
+pub(super) fn settle<T: Real, const M: usize, const J: usize>(
+    model: &RippleModel<T, M>,
+    bank: &mut RippleBank<T, M, J>,
+    input: &BankInput<T, J>,
+    load_step: &[bool; J],
+    bad: &[bool; J],
+    out: &mut BankOutput<T, J>,
+) {
+    if load_step.iter().any(|&s| s) {
+        for l in 0..J {
+            if load_step[l] {
+                out.flags[l].insert(StepFlags::LOAD_STEP);
+            }
+        }
+    }
+    if bad.iter().any(|&b| b) {
+        for l in 0..J {
+            if bad[l] {
+                bank.reset_lane(model, l);
+                out.flags[l].insert(StepFlags::COVARIANCE_RESET);
+                if model.bias_q_nm2.is_some() {
+                    out.torque_state_nm[l] = input.expected_torque_nm[l] + bank.b[l];
+                }
+            }
+        }
+    }
+}
+
+/// The model's numbers that one joint's update reads.
+#[derive(Clone, Copy)]
+pub(super) struct Params<T: Real, const M: usize> {
+    q_per_sample: [T; M],
+    q_per_rad: [T; M],
+    is_ripple: [bool; M],
+    r: T,
+    inflation: T,
+    q_bias: T,
+    load_step_nis: T,
+}
+
+impl<T: Real, const M: usize> Params<T, M> {
+    #[inline(always)]
+    pub(super) fn new(model: &RippleModel<T, M>) -> Self {
+        Self {
+            q_per_sample: core::array::from_fn(|i| model.orders[i].q_per_sample_nm2),
+            q_per_rad: core::array::from_fn(|i| model.orders[i].q_per_rad_nm2),
+            is_ripple: core::array::from_fn(|i| model.orders[i].reference.is_ripple()),
+            r: model.r_nm2,
+            inflation: model.limits.covariance_inflation,
+            q_bias: model.bias_q_nm2.unwrap_or(T::ZERO),
+            load_step_nis: model.limits.load_step_nis,
+        }
+    }
+}
+
+/// Joint `l` from the time update to the outputs, given its update row `h` (the
+/// phasors) and phase increments `abs_a`: the kernel's arithmetic in the same order of
+/// operations, with selects instead of branches (so the caller's loop over the joints
+/// vectorizes). Returns (load step, covariance bad); the caller resets bad joints.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
+    par: &Params<T, M>,
+    bank: &mut RippleBank<T, M, J>,
+    torque_nm: &[T; J],
+    expected_nm: &[T; J],
+    h: [[T; 2]; M],
+    abs_a: [T; M],
+    l: usize,
+    out: &mut BankOutput<T, J>,
+) -> (bool, bool) {
+    let infl = par.inflation;
+
+    // Time update: inflation and process noise on the diagonal blocks, and the bias.
+    for i in 0..M {
+        let q = par.q_per_sample[i] + par.q_per_rad[i] * abs_a[i];
+        let d = &mut bank.p[i][i];
+        let grow = infl * T::HALF * (d[0][0][l] + d[1][1][l]);
+        d[0][0][l] = d[0][0][l] + grow + q;
+        d[1][1][l] = d[1][1][l] + grow + q;
+    }
+    if BIAS {
+        let v = bank.pbb[l];
+        bank.pbb[l] = v + v * infl + par.q_bias;
+    }
+
+    // Prediction; the update row is the phasor itself.
+    let (mut ripple, mut mis) = (T::ZERO, T::ZERO);
+    for i in 0..M {
+        let v = h[i][0] * bank.z[i][0][l] + h[i][1] * bank.z[i][1][l];
+        if par.is_ripple[i] {
+            ripple += v;
+        } else {
+            mis += v;
+        }
+    }
+
+    // Gains g = P hᵀ from the upper blocks of the symmetric P.
+    let mut g = [[T::ZERO; 2]; M];
+    for i in 0..M {
+        let (mut g0, mut g1) = (T::ZERO, T::ZERO);
+        if BIAS {
+            g0 = bank.pb[i][0][l] * T::ONE;
+            g1 = bank.pb[i][1][l] * T::ONE;
+        }
+        for j in 0..M {
+            let [hj0, hj1] = h[j];
+            if j >= i {
+                let b = &bank.p[i][j];
+                g0 += b[0][0][l] * hj0 + b[0][1][l] * hj1;
+                g1 += b[1][0][l] * hj0 + b[1][1][l] * hj1;
+            } else {
+                let b = &bank.p[j][i];
+                g0 += b[0][0][l] * hj0 + b[1][0][l] * hj1;
+                g1 += b[0][1][l] * hj0 + b[1][1][l] * hj1;
+            }
+        }
+        g[i] = [g0, g1];
+    }
+    let mut gb = T::ZERO;
+    if BIAS {
+        gb = bank.pbb[l] * T::ONE;
+        for j in 0..M {
+            gb += bank.pb[j][0][l] * h[j][0] + bank.pb[j][1][l] * h[j][1];
+        }
+    }
+
+    // Innovation and the load-step decision.
+    let mut s = if BIAS { gb * T::ONE } else { T::ZERO };
+    for i in 0..M {
+        s += h[i][0] * g[i][0] + h[i][1] * g[i][1];
+    }
+    let s_var = par.r + s;
+    let mut inv = T::ONE / s_var;
+    let y = torque_nm[l] - expected_nm[l];
+    let e = y - (ripple + mis + bank.b[l]);
+    let load_step = BIAS & (par.load_step_nis > T::ZERO) & (e * e > par.load_step_nis * s_var);
+    inv = if load_step { T::ZERO } else { inv };
+
+    // Measurement update.
+    let floor = par.r * inv;
+    for i in 0..M {
+        let [k0, k1] = [g[i][0] * inv, g[i][1] * inv];
+        bank.z[i][0][l] += k0 * e;
+        bank.z[i][1][l] += k1 * e;
+        let d = &mut bank.p[i][i];
+        let (v0, v1) = (d[0][0][l], d[1][1][l]);
+        d[0][0][l] = (v0 - k0 * g[i][0]).max(v0 * floor);
+        d[1][1][l] = (v1 - k1 * g[i][1]).max(v1 * floor);
+        let off = d[0][1][l] - k0 * g[i][1];
+        d[0][1][l] = off;
+        d[1][0][l] = off;
+        for j in i + 1..M {
+            let [gj0, gj1] = g[j];
+            let b = &mut bank.p[i][j];
+            b[0][0][l] -= k0 * gj0;
+            b[0][1][l] -= k0 * gj1;
+            b[1][0][l] -= k1 * gj0;
+            b[1][1][l] -= k1 * gj1;
+        }
+        if BIAS {
+            bank.pb[i][0][l] -= k0 * gb;
+            bank.pb[i][1][l] -= k1 * gb;
+        }
+    }
+    if BIAS {
+        let kb = gb * inv;
+        bank.b[l] += kb * e;
+        let v = bank.pbb[l];
+        bank.pbb[l] = (v - kb * gb).max(v * par.r * inv);
+        // Load step: the update above was void (gain 0); the bias takes the innovation
+        // and forgets its cross-covariance (`kernel::load_step`), as selects.
+        let mut s_z = T::ZERO;
+        for i in 0..M {
+            for r in 0..2 {
+                let pzh = g[i][r] - bank.pb[i][r][l];
+                s_z += h[i][r] * pzh;
+                bank.pb[i][r][l] = if load_step { -pzh } else { bank.pb[i][r][l] };
+            }
+        }
+        bank.pbb[l] = if load_step { par.r + s_z } else { bank.pbb[l] };
+        bank.b[l] = if load_step { bank.b[l] + e } else { bank.b[l] };
+    }
+
+    // Health check and outputs.
+    let mut sum = s_var + bank.b[l];
+    let mut least = s_var;
+    if BIAS {
+        sum += bank.pbb[l];
+        least = least.min(bank.pbb[l]);
+    }
+    for i in 0..M {
+        let d = &bank.p[i][i];
+        sum += d[0][0][l] + d[1][1][l] + bank.z[i][0][l] + bank.z[i][1][l];
+        least = least.min(d[0][0][l]).min(d[1][1][l]);
+    }
+    let bad = !(finite(sum) & (least >= T::ZERO) & (s_var > T::ZERO));
+    let torque = torque_nm[l] - ripple - mis;
+    out.torque_nm[l] = torque;
+    out.ripple_nm[l] = ripple;
+    out.misalignment_nm[l] = mis;
+    out.torque_state_nm[l] = if BIAS { expected_nm[l] + bank.b[l] } else { torque };
+    out.innovation_nm[l] = e;
+    out.innovation_variance_nm2[l] = s_var;
+    out.nis[l] = e * e / s_var;
+    (load_step, bad)
+}
+
+/// Whether `x` is neither infinite nor NaN: `x − x` is 0 exactly then (two
+/// instructions instead of a classification).
+#[inline(always)]
+#[allow(clippy::eq_op)]
+pub(super) fn finite<T: Real>(x: T) -> bool {
+    x - x == T::ZERO
+}
