@@ -13,7 +13,7 @@
 
 use super::bank::{BankInput, BankOutput, RippleBank};
 use super::io::OrderStatus;
-use super::joint::{empty_output, finite, joint, settle, Params};
+use super::joint::{common_interval, empty_output, finite, joint, settle, Params};
 use super::model::{PhaseSource, RippleModel};
 use super::plan::HOLD_AVERAGE;
 use super::trig::{phasors, wrap_angle, wrap_near};
@@ -26,11 +26,8 @@ pub(crate) fn step<T: Real, const M: usize, const J: usize>(
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
 ) -> Option<BankOutput<T, J>> {
-    let dt = input.dt_s.unwrap_or(model.dt_s);
-    // One interval for all joints: valid and no gap (`pending = 0`, so it is the total).
-    if !(dt.is_finite() && dt > T::ZERO && dt <= model.max_gap_s) {
-        return None;
-    }
+    // No gap (`pending = 0`), so this interval is the total.
+    let dt = common_interval(model, input.dt_s)?;
     let refs = [&input.references.relative, &input.references.output, &input.references.motor];
     let angle_input = model.phase_source == PhaseSource::Angle;
     let lim = &model.limits;

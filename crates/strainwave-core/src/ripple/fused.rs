@@ -15,7 +15,7 @@
 
 use super::bank::{BankInput, BankOutput, RippleBank};
 use super::io::OrderStatus;
-use super::joint::{empty_output, finite, joint, settle, Params};
+use super::joint::{common_interval, empty_output, finite, joint, settle, Params};
 use super::model::{PhaseSource, RippleModel};
 use super::plan::HOLD_AVERAGE;
 use super::trig::{phasor_power, sin_cos_small, wrap_near};
@@ -65,10 +65,7 @@ fn step_with<T: Real, const M: usize, const J: usize, const BIAS: bool, const OU
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
 ) -> Option<BankOutput<T, J>> {
-    let dt = input.dt_s.unwrap_or(model.dt_s);
-    if !(finite(dt) && dt > T::ZERO && dt <= model.max_gap_s) {
-        return None;
-    }
+    common_interval(model, input.dt_s)?;
     let (rel, out_angle) = (&input.references.relative, &input.references.output);
     let reference: [usize; M] = core::array::from_fn(|i| model.orders[i].reference.index());
     let multiple: [T; M] = core::array::from_fn(|i| model.orders[i].multiple);

@@ -246,3 +246,11 @@ pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
 pub(super) fn finite<T: Real>(x: T) -> bool {
     x - x == T::ZERO
 }
+
+/// The sample interval (`dt_s` or the nominal one) if the common paths may take it:
+/// finite, positive and within the gap limit. One interval serves every joint.
+#[inline(always)]
+pub(super) fn common_interval<T: Real, const M: usize>(model: &RippleModel<T, M>, dt_s: Option<T>) -> Option<T> {
+    let dt = dt_s.unwrap_or(model.dt_s);
+    (finite(dt) && dt > T::ZERO && dt <= model.max_gap_s).then_some(dt)
+}

@@ -10,7 +10,7 @@
 
 use super::bank::RippleBank;
 use super::io::{OrderStatus, RippleInput, RippleOutput, StepFlags};
-use super::joint::finite;
+use super::joint::{common_interval, finite};
 use super::model::{PhaseSource, RippleModel};
 use super::plan::HOLD_AVERAGE;
 use super::trig::{phasor_power, sin_cos_small, wrap_angle};
@@ -23,10 +23,7 @@ pub(crate) fn step<T: Real, const M: usize>(
     bank: &mut RippleBank<T, M, 1>,
     input: &RippleInput<T>,
 ) -> Option<RippleOutput<T>> {
-    let dt = input.dt_s.unwrap_or(model.dt_s);
-    if !(finite(dt) && dt > T::ZERO && dt <= model.max_gap_s) {
-        return None;
-    }
+    let dt = common_interval(model, input.dt_s)?;
     let y = input.torque_nm - input.expected_torque_nm;
     if !(finite(y) & bank.has_last[0] & (bank.pending_samples[0] == T::ZERO)) {
         return None;
