@@ -251,21 +251,9 @@ impl ArmSimulator {
     }
 }
 
-/// A whole arm run in memory: column names and one `Vec` per column.
-#[derive(Debug, Clone)]
-pub struct ArmRecording {
-    /// Column names.
-    pub columns: Vec<&'static str>,
-    /// Column data, `data[c][k]`.
-    pub data: Vec<Vec<f64>>,
-}
-
-impl ArmRecording {
-    /// A column by name.
-    pub fn column(&self, name: &str) -> Option<&[f64]> {
-        self.columns.iter().position(|c| *c == name).map(|i| self.data[i].as_slice())
-    }
-}
+/// A whole arm run in memory: the joint twin's recording type (column names and one
+/// `Vec` per column).
+pub type ArmRecording = crate::simulator::Recording;
 
 /// Runs an arm scenario to the end in memory.
 pub fn simulate_arm(scenario: &ArmScenario) -> Result<ArmRecording, SimError> {
