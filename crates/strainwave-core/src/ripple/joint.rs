@@ -64,7 +64,7 @@ pub(super) fn settle<T: Real, const M: usize, const J: usize>(
 pub(super) struct Params<T: Real, const M: usize> {
     q_per_sample: [T; M],
     q_per_rad: [T; M],
-    is_ripple: [bool; M],
+    pub(super) is_ripple: [bool; M],
     r: T,
     inflation: T,
     q_bias: T,
@@ -119,12 +119,15 @@ pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
 
     // Prediction; the update row is the phasor itself.
     let (mut ripple, mut mis) = (T::ZERO, T::ZERO);
+    let (mut any_ripple, mut any_mis) = (false, false);
     for i in 0..M {
         let v = h[i][0] * bank.z[i][0][l] + h[i][1] * bank.z[i][1][l];
         if par.is_ripple[i] {
-            ripple += v;
+            ripple = sum_from(!any_ripple, ripple, v);
+            any_ripple = true;
         } else {
-            mis += v;
+            mis = sum_from(!any_mis, mis, v);
+            any_mis = true;
         }
     }
 
@@ -138,15 +141,16 @@ pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
         }
         for j in 0..M {
             let [hj0, hj1] = h[j];
-            if j >= i {
+            let (t0, t1) = if j >= i {
                 let b = &bank.p[i][j];
-                g0 += b[0][0][l] * hj0 + b[0][1][l] * hj1;
-                g1 += b[1][0][l] * hj0 + b[1][1][l] * hj1;
+                (b[0][0][l] * hj0 + b[0][1][l] * hj1, b[1][0][l] * hj0 + b[1][1][l] * hj1)
             } else {
                 let b = &bank.p[j][i];
-                g0 += b[0][0][l] * hj0 + b[1][0][l] * hj1;
-                g1 += b[0][1][l] * hj0 + b[1][1][l] * hj1;
-            }
+                (b[0][0][l] * hj0 + b[1][0][l] * hj1, b[0][1][l] * hj0 + b[1][1][l] * hj1)
+            };
+            let first = !BIAS && j == 0;
+            g0 = sum_from(first, g0, t0);
+            g1 = sum_from(first, g1, t1);
         }
         g[i] = [g0, g1];
     }
@@ -161,7 +165,7 @@ pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
     // Innovation and the load-step decision.
     let mut s = if BIAS { gb * T::ONE } else { T::ZERO };
     for i in 0..M {
-        s += h[i][0] * g[i][0] + h[i][1] * g[i][1];
+        s = sum_from(!BIAS && i == 0, s, h[i][0] * g[i][0] + h[i][1] * g[i][1]);
     }
     let s_var = par.r + s;
     let mut inv = T::ONE / s_var;
@@ -237,6 +241,17 @@ pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
     out.innovation_variance_nm2[l] = s_var;
     out.nis[l] = e * e / s_var;
     (load_step, bad)
+}
+
+/// `acc + t`, or `t` itself for a sum's first term: sums start from their first term,
+/// not from 0 (one addition fewer, and `0 + (−0)` would turn −0 into +0).
+#[inline(always)]
+pub(super) fn sum_from<T: Real>(first: bool, acc: T, t: T) -> T {
+    if first {
+        t
+    } else {
+        acc + t
+    }
 }
 
 /// Whether `x` is neither infinite nor NaN: `x − x` is 0 exactly then (two

@@ -46,6 +46,7 @@
 use super::bank::{BankInput, BankOutput, RippleBank};
 use super::filter::StepTrace;
 use super::io::StepFlags;
+use super::joint::sum_from;
 use super::model::RippleModel;
 use super::plan::{plan, Plan};
 use super::trig::phasors;
@@ -171,20 +172,24 @@ pub(crate) fn general<T: Real, const M: usize, const J: usize>(
     // Prediction ŷ(k) = h ẑ(k|k−1) and the update row.
     let mut ripple = [T::ZERO; J];
     let mut mis = [T::ZERO; J];
+    let (mut any_ripple, mut any_mis) = (false, false);
     let mut h = [[[T::ZERO; J]; 2]; M];
     for i in 0..M {
         let is_ripple = model.orders[i].reference.is_ripple();
+        let first = if is_ripple { !any_ripple } else { !any_mis };
         for l in 0..J {
             let (c, s) = (bank.phasor[i][0][l], bank.phasor[i][1][l]);
             let v = pl.pred[i][l] * (c * bank.z[i][0][l] + s * bank.z[i][1][l]);
             if is_ripple {
-                ripple[l] += v;
+                ripple[l] = sum_from(first, ripple[l], v);
             } else {
-                mis[l] += v;
+                mis[l] = sum_from(first, mis[l], v);
             }
             h[i][0][l] = pl.upd[i][l] * c;
             h[i][1][l] = pl.upd[i][l] * s;
         }
+        any_ripple |= is_ripple;
+        any_mis |= !is_ripple;
     }
 
     let (g, gb) = gains(model, bank, &h, &pl.upd_b);
@@ -241,17 +246,18 @@ pub(crate) fn gains<T: Real, const M: usize, const J: usize>(
         }
         for j in 0..M {
             let (hj0, hj1) = (&h[j][0], &h[j][1]);
+            let first = !has_bias && j == 0;
             if j >= i {
                 let b = &bank.p[i][j];
                 for l in 0..J {
-                    g0[l] += b[0][0][l] * hj0[l] + b[0][1][l] * hj1[l];
-                    g1[l] += b[1][0][l] * hj0[l] + b[1][1][l] * hj1[l];
+                    g0[l] = sum_from(first, g0[l], b[0][0][l] * hj0[l] + b[0][1][l] * hj1[l]);
+                    g1[l] = sum_from(first, g1[l], b[1][0][l] * hj0[l] + b[1][1][l] * hj1[l]);
                 }
             } else {
                 let b = &bank.p[j][i];
                 for l in 0..J {
-                    g0[l] += b[0][0][l] * hj0[l] + b[1][0][l] * hj1[l];
-                    g1[l] += b[0][1][l] * hj0[l] + b[1][1][l] * hj1[l];
+                    g0[l] = sum_from(first, g0[l], b[0][0][l] * hj0[l] + b[1][0][l] * hj1[l]);
+                    g1[l] = sum_from(first, g1[l], b[0][1][l] * hj0[l] + b[1][1][l] * hj1[l]);
                 }
             }
         }
@@ -304,7 +310,7 @@ pub(crate) fn innovation<T: Real, const M: usize, const J: usize>(
     for l in 0..J {
         let mut s = gb[l] * upd_b[l];
         for i in 0..M {
-            s += h[i][0][l] * g[i][0][l] + h[i][1][l] * g[i][1][l];
+            s = sum_from(!has_bias && i == 0, s, h[i][0][l] * g[i][0][l] + h[i][1][l] * g[i][1][l]);
         }
         n.s_var[l] += s;
         n.inv[l] = T::ONE / n.s_var[l];

@@ -10,7 +10,7 @@
 
 use super::bank::RippleBank;
 use super::io::{OrderStatus, RippleInput, RippleOutput, StepFlags};
-use super::joint::{common_interval, finite};
+use super::joint::{common_interval, finite, sum_from};
 use super::model::{PhaseSource, RippleModel};
 use super::plan::HOLD_AVERAGE;
 use super::trig::{phasor_power, sin_cos_small, wrap_angle};
@@ -134,12 +134,15 @@ pub(crate) fn step<T: Real, const M: usize>(
 
     // Prediction and gains g = P hᵀ (upper blocks of the symmetric P).
     let (mut ripple, mut mis) = (T::ZERO, T::ZERO);
+    let (mut any_ripple, mut any_mis) = (false, false);
     for i in 0..M {
         let v = h[i][0] * bank.z[i][0][0] + h[i][1] * bank.z[i][1][0];
         if model.orders[i].reference.is_ripple() {
-            ripple += v;
+            ripple = sum_from(!any_ripple, ripple, v);
+            any_ripple = true;
         } else {
-            mis += v;
+            mis = sum_from(!any_mis, mis, v);
+            any_mis = true;
         }
     }
     let upd_b = if has_bias { T::ONE } else { T::ZERO };
@@ -152,15 +155,16 @@ pub(crate) fn step<T: Real, const M: usize>(
         }
         for j in 0..M {
             let [hj0, hj1] = h[j];
-            if j >= i {
+            let (t0, t1) = if j >= i {
                 let b = &bank.p[i][j];
-                g0 += b[0][0][0] * hj0 + b[0][1][0] * hj1;
-                g1 += b[1][0][0] * hj0 + b[1][1][0] * hj1;
+                (b[0][0][0] * hj0 + b[0][1][0] * hj1, b[1][0][0] * hj0 + b[1][1][0] * hj1)
             } else {
                 let b = &bank.p[j][i];
-                g0 += b[0][0][0] * hj0 + b[1][0][0] * hj1;
-                g1 += b[0][1][0] * hj0 + b[1][1][0] * hj1;
-            }
+                (b[0][0][0] * hj0 + b[1][0][0] * hj1, b[0][1][0] * hj0 + b[1][1][0] * hj1)
+            };
+            let first = !has_bias && j == 0;
+            g0 = sum_from(first, g0, t0);
+            g1 = sum_from(first, g1, t1);
         }
         g[i] = [g0, g1];
     }
@@ -175,7 +179,7 @@ pub(crate) fn step<T: Real, const M: usize>(
     // Innovation and the load-step decision.
     let mut s = gb * upd_b;
     for i in 0..M {
-        s += h[i][0] * g[i][0] + h[i][1] * g[i][1];
+        s = sum_from(!has_bias && i == 0, s, h[i][0] * g[i][0] + h[i][1] * g[i][1]);
     }
     let s_var = model.r_nm2 + s;
     let mut inv = T::ONE / s_var;

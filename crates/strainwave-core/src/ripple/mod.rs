@@ -55,6 +55,7 @@ mod fused;
 mod io;
 mod joint;
 pub mod kernel;
+mod layout;
 mod lean;
 mod model;
 #[cfg(test)]

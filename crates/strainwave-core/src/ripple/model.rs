@@ -245,6 +245,10 @@ pub struct RippleModel<T: Real, const M: usize> {
     /// Orders on the relative (and output) angle, whole multiples 1, 2 or 4: the bank
     /// step can run as one loop over the joints (`fused`).
     pub(crate) single_pass: bool,
+    /// The orders as a compile-time layout code (`layout::RUNTIME` if none).
+    pub(crate) layout: u32,
+    /// Smallest and largest multiple of the orders on each reference (0 if none).
+    pub(crate) multiple_span: [[T; 2]; 3],
     /// Initial (and reset) variance of each order: its prior's, or the model's.
     pub(crate) p0_order: [T; M],
     /// Whether some order is scaled by the load.
@@ -296,6 +300,8 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
             used_refs: [0; 3],
             n_used: 0,
             single_pass: false,
+            layout: super::layout::RUNTIME,
+            multiple_span: [[T::ZERO; 2]; 3],
             p0_order: [T::ONE; M],
             any_load_scaled: false,
         };
@@ -314,6 +320,7 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
     /// ```
     pub fn with_bias_state(mut self, q_bias_nm2: T) -> Result<Self, Error> {
         self.bias_q_nm2 = Some(non_negative(q_bias_nm2, "q_bias_nm2")?);
+        self.derive();
         Ok(self)
     }
 
@@ -410,8 +417,12 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
         for (o, p0) in self.orders.iter().zip(self.p0_order.iter_mut()) {
             *p0 = o.prior_variance_nm2.unwrap_or(self.p0_oscillator_nm2);
         }
+        self.multiple_span = [[T::ZERO; 2]; 3];
         for (o, p) in self.orders.iter().zip(self.power.iter_mut()) {
-            self.uses[o.reference.index()] = true;
+            let r = o.reference.index();
+            let span = &mut self.multiple_span[r];
+            *span = if self.uses[r] { [span[0].min(o.multiple), span[1].max(o.multiple)] } else { [o.multiple; 2] };
+            self.uses[r] = true;
             let m = o.multiple.to_f64();
             *p = if m == libm::round(m) && (1.0..=16.0).contains(&m) { m as u8 } else { 0 };
         }
@@ -423,6 +434,7 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
             }
         }
         self.single_pass = self.uses[0] && !self.uses[2] && self.power.iter().all(|&p| matches!(p, 1 | 2 | 4));
+        self.layout = super::layout::of(self);
     }
 
     /// The orders.
