@@ -81,6 +81,7 @@ pub trait Real:
     fn is_finite(self) -> bool;
 
     /// −1, 0 or +1 (0 for ±0 and NaN).
+    #[inline(always)]
     fn signum0(self) -> Self {
         if self > Self::ZERO {
             Self::ONE
@@ -91,6 +92,7 @@ pub trait Real:
         }
     }
     /// The larger of two values (NaN-free inputs).
+    #[inline(always)]
     fn max(self, other: Self) -> Self {
         if self > other {
             self
@@ -99,6 +101,7 @@ pub trait Real:
         }
     }
     /// The smaller of two values (NaN-free inputs).
+    #[inline(always)]
     fn min(self, other: Self) -> Self {
         if self < other {
             self
@@ -107,6 +110,7 @@ pub trait Real:
         }
     }
     /// Clamps into `[lo, hi]`.
+    #[inline(always)]
     fn clamp(self, lo: Self, hi: Self) -> Self {
         self.max(lo).min(hi)
     }
@@ -123,7 +127,7 @@ pub trait Real:
 
 macro_rules! impl_real {
     ($t:ty, $sin:path, $cos:path, $tan:path, $atan:path, $atan2:path, $exp:path, $ln:path,
-     $sqrt:path, $fabs:path, $floor:path, $round:path, $pow:path) => {
+     $sqrt:path, $floor:path, $round:path, $pow:path) => {
         impl Real for $t {
             const ZERO: Self = 0.0;
             const ONE: Self = 1.0;
@@ -132,11 +136,11 @@ macro_rules! impl_real {
             const PI: Self = core::f64::consts::PI as $t;
             const TAU: Self = core::f64::consts::TAU as $t;
             const EPSILON: Self = <$t>::EPSILON;
-            #[inline]
+            #[inline(always)]
             fn from_f64(x: f64) -> Self {
                 x as $t
             }
-            #[inline]
+            #[inline(always)]
             fn to_f64(self) -> f64 {
                 self as f64
             }
@@ -172,9 +176,9 @@ macro_rules! impl_real {
             fn sqrt(self) -> Self {
                 $sqrt(self)
             }
-            #[inline]
+            #[inline(always)]
             fn abs(self) -> Self {
-                $fabs(self)
+                <$t>::abs(self)
             }
             #[inline]
             fn floor(self) -> Self {
@@ -188,7 +192,7 @@ macro_rules! impl_real {
             fn powf(self, y: Self) -> Self {
                 $pow(self, y)
             }
-            #[inline]
+            #[inline(always)]
             fn is_finite(self) -> bool {
                 <$t>::is_finite(self)
             }
@@ -206,7 +210,6 @@ impl_real!(
     libm::expf,
     libm::logf,
     libm::sqrtf,
-    libm::fabsf,
     libm::floorf,
     libm::roundf,
     libm::powf
@@ -221,7 +224,6 @@ impl_real!(
     libm::exp,
     libm::log,
     libm::sqrt,
-    libm::fabs,
     libm::floor,
     libm::round,
     libm::pow

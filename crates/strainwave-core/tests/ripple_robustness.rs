@@ -6,8 +6,8 @@ mod ripple_common;
 use ripple_common::{rms, Joint, Rng, Sample};
 use std::f64::consts::TAU;
 use strainwave_core::ripple::{
-    step, step_many, BankInput, OrderStatus, PhaseSource, ReferenceValues, RippleBank, RippleInput, RippleModel,
-    RippleOutput, RippleState, StepFlags,
+    step, step_many, BankInput, BankOutput, OrderStatus, PhaseSource, ReferenceValues, RippleBank, RippleInput,
+    RippleModel, RippleOutput, RippleState, StepFlags,
 };
 use strainwave_core::{Error, Real};
 
@@ -276,7 +276,8 @@ fn bank_equals_single_joints_bit_for_bit() {
                 lane(&|i| i.references.motor),
             ),
         );
-        let out = step_many(&model, &mut bank, &bank_input);
+        let mut out = BankOutput::default();
+        step_many(&model, &mut bank, &bank_input, &mut out);
         for j in 0..J {
             let o = step(&model, &mut singles[j], &inputs[j]).unwrap();
             assert_eq!(o.torque_nm.to_bits(), out.torque_nm[j].to_bits(), "k {k} joint {j}");

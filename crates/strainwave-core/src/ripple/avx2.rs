@@ -10,7 +10,7 @@
 #![allow(unsafe_code)]
 
 use super::bank::{BankInput, BankOutput, RippleBank};
-use super::kernel::run;
+use super::kernel::fill;
 use super::model::RippleModel;
 use crate::Real;
 
@@ -20,16 +20,17 @@ pub(crate) fn available() -> bool {
     std::is_x86_feature_detected!("avx2")
 }
 
-/// [`run`] for banks, with AVX2 enabled. Call only when [`available`] is true.
+/// [`fill`] for banks, with AVX2 enabled. Call only when [`available`] is true.
 #[inline]
 pub(crate) fn step<T: Real, const M: usize, const J: usize>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
-) -> BankOutput<T, J> {
+    out: &mut BankOutput<T, J>,
+) {
     debug_assert!(available());
     // SAFETY: callers check `available()`, so the CPU executes AVX2 instructions.
-    unsafe { step_avx2(model, bank, input) }
+    unsafe { step_avx2(model, bank, input, out) }
 }
 
 #[target_feature(enable = "avx2")]
@@ -37,20 +38,25 @@ fn step_avx2<T: Real, const M: usize, const J: usize>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
-) -> BankOutput<T, J> {
-    run(model, bank, input, None)
+    out: &mut BankOutput<T, J>,
+) {
+    fill(model, bank, input, None, out);
 }
 
 #[cfg(test)]
 mod tests {
     use super::super::path_check::against_general;
-    use super::super::RippleModel;
+    use super::super::{BankOutput, RippleModel};
     use super::{available, step};
     use crate::Real;
 
     /// The AVX2 build against the portable general path, bit for bit.
     fn same<T: Real, const M: usize, const J: usize>(model: RippleModel<T, M>) {
-        let took = against_general::<T, M, J>(&model, 5000, |m, b, i| Some(step(m, b, i)));
+        let took = against_general::<T, M, J>(&model, 5000, |m, b, i| {
+            let mut out = BankOutput::default();
+            step(m, b, i, &mut out);
+            Some(out)
+        });
         assert_eq!(took, 6000);
     }
 

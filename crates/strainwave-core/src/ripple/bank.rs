@@ -270,6 +270,23 @@ pub struct BankOutput<T: Real, const J: usize> {
     pub flags: [StepFlags; J],
 }
 
+impl<T: Real, const J: usize> Default for BankOutput<T, J> {
+    /// All zero, no flags: the buffer [`step_many`](super::step_many) fills.
+    #[inline]
+    fn default() -> Self {
+        Self {
+            torque_nm: [T::ZERO; J],
+            ripple_nm: [T::ZERO; J],
+            misalignment_nm: [T::ZERO; J],
+            torque_state_nm: [T::ZERO; J],
+            innovation_nm: [T::ZERO; J],
+            innovation_variance_nm2: [T::ZERO; J],
+            nis: [T::ZERO; J],
+            flags: [StepFlags::empty(); J],
+        }
+    }
+}
+
 impl<T: Real> From<BankOutput<T, 1>> for super::RippleOutput<T> {
     /// The single joint of a one-joint bank step.
     fn from(o: BankOutput<T, 1>) -> Self {

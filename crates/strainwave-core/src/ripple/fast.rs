@@ -13,7 +13,7 @@
 
 use super::bank::{BankInput, BankOutput, RippleBank};
 use super::io::OrderStatus;
-use super::joint::{common_interval, empty_output, finite, joint, settle, Params};
+use super::joint::{array, common_interval, finite, joint, settle, Params};
 use super::model::{PhaseSource, RippleModel};
 use super::plan::HOLD_AVERAGE;
 use super::trig::{phasors, wrap_angle, wrap_near};
@@ -140,23 +140,34 @@ pub(crate) fn step<T: Real, const M: usize, const J: usize>(
 
     // Everything after the phasors, one joint at a time: the temporaries stay in
     // registers and the loop vectorizes across joints as a whole.
-    let mut out = empty_output();
+    let mut out = BankOutput::default();
     let mut load_step = [false; J];
     let mut bad = [false; J];
     // Local copies: the loop then reads and writes no memory the bank could share, so
     // it vectorizes without run-time overlap checks.
     let par = Params::new(model);
     let (torque, expected) = (input.torque_nm, input.expected_torque_nm);
-    let abs_at = |l: usize| core::array::from_fn(|i| abs_a[i][l]);
+    let abs_at = |l: usize| array(T::ZERO, |i| abs_a[i][l]);
     if model.bias_q_nm2.is_some() {
         for l in 0..J {
-            let h = core::array::from_fn(|i| [bank.phasor[i][0][l], bank.phasor[i][1][l]]);
-            (load_step[l], bad[l]) = joint::<T, M, J, true>(&par, bank, &torque, &expected, h, abs_at(l), l, &mut out);
+            let h = array([T::ZERO; 2], |i| [bank.phasor[i][0][l], bank.phasor[i][1][l]]);
+            (load_step[l], bad[l]) =
+                joint::<T, M, J, true>(&par, |i| par.is_ripple(i), bank, &torque, &expected, h, abs_at(l), l, &mut out);
         }
     } else {
         for l in 0..J {
-            let h = core::array::from_fn(|i| [bank.phasor[i][0][l], bank.phasor[i][1][l]]);
-            (load_step[l], bad[l]) = joint::<T, M, J, false>(&par, bank, &torque, &expected, h, abs_at(l), l, &mut out);
+            let h = array([T::ZERO; 2], |i| [bank.phasor[i][0][l], bank.phasor[i][1][l]]);
+            (load_step[l], bad[l]) = joint::<T, M, J, false>(
+                &par,
+                |i| par.is_ripple(i),
+                bank,
+                &torque,
+                &expected,
+                h,
+                abs_at(l),
+                l,
+                &mut out,
+            );
         }
     }
     settle(model, bank, input, &load_step, &bad, &mut out);

@@ -15,14 +15,15 @@
 
 use super::bank::{BankInput, BankOutput, RippleBank};
 use super::io::OrderStatus;
-use super::joint::{common_interval, empty_output, finite, joint, settle, Params};
+use super::joint::{array, common_interval, finite, joint, settle, Params};
 use super::layout::{self, FULL, PRODUCT, RUNTIME, SEED_4TH, SEED_6TH};
 use super::model::{PhaseSource, Reference, RippleModel};
 use super::plan::HOLD_AVERAGE;
 use super::trig::{phasor_power, sin_cos_small, wrap_near};
 use crate::Real;
 
-/// One step if the model and every joint qualify, else `None` with nothing changed.
+/// One step into `out` if the model and every joint qualify (true), else false with
+/// nothing changed.
 ///
 /// The presets' layouts are compiled with their orders known ([`layout`]); any other
 /// layout of the same kind reads them from the model.
@@ -31,24 +32,26 @@ pub(crate) fn step<T: Real, const M: usize, const J: usize>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
-) -> Option<BankOutput<T, J>> {
+    out: &mut BankOutput<T, J>,
+) -> bool {
     if !(model.single_pass && model.phase_source == PhaseSource::Angle) {
-        return None;
+        return false;
     }
     match (model.layout, model.bias_q_nm2.is_some(), model.uses[1]) {
-        (SEED_4TH, _, _) => step_with::<T, M, J, SEED_4TH, false, false>(model, bank, input),
-        (SEED_6TH, _, _) => step_with::<T, M, J, SEED_6TH, false, true>(model, bank, input),
-        (PRODUCT, _, _) => step_with::<T, M, J, PRODUCT, true, true>(model, bank, input),
-        (FULL, _, _) => step_with::<T, M, J, FULL, true, true>(model, bank, input),
-        (_, false, false) => step_with::<T, M, J, RUNTIME, false, false>(model, bank, input),
-        (_, false, true) => step_with::<T, M, J, RUNTIME, false, true>(model, bank, input),
-        (_, true, false) => step_with::<T, M, J, RUNTIME, true, false>(model, bank, input),
-        (_, true, true) => step_with::<T, M, J, RUNTIME, true, true>(model, bank, input),
+        (SEED_4TH, _, _) => step_with::<T, M, J, SEED_4TH, false, false>(model, bank, input, out),
+        (SEED_6TH, _, _) => step_with::<T, M, J, SEED_6TH, false, true>(model, bank, input, out),
+        (PRODUCT, _, _) => step_with::<T, M, J, PRODUCT, true, true>(model, bank, input, out),
+        (FULL, _, _) => step_with::<T, M, J, FULL, true, true>(model, bank, input, out),
+        (_, false, false) => step_with::<T, M, J, RUNTIME, false, false>(model, bank, input, out),
+        (_, false, true) => step_with::<T, M, J, RUNTIME, false, true>(model, bank, input, out),
+        (_, true, false) => step_with::<T, M, J, RUNTIME, true, false>(model, bank, input, out),
+        (_, true, true) => step_with::<T, M, J, RUNTIME, true, true>(model, bank, input, out),
     }
 }
 
-/// What the joints' loop needs of the orders: constants for a layout `L`, the model's
-/// values for [`RUNTIME`].
+/// The orders as the model has them, for [`RUNTIME`]; a layout `L` reads its constant
+/// [`layout::Table`] instead (kept out of memory the loop writes, so it folds away).
+#[derive(Clone, Copy)]
 struct Orders<T: Real, const M: usize> {
     on_output: [bool; M],
     power: [u8; M],
@@ -60,36 +63,60 @@ struct Orders<T: Real, const M: usize> {
 
 impl<T: Real, const M: usize> Orders<T, M> {
     #[inline(always)]
-    fn of<const L: u32>(model: &RippleModel<T, M>) -> Self {
-        let run_time = L == RUNTIME;
-        let span = |output: bool| {
-            let s = layout::multiple_span(L, output);
-            [T::from_f64(f64::from(s[0])), T::from_f64(f64::from(s[1]))]
-        };
+    fn of(model: &RippleModel<T, M>) -> Self {
         Self {
-            on_output: core::array::from_fn(|i| {
-                if run_time {
-                    model.orders[i].reference == Reference::Output
-                } else {
-                    layout::on_output(L, i)
-                }
-            }),
-            power: core::array::from_fn(|i| if run_time { model.power[i] } else { layout::power(L, i) }),
-            multiple: core::array::from_fn(|i| {
-                if run_time {
-                    model.orders[i].multiple
-                } else {
-                    T::from_f64(f64::from(layout::power(L, i)))
-                }
-            }),
-            load_scaled: core::array::from_fn(|i| {
-                if run_time {
-                    model.orders[i].load_scaled
-                } else {
-                    layout::load_scaled(L, i)
-                }
-            }),
-            span: if run_time { [model.multiple_span[0], model.multiple_span[1]] } else { [span(false), span(true)] },
+            on_output: array(false, |i| model.orders[i].reference == Reference::Output),
+            power: array(1, |i| model.power[i]),
+            multiple: array(T::ONE, |i| model.orders[i].multiple),
+            load_scaled: array(false, |i| model.orders[i].load_scaled),
+            span: [model.multiple_span[0], model.multiple_span[1]],
+        }
+    }
+
+    #[inline(always)]
+    fn on_output<const L: u32>(&self, i: usize) -> bool {
+        if L == RUNTIME {
+            self.on_output[i]
+        } else {
+            layout::table_of::<L>().on_output.get(i).copied().unwrap_or(false)
+        }
+    }
+
+    #[inline(always)]
+    fn power<const L: u32>(&self, i: usize) -> u8 {
+        if L == RUNTIME {
+            self.power[i]
+        } else {
+            layout::table_of::<L>().power.get(i).copied().unwrap_or(1)
+        }
+    }
+
+    #[inline(always)]
+    fn multiple<const L: u32>(&self, i: usize) -> T {
+        if L == RUNTIME {
+            self.multiple[i]
+        } else {
+            T::from_f64(f64::from(self.power::<L>(i)))
+        }
+    }
+
+    #[inline(always)]
+    fn load_scaled<const L: u32>(&self, i: usize) -> bool {
+        if L == RUNTIME {
+            self.load_scaled[i]
+        } else {
+            layout::table_of::<L>().load_scaled.get(i).copied().unwrap_or(false)
+        }
+    }
+
+    /// Smallest and largest multiple on the output (`r = 1`) or relative angle.
+    #[inline(always)]
+    fn span<const L: u32>(&self, r: usize) -> [T; 2] {
+        if L == RUNTIME {
+            self.span[r]
+        } else {
+            let s = layout::table_of::<L>().span[r & 1];
+            [T::from_f64(f64::from(s[0])), T::from_f64(f64::from(s[1]))]
         }
     }
 }
@@ -125,12 +152,12 @@ fn step_with<T: Real, const M: usize, const J: usize, const L: u32, const BIAS: 
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
-) -> Option<BankOutput<T, J>> {
-    if L != RUNTIME && layout::orders(L) != M {
-        return None;
+    out: &mut BankOutput<T, J>,
+) -> bool {
+    if L != RUNTIME && const { layout::orders(L) } != M || common_interval(model, input.dt_s).is_none() {
+        return false;
     }
-    common_interval(model, input.dt_s)?;
-    let orders = Orders::of::<L>(model);
+    let orders = Orders::of(model);
 
     // Decide, writing nothing. The flags first, as bytes: every joint caught up (a
     // last angle and increment) and every order active.
@@ -143,7 +170,7 @@ fn step_with<T: Real, const M: usize, const J: usize, const L: u32, const BIAS: 
         caught_up &= c;
     }
     if !caught_up {
-        return None;
+        return false;
     }
     // Then the numbers, as one mask. `inc`: increment and mean of each reference.
     let (rel, out_angle) = (&input.references.relative, &input.references.output);
@@ -152,34 +179,27 @@ fn step_with<T: Real, const M: usize, const J: usize, const L: u32, const BIAS: 
     for l in 0..J {
         let y = input.torque_nm[l] - input.expected_torque_nm[l];
         let mut k = finite(y) & (bank.pending_samples[l] == T::ZERO);
-        let (d, m, fine) = increment(model, bank, rel[l], 0, l, orders.span[0]);
+        let (d, m, fine) = increment(model, bank, rel[l], 0, l, orders.span::<L>(0));
         (inc[0][0][l], inc[0][1][l]) = (d, m);
         k &= fine;
         if OUT {
-            let (d, m, fine) = increment(model, bank, out_angle[l], 1, l, orders.span[1]);
+            let (d, m, fine) = increment(model, bank, out_angle[l], 1, l, orders.span::<L>(1));
             (inc[1][0][l], inc[1][1][l]) = (d, m);
             k &= fine;
         }
         ok &= k;
     }
     if !ok {
-        return None;
+        return false;
     }
 
-    // Commit, phasors and update, one joint at a time.
-    let mut out = empty_output();
+    // Commit, phasors and update, one joint at a time, into a local output (the
+    // caller's may alias nothing, but the compiler vectorizes more surely without it).
+    let mut local = BankOutput::default();
     let mut load_step = [false; J];
     let mut bad = [false; J];
-    let mut par = Params::new(model);
-    par.is_ripple = core::array::from_fn(|i| !orders.on_output[i]);
-    let sh = Shared {
-        par,
-        torque: input.torque_nm,
-        expected: input.expected_torque_nm,
-        angle: [*rel, *out_angle],
-        inc,
-        orders,
-    };
+    let par = Params::new(model);
+    let sh = Shared { torque: input.torque_nm, expected: input.expected_torque_nm, angle: [*rel, *out_angle], inc };
     // Counters and flags first: other element widths in the main loop would narrow
     // its vectors.
     for l in 0..J {
@@ -187,28 +207,29 @@ fn step_with<T: Real, const M: usize, const J: usize, const L: u32, const BIAS: 
         bank.pending_dt[l] = T::ZERO;
     }
     for l in 0..J {
-        (load_step[l], bad[l]) = joint_step::<T, M, J, L, BIAS, OUT>(&sh, bank, l, &mut out);
+        (load_step[l], bad[l]) = joint_step::<T, M, J, L, BIAS, OUT>(&par, orders, &sh, bank, l, &mut local);
     }
-    settle(model, bank, input, &load_step, &bad, &mut out);
-    Some(out)
+    settle(model, bank, input, &load_step, &bad, &mut local);
+    *out = local;
+    true
 }
 
-/// The model's numbers and the sample's inputs the joints' loop reads, as locals.
-struct Shared<T: Real, const M: usize, const J: usize> {
-    par: Params<T, M>,
+/// The sample's inputs the joints' loop reads, as locals.
+struct Shared<T: Real, const J: usize> {
     torque: [T; J],
     expected: [T; J],
     /// Relative and output angle.
     angle: [[T; J]; 2],
     /// Increment and mean of each reference.
     inc: [[[T; J]; 2]; 2],
-    orders: Orders<T, M>,
 }
 
 /// Joint `l`: phase bookkeeping, phasors and the filter update.
 #[inline(always)]
 fn joint_step<T: Real, const M: usize, const J: usize, const L: u32, const BIAS: bool, const OUT: bool>(
-    sh: &Shared<T, M, J>,
+    par: &Params<T, M>,
+    o: Orders<T, M>,
+    sh: &Shared<T, J>,
     bank: &mut RippleBank<T, M, J>,
     l: usize,
     out: &mut BankOutput<T, J>,
@@ -226,32 +247,28 @@ fn joint_step<T: Real, const M: usize, const J: usize, const L: u32, const BIAS:
     }
     let load = (sh.expected[l] + bank.b[l]).abs();
     let load = if finite(load) { load } else { T::ZERO };
-    let o = &sh.orders;
     let mut h = [[T::ZERO; 2]; M];
     let mut abs_a = [T::ZERO; M];
     for i in 0..M {
-        let r = usize::from(o.on_output[i]);
+        let r = usize::from(o.on_output::<L>(i));
         let (c, s) = base[r];
-        let (c, s) = if L == RUNTIME {
-            // Both squarings, then selects: no branch in the loop.
-            let c2 = phasor_power(c, s, 2);
-            let c4 = phasor_power(c2.0, c2.1, 2);
-            match o.power[i] {
-                4 => c4,
-                2 => c2,
-                _ => (c, s),
-            }
-        } else {
-            // A constant power: orders on the same angle share their squarings.
-            phasor_power(c, s, o.power[i])
+        // Both squarings, then selects: no branch in the loop (and for a layout's
+        // constant power, no select either; orders on one angle share the squarings).
+        let c2 = phasor_power(c, s, 2);
+        let c4 = phasor_power(c2.0, c2.1, 2);
+        let (c, s) = match o.power::<L>(i) {
+            4 => c4,
+            2 => c2,
+            _ => (c, s),
         };
-        let (c, s) = if o.load_scaled[i] { (c * load, s * load) } else { (c, s) };
+        let (c, s) = if o.load_scaled::<L>(i) { (c * load, s * load) } else { (c, s) };
         bank.phasor[i][0][l] = c;
         bank.phasor[i][1][l] = s;
         h[i] = [c, s];
-        abs_a[i] = (o.multiple[i] * sh.inc[r][0][l]).abs();
+        abs_a[i] = (o.multiple::<L>(i) * sh.inc[r][0][l]).abs();
     }
-    joint::<T, M, J, BIAS>(&sh.par, bank, &sh.torque, &sh.expected, h, abs_a, l, out)
+    let is_ripple = |i: usize| !o.on_output::<L>(i);
+    joint::<T, M, J, BIAS>(par, is_ripple, bank, &sh.torque, &sh.expected, h, abs_a, l, out)
 }
 
 #[cfg(test)]
@@ -262,7 +279,10 @@ mod tests {
     use crate::Real;
 
     fn took<T: Real, const M: usize, const J: usize>(model: RippleModel<T, M>, unwrapped_after: usize) -> usize {
-        against_general::<T, M, J>(&model, unwrapped_after, super::step)
+        against_general::<T, M, J>(&model, unwrapped_after, |m, b, i| {
+            let mut out = super::super::BankOutput::default();
+            super::step(m, b, i, &mut out).then_some(out)
+        })
     }
 
     #[test]

@@ -13,21 +13,6 @@ use super::io::StepFlags;
 use super::model::RippleModel;
 use crate::Real;
 
-/// An output to fill in.
-#[inline(always)]
-pub(super) fn empty_output<T: Real, const J: usize>() -> BankOutput<T, J> {
-    BankOutput {
-        torque_nm: [T::ZERO; J],
-        ripple_nm: [T::ZERO; J],
-        misalignment_nm: [T::ZERO; J],
-        torque_state_nm: [T::ZERO; J],
-        innovation_nm: [T::ZERO; J],
-        innovation_variance_nm2: [T::ZERO; J],
-        nis: [T::ZERO; J],
-        flags: [StepFlags::empty(); J],
-    }
-}
-
 /// Flags for the joints with a load step, and the reset of joints whose covariance
 /// went bad (rare, so after the loop).
 #[inline(always)]
@@ -64,7 +49,7 @@ pub(super) fn settle<T: Real, const M: usize, const J: usize>(
 pub(super) struct Params<T: Real, const M: usize> {
     q_per_sample: [T; M],
     q_per_rad: [T; M],
-    pub(super) is_ripple: [bool; M],
+    is_ripple: [bool; M],
     r: T,
     inflation: T,
     q_bias: T,
@@ -72,12 +57,18 @@ pub(super) struct Params<T: Real, const M: usize> {
 }
 
 impl<T: Real, const M: usize> Params<T, M> {
+    /// Whether order `i` is ripple (else misalignment).
+    #[inline(always)]
+    pub(super) fn is_ripple(&self, i: usize) -> bool {
+        self.is_ripple[i]
+    }
+
     #[inline(always)]
     pub(super) fn new(model: &RippleModel<T, M>) -> Self {
         Self {
-            q_per_sample: core::array::from_fn(|i| model.orders[i].q_per_sample_nm2),
-            q_per_rad: core::array::from_fn(|i| model.orders[i].q_per_rad_nm2),
-            is_ripple: core::array::from_fn(|i| model.orders[i].reference.is_ripple()),
+            q_per_sample: array(T::ZERO, |i| model.orders[i].q_per_sample_nm2),
+            q_per_rad: array(T::ZERO, |i| model.orders[i].q_per_rad_nm2),
+            is_ripple: array(false, |i| model.orders[i].reference.is_ripple()),
             r: model.r_nm2,
             inflation: model.limits.covariance_inflation,
             q_bias: model.bias_q_nm2.unwrap_or(T::ZERO),
@@ -86,14 +77,15 @@ impl<T: Real, const M: usize> Params<T, M> {
     }
 }
 
-/// Joint `l` from the time update to the outputs, given its update row `h` (the
-/// phasors) and phase increments `abs_a`: the kernel's arithmetic in the same order of
+/// Joint `l` from the time update to the outputs, given whether each order is ripple
+/// (else misalignment), its update row `h` (the phasors) and phase increments `abs_a`: the kernel's arithmetic in the same order of
 /// operations, with selects instead of branches (so the caller's loop over the joints
 /// vectorizes). Returns (load step, covariance bad); the caller resets bad joints.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
     par: &Params<T, M>,
+    is_ripple: impl Fn(usize) -> bool,
     bank: &mut RippleBank<T, M, J>,
     torque_nm: &[T; J],
     expected_nm: &[T; J],
@@ -122,7 +114,7 @@ pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
     let (mut any_ripple, mut any_mis) = (false, false);
     for i in 0..M {
         let v = h[i][0] * bank.z[i][0][l] + h[i][1] * bank.z[i][1][l];
-        if par.is_ripple[i] {
+        if is_ripple(i) {
             ripple = sum_from(!any_ripple, ripple, v);
             any_ripple = true;
         } else {
@@ -241,6 +233,17 @@ pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
     out.innovation_variance_nm2[l] = s_var;
     out.nis[l] = e * e / s_var;
     (load_step, bad)
+}
+
+/// `[f(0), …, f(N − 1)]` as a plain loop: `core::array::from_fn` is not always
+/// inlined, and a call in the joints' loop would stop it from vectorizing.
+#[inline(always)]
+pub(super) fn array<T: Copy, const N: usize>(fill: T, f: impl Fn(usize) -> T) -> [T; N] {
+    let mut a = [fill; N];
+    for (i, v) in a.iter_mut().enumerate() {
+        *v = f(i);
+    }
+    a
 }
 
 /// `acc + t`, or `t` itself for a sum's first term: sums start from their first term,

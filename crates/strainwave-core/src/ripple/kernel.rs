@@ -56,17 +56,20 @@ use crate::Real;
 /// Per-order, per-component, per-joint values `[i][r][joint]`.
 pub(crate) type Lanes2<T, const M: usize, const J: usize> = [[[T; J]; 2]; M];
 
-/// Steps `J` joints sharing `model` by one sample. A joint whose covariance went bad is
-/// reset and flagged [`StepFlags::COVARIANCE_RESET`]; the others are unaffected.
+/// Steps `J` joints sharing `model` by one sample, writing their results into `out`
+/// (a buffer the caller keeps: nothing is copied per sample). A joint whose covariance
+/// went bad is reset and flagged [`StepFlags::COVARIANCE_RESET`]; the others are
+/// unaffected.
 ///
 /// ```
-/// use strainwave_core::ripple::{step_many, BankInput, ReferenceValues, RippleBank, RippleModel};
+/// use strainwave_core::ripple::{step_many, BankInput, BankOutput, ReferenceValues, RippleBank, RippleModel};
 /// let model = RippleModel::<f32, 2>::seed_4th_order(1000.0).unwrap();
 /// let mut bank = RippleBank::<f32, 2, 4>::new(&model);
+/// let mut out = BankOutput::default();
 /// for k in 0..100 {
 ///     let phi = [0.05 * k as f32; 4];
 ///     let input = BankInput::new([1.0; 4], ReferenceValues::new(phi, [0.0; 4], [0.0; 4]));
-///     let out = step_many(&model, &mut bank, &input);
+///     step_many(&model, &mut bank, &input, &mut out);
 ///     assert!(out.torque_nm.iter().all(|t| t.is_finite()));
 /// }
 /// ```
@@ -75,12 +78,13 @@ pub fn step_many<T: Real, const M: usize, const J: usize>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
-) -> BankOutput<T, J> {
+    out: &mut BankOutput<T, J>,
+) {
     #[cfg(all(feature = "std", target_arch = "x86_64"))]
     if J > 1 && super::avx2::available() {
-        return super::avx2::step(model, bank, input);
+        return super::avx2::step(model, bank, input, out);
     }
-    run(model, bank, input, None)
+    fill(model, bank, input, None, out);
 }
 
 /// The whole step; `trace` (for `J = 1`) records joint 0's intermediate quantities.
@@ -91,15 +95,28 @@ pub(crate) fn run<T: Real, const M: usize, const J: usize>(
     input: &BankInput<T, J>,
     trace: Option<&mut StepTrace<T, M>>,
 ) -> BankOutput<T, J> {
-    if trace.is_none() {
-        if let Some(out) = fused::step(model, bank, input) {
-            return out;
-        }
-        if let Some(out) = fast::step(model, bank, input) {
-            return out;
-        }
+    let mut out = BankOutput::default();
+    fill(model, bank, input, trace, &mut out);
+    out
+}
+
+/// [`run`] into `out`: the one-loop step writes it in place, so the common sample
+/// costs no copy of the output.
+#[inline(always)]
+pub(crate) fn fill<T: Real, const M: usize, const J: usize>(
+    model: &RippleModel<T, M>,
+    bank: &mut RippleBank<T, M, J>,
+    input: &BankInput<T, J>,
+    trace: Option<&mut StepTrace<T, M>>,
+    out: &mut BankOutput<T, J>,
+) {
+    let common = trace.is_none();
+    if !(common && fused::step(model, bank, input, out)) {
+        *out = match common.then(|| fast::step(model, bank, input)).flatten() {
+            Some(o) => o,
+            None => general(model, bank, input, trace),
+        };
     }
-    general(model, bank, input, trace)
 }
 
 /// Any sample: decisions as masks, then the same arithmetic as the fast path.

@@ -81,6 +81,41 @@ pub(super) const fn multiple_span(layout: u32, output: bool) -> [u8; 2] {
     [low, high]
 }
 
+/// Everything the bank step reads of a layout, for order `i < 7`; evaluate it in a
+/// `const` block so that it costs nothing per sample.
+pub(super) struct Table {
+    pub(super) power: [u8; MAX_ORDERS],
+    pub(super) on_output: [bool; MAX_ORDERS],
+    pub(super) load_scaled: [bool; MAX_ORDERS],
+    /// [`multiple_span`] on the relative and the output angle.
+    pub(super) span: [[u8; 2]; 2],
+}
+
+/// The [`Table`] of `layout`.
+pub(super) const fn table(layout: u32) -> Table {
+    let mut t = Table {
+        power: [1; MAX_ORDERS],
+        on_output: [false; MAX_ORDERS],
+        load_scaled: [false; MAX_ORDERS],
+        span: [multiple_span(layout, false), multiple_span(layout, true)],
+    };
+    let mut i = 0;
+    while i < MAX_ORDERS {
+        t.power[i] = power(layout, i);
+        t.on_output[i] = on_output(layout, i);
+        t.load_scaled[i] = load_scaled(layout, i);
+        i += 1;
+    }
+    t
+}
+
+/// The [`Table`] of layout `L`: a constant in the binary, so that reading it with a
+/// known order index folds away.
+#[inline(always)]
+pub(super) fn table_of<const L: u32>() -> &'static Table {
+    const { &table(L) }
+}
+
 /// The layout code of `model`, or [`RUNTIME`] if it has none: only models whose
 /// orders are whole multiples 1, 2 or 4 of the relative or output angle have one.
 pub(super) fn of<T: Real, const M: usize>(model: &RippleModel<T, M>) -> u32 {
