@@ -124,7 +124,7 @@ impl<T: Real, const M: usize, const J: usize> RippleBank<T, M, J> {
         self.pbb[l] = if model.bias_q_nm2.is_some() { model.p0_bias_nm2 } else { T::ZERO };
     }
 
-    /// Steps taken by joint `joint` (skipped samples included).
+    /// Steps taken by joint `joint` (skipped samples included; counts modulo 2⁶⁴).
     pub fn steps(&self, joint: usize) -> Option<u64> {
         self.steps.get(joint).copied()
     }

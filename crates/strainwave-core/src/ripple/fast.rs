@@ -96,7 +96,7 @@ pub(crate) fn step<T: Real, const M: usize, const J: usize>(
 
     // Commit the phase-side state, as `plan` does for this case.
     for l in 0..J {
-        bank.steps[l] = bank.steps[l].saturating_add(1);
+        bank.steps[l] = bank.steps[l].wrapping_add(1);
         bank.pending_dt[l] = T::ZERO;
         bank.delta_known[l] = true;
     }

@@ -73,7 +73,7 @@ impl<T: Real, const M: usize> RippleState<T, M> {
         self.bank.order_status(0, order)
     }
 
-    /// Steps taken (skipped samples included).
+    /// Steps taken (skipped samples included; counts modulo 2⁶⁴).
     pub fn steps(&self) -> u64 {
         self.bank.steps(0).unwrap_or(0)
     }
@@ -148,6 +148,20 @@ fn single<T: Real, const M: usize>(
 ) -> Result<RippleOutput<T>, Error> {
     // The common sample; the traced step keeps the general path for the smoother.
     if trace.is_none() {
+        let r = &input.references;
+        let bank_input = BankInput {
+            torque_nm: [input.torque_nm],
+            expected_torque_nm: [input.expected_torque_nm],
+            references: ReferenceValues::new([r.relative], [r.output], [r.motor]),
+            dt_s: input.dt_s,
+        };
+        let mut out = super::BankOutput::default();
+        if super::fused::step(model, &mut state.bank, &bank_input, &mut out) {
+            if out.flags[0].contains(StepFlags::COVARIANCE_RESET) {
+                return Err(Error::NotPositiveDefinite("ripple covariance"));
+            }
+            return Ok(out.into());
+        }
         if let Some(o) = lean::step(model, &mut state.bank, input) {
             if o.flags.contains(StepFlags::COVARIANCE_RESET) {
                 return Err(Error::NotPositiveDefinite("ripple covariance"));

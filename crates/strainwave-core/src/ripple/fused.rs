@@ -14,7 +14,7 @@
 #![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 
 use super::bank::{BankInput, BankOutput, RippleBank};
-use super::io::OrderStatus;
+use super::io::{OrderStatus, StepFlags};
 use super::joint::{array, common_interval, finite, joint, settle, Params};
 use super::layout::{self, FULL, PRODUCT, RUNTIME, SEED_4TH, SEED_6TH};
 use super::model::{PhaseSource, Reference, RippleModel};
@@ -193,9 +193,8 @@ fn step_with<T: Real, const M: usize, const J: usize, const L: u32, const BIAS: 
         return false;
     }
 
-    // Commit, phasors and update, one joint at a time, into a local output (the
-    // caller's may alias nothing, but the compiler vectorizes more surely without it).
-    let mut local = BankOutput::default();
+    // Commit, phasors and update, one joint at a time.
+    out.flags = [StepFlags::empty(); J];
     let mut load_step = [false; J];
     let mut bad = [false; J];
     let par = Params::new(model);
@@ -203,14 +202,13 @@ fn step_with<T: Real, const M: usize, const J: usize, const L: u32, const BIAS: 
     // Counters and flags first: other element widths in the main loop would narrow
     // its vectors.
     for l in 0..J {
-        bank.steps[l] = bank.steps[l].saturating_add(1);
+        bank.steps[l] = bank.steps[l].wrapping_add(1);
         bank.pending_dt[l] = T::ZERO;
     }
     for l in 0..J {
-        (load_step[l], bad[l]) = joint_step::<T, M, J, L, BIAS, OUT>(&par, orders, &sh, bank, l, &mut local);
+        (load_step[l], bad[l]) = joint_step::<T, M, J, L, BIAS, OUT>(&par, orders, &sh, bank, l, out);
     }
-    settle(model, bank, input, &load_step, &bad, &mut local);
-    *out = local;
+    settle(model, bank, input, &load_step, &bad, out);
     true
 }
 
@@ -291,6 +289,9 @@ mod tests {
         assert!(took::<f32, 3, 8>(RippleModel::seed_6th_order(1000.0).unwrap(), usize::MAX) > 4000);
         assert!(took::<f32, 3, 2>(RippleModel::product(1000.0, 0.05).unwrap(), usize::MAX) > 4000);
         assert!(took::<f64, 5, 4>(RippleModel::full(1000.0, 0.05).unwrap(), usize::MAX) > 4000);
+        // One joint (the single-joint `step` takes this path first).
+        assert!(took::<f64, 3, 1>(RippleModel::seed_6th_order(1000.0).unwrap(), usize::MAX) > 4000);
+        assert!(took::<f32, 3, 1>(RippleModel::product(1000.0, 0.05).unwrap(), usize::MAX) > 4000);
         // Unwrapped angles: taken only while within ±3π (the first ~118 samples at
         // 0.08 rad/sample), then declined and the `fast` path takes them.
         assert!(took::<f64, 3, 2>(RippleModel::seed_6th_order(1000.0).unwrap(), 0) < 150);

@@ -109,20 +109,6 @@ pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
         bank.pbb[l] = v + v * infl + par.q_bias;
     }
 
-    // Prediction; the update row is the phasor itself.
-    let (mut ripple, mut mis) = (T::ZERO, T::ZERO);
-    let (mut any_ripple, mut any_mis) = (false, false);
-    for i in 0..M {
-        let v = h[i][0] * bank.z[i][0][l] + h[i][1] * bank.z[i][1][l];
-        if is_ripple(i) {
-            ripple = sum_from(!any_ripple, ripple, v);
-            any_ripple = true;
-        } else {
-            mis = sum_from(!any_mis, mis, v);
-            any_mis = true;
-        }
-    }
-
     // Gains g = P hᵀ from the upper blocks of the symmetric P.
     let mut g = [[T::ZERO; 2]; M];
     for i in 0..M {
@@ -151,6 +137,20 @@ pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
         gb = bank.pbb[l] * T::ONE;
         for j in 0..M {
             gb += bank.pb[j][0][l] * h[j][0] + bank.pb[j][1][l] * h[j][1];
+        }
+    }
+
+    // Prediction; the update row is the phasor itself.
+    let (mut ripple, mut mis) = (T::ZERO, T::ZERO);
+    let (mut any_ripple, mut any_mis) = (false, false);
+    for i in 0..M {
+        let v = h[i][0] * bank.z[i][0][l] + h[i][1] * bank.z[i][1][l];
+        if is_ripple(i) {
+            ripple = sum_from(!any_ripple, ripple, v);
+            any_ripple = true;
+        } else {
+            mis = sum_from(!any_mis, mis, v);
+            any_mis = true;
         }
     }
 

@@ -65,7 +65,7 @@ pub(crate) fn step<T: Real, const M: usize>(
     }
 
     // Commit the phase-side state and form the phasors.
-    bank.steps[0] = bank.steps[0].saturating_add(1);
+    bank.steps[0] = bank.steps[0].wrapping_add(1);
     bank.pending_dt[0] = T::ZERO;
     bank.delta_known[0] = true;
     let mut base = [(T::ONE, T::ZERO); 3];

@@ -83,7 +83,7 @@ pub(crate) fn plan<T: Real, const M: usize, const J: usize>(
     let used = &model.used_refs[..usize::from(model.n_used).min(3)];
     let lim = &model.limits;
     for l in 0..J {
-        bank.steps[l] = bank.steps[l].saturating_add(1);
+        bank.steps[l] = bank.steps[l].wrapping_add(1);
         let y = input.torque_nm[l] - input.expected_torque_nm[l];
         pl.y[l] = y;
         let dt = input.dt_s.unwrap_or(model.dt_s);
