@@ -8,6 +8,10 @@
 //! Same decisions and same arithmetic as the `fast` module (and so the general path),
 //! bit for bit. The check runs first and writes nothing; if any joint fails it, the
 //! caller takes the `fast` path, which handles the wider case.
+//!
+//! The presets' layouts are compiled with their orders as constants (see `layout`), so
+//! nothing is selected per order in the loop; other layouts read the model. A single
+//! joint (`J = 1`) takes this step first too.
 
 // Lane loops index several arrays by the same joint index (structure of arrays), and
 // `!(x <= limit)` is deliberate: NaN must count as out of range.
@@ -57,8 +61,6 @@ struct Orders<T: Real, const M: usize> {
     power: [u8; M],
     multiple: [T; M],
     load_scaled: [bool; M],
-    /// Smallest and largest multiple on the relative and the output angle.
-    span: [[T; 2]; 2],
 }
 
 impl<T: Real, const M: usize> Orders<T, M> {
@@ -69,7 +71,6 @@ impl<T: Real, const M: usize> Orders<T, M> {
             power: array(1, |i| model.power[i]),
             multiple: array(T::ONE, |i| model.orders[i].multiple),
             load_scaled: array(false, |i| model.orders[i].load_scaled),
-            span: [model.multiple_span[0], model.multiple_span[1]],
         }
     }
 
@@ -108,24 +109,12 @@ impl<T: Real, const M: usize> Orders<T, M> {
             layout::table_of::<L>().load_scaled.get(i).copied().unwrap_or(false)
         }
     }
-
-    /// Smallest and largest multiple on the output (`r = 1`) or relative angle.
-    #[inline(always)]
-    fn span<const L: u32>(&self, r: usize) -> [T; 2] {
-        if L == RUNTIME {
-            self.span[r]
-        } else {
-            let s = layout::table_of::<L>().span[r & 1];
-            [T::from_f64(f64::from(s[0])), T::from_f64(f64::from(s[1]))]
-        }
-    }
 }
 
 /// Increment and its running mean of reference `r` (relative 0, output 1) for joint
-/// `l`, and whether they qualify: within ±3π of the last angle (so finite), a step
-/// below the limit, no jump in speed, every order's line below the off limit and above
-/// the hold limit. `fl(n |Δ|)` grows with `n`, so testing the largest and smallest
-/// multiple (`span`) is testing every order.
+/// `l`, and whether they qualify: within ±3π of the last angle (so finite), no jump in
+/// speed, and within the model's `fused_bounds` (a step below the limit, every order's
+/// line below the off limit and above the hold limit).
 #[inline(always)]
 fn increment<T: Real, const M: usize, const J: usize>(
     model: &RippleModel<T, M>,
@@ -133,18 +122,16 @@ fn increment<T: Real, const M: usize, const J: usize>(
     v: T,
     r: usize,
     l: usize,
-    span: [T; 2],
 ) -> (T, T, bool) {
-    let lim = &model.limits;
     let three_pi = T::from_f64(3.0) * T::PI;
+    let [step, mean_low] = model.fused_bounds[r];
     let d = v - bank.last[r][l];
     let near = (d.abs() <= three_pi) & (v.abs() <= three_pi);
     let d = wrap_near(d);
-    let steady = (d - bank.last_delta[r][l]).abs() <= lim.max_step_change_rad;
+    let steady = (d - bank.last_delta[r][l]).abs() <= model.limits.max_step_change_rad;
     let m = bank.mean_delta[r][l];
     let mean = m + (d - m) * T::from_f64(HOLD_AVERAGE);
-    let lines = (span[1] * d.abs() <= model.off_above_rad) & !(span[0] * mean.abs() < model.hold_below_rad);
-    (d, mean, near & (d.abs() <= lim.max_angle_step_rad) & steady & lines)
+    (d, mean, near & (d.abs() <= step) & steady & !(mean.abs() < mean_low))
 }
 
 #[inline(always)]
@@ -179,11 +166,11 @@ fn step_with<T: Real, const M: usize, const J: usize, const L: u32, const BIAS: 
     for l in 0..J {
         let y = input.torque_nm[l] - input.expected_torque_nm[l];
         let mut k = finite(y) & (bank.pending_samples[l] == T::ZERO);
-        let (d, m, fine) = increment(model, bank, rel[l], 0, l, orders.span::<L>(0));
+        let (d, m, fine) = increment(model, bank, rel[l], 0, l);
         (inc[0][0][l], inc[0][1][l]) = (d, m);
         k &= fine;
         if OUT {
-            let (d, m, fine) = increment(model, bank, out_angle[l], 1, l, orders.span::<L>(1));
+            let (d, m, fine) = increment(model, bank, out_angle[l], 1, l);
             (inc[1][0][l], inc[1][1][l]) = (d, m);
             k &= fine;
         }

@@ -36,8 +36,10 @@
 //!   `plan` module and the arithmetic below applies them as 0/1 masks, joint index
 //!   innermost, no branch.
 //!
-//! Banks of more than one joint run a build for AVX2 when the CPU has it (`avx2`); a
-//! single joint (`step`) takes the scalar `lean` path.
+//! Banks of more than one joint run a build for AVX2 when the CPU has it (`avx2`). A
+//! single joint (`step`) takes `fused` first, then the scalar `lean` path, in the
+//! portable build: for one joint, AVX2 lengthened the step's dependency chain (measured
+//! slower).
 
 // Lane loops index several arrays by the same joint index (structure of arrays), and
 // `!(x <= limit)` is deliberate: NaN must count as out of range.

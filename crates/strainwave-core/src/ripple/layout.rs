@@ -65,40 +65,17 @@ pub(super) const fn load_scaled(layout: u32, i: usize) -> bool {
     nibble(layout, i) & SCALED != 0
 }
 
-/// Smallest and largest multiple of the orders on the output angle (`output`) or on
-/// the relative one, `[0, 0]` if none.
-pub(super) const fn multiple_span(layout: u32, output: bool) -> [u8; 2] {
-    let (mut low, mut high) = (0u8, 0u8);
-    let mut i = 0;
-    while i < orders(layout) {
-        if on_output(layout, i) == output {
-            let p = power(layout, i);
-            low = if low == 0 || p < low { p } else { low };
-            high = if p > high { p } else { high };
-        }
-        i += 1;
-    }
-    [low, high]
-}
-
 /// Everything the bank step reads of a layout, for order `i < 7`; evaluate it in a
 /// `const` block so that it costs nothing per sample.
 pub(super) struct Table {
     pub(super) power: [u8; MAX_ORDERS],
     pub(super) on_output: [bool; MAX_ORDERS],
     pub(super) load_scaled: [bool; MAX_ORDERS],
-    /// [`multiple_span`] on the relative and the output angle.
-    pub(super) span: [[u8; 2]; 2],
 }
 
 /// The [`Table`] of `layout`.
 pub(super) const fn table(layout: u32) -> Table {
-    let mut t = Table {
-        power: [1; MAX_ORDERS],
-        on_output: [false; MAX_ORDERS],
-        load_scaled: [false; MAX_ORDERS],
-        span: [multiple_span(layout, false), multiple_span(layout, true)],
-    };
+    let mut t = Table { power: [1; MAX_ORDERS], on_output: [false; MAX_ORDERS], load_scaled: [false; MAX_ORDERS] };
     let mut i = 0;
     while i < MAX_ORDERS {
         t.power[i] = power(layout, i);
@@ -160,8 +137,6 @@ mod tests {
             (power(FULL, 1), on_output(FULL, 4), load_scaled(FULL, 2), load_scaled(FULL, 4)),
             (4, true, true, false)
         );
-        assert_eq!((multiple_span(FULL, false), multiple_span(FULL, true)), ([2, 4], [1, 1]));
-        assert_eq!(multiple_span(SEED_4TH, true), [0, 0]);
     }
 
     #[test]

@@ -1,6 +1,8 @@
-//! The common sample of a single joint, as scalar code: the same decisions and the same
-//! arithmetic as the `fast` module for `J = 1`, in the same order of operations (so bit
-//! for bit the general path), without lane arrays, masks or intermediate structs.
+//! The common sample of a single joint, as scalar code, for the models the one-loop
+//! step (`fused`) does not take: motor-angle orders, fractional multiples, velocity
+//! input. The same decisions and the same arithmetic as the `fast` module for `J = 1`,
+//! in the same order of operations (so bit for bit the general path), without lane
+//! arrays, masks or intermediate structs.
 //!
 //! The check runs before any state is written; if it fails, nothing has changed and the
 //! caller takes the general path.

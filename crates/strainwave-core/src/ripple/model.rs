@@ -247,8 +247,10 @@ pub struct RippleModel<T: Real, const M: usize> {
     pub(crate) single_pass: bool,
     /// The orders as a compile-time layout code (`layout::RUNTIME` if none).
     pub(crate) layout: u32,
-    /// Smallest and largest multiple of the orders on each reference (0 if none).
-    pub(crate) multiple_span: [[T; 2]; 3],
+    /// Relative and output angle: the largest increment and the smallest running mean
+    /// for which every order on it stays active (line below the off limit and above the
+    /// hold limit), as exact bounds for the one-loop step.
+    pub(crate) fused_bounds: [[T; 2]; 2],
     /// Initial (and reset) variance of each order: its prior's, or the model's.
     pub(crate) p0_order: [T; M],
     /// Whether some order is scaled by the load.
@@ -301,7 +303,7 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
             n_used: 0,
             single_pass: false,
             layout: super::layout::RUNTIME,
-            multiple_span: [[T::ZERO; 2]; 3],
+            fused_bounds: [[T::ZERO; 2]; 2],
             p0_order: [T::ONE; M],
             any_load_scaled: false,
         };
@@ -417,11 +419,11 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
         for (o, p0) in self.orders.iter().zip(self.p0_order.iter_mut()) {
             *p0 = o.prior_variance_nm2.unwrap_or(self.p0_oscillator_nm2);
         }
-        self.multiple_span = [[T::ZERO; 2]; 3];
+        let mut span = [[T::ZERO; 2]; 3];
         for (o, p) in self.orders.iter().zip(self.power.iter_mut()) {
             let r = o.reference.index();
-            let span = &mut self.multiple_span[r];
-            *span = if self.uses[r] { [span[0].min(o.multiple), span[1].max(o.multiple)] } else { [o.multiple; 2] };
+            let s = &mut span[r];
+            *s = if self.uses[r] { [s[0].min(o.multiple), s[1].max(o.multiple)] } else { [o.multiple; 2] };
             self.uses[r] = true;
             let m = o.multiple.to_f64();
             *p = if m == libm::round(m) && (1.0..=16.0).contains(&m) { m as u8 } else { 0 };
@@ -433,7 +435,17 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
                 self.n_used += 1;
             }
         }
-        self.single_pass = self.uses[0] && !self.uses[2] && self.power.iter().all(|&p| matches!(p, 1 | 2 | 4));
+        // `n |Δ| ≤ off ⇔ |Δ| ≤ off / n` exactly for n = 1, 2, 4 unless the quotient is
+        // inexact (subnormal); then the one-loop step is not used.
+        let mut exact = true;
+        self.fused_bounds = [[T::ZERO; 2]; 2];
+        for r in (0..2).filter(|&r| self.uses[r]) {
+            let [low, high] = span[r];
+            let (step, mean) = (self.off_above_rad / high, self.hold_below_rad / low);
+            exact &= step * high == self.off_above_rad && mean * low == self.hold_below_rad;
+            self.fused_bounds[r] = [step.min(self.limits.max_angle_step_rad), mean];
+        }
+        self.single_pass = self.uses[0] && !self.uses[2] && self.power.iter().all(|&p| matches!(p, 1 | 2 | 4)) && exact;
         self.layout = super::layout::of(self);
     }
 
