@@ -143,6 +143,7 @@ pub(crate) fn step<T: Real, const M: usize, const J: usize>(
     let mut out = BankOutput::default();
     let mut load_step = [false; J];
     let mut bad = [false; J];
+    let mut gains = [[[T::ZERO; J]; 2]; M];
     // Local copies: the loop then reads and writes no memory the bank could share, so
     // it vectorizes without run-time overlap checks.
     let par = Params::new(model);
@@ -151,8 +152,18 @@ pub(crate) fn step<T: Real, const M: usize, const J: usize>(
     if model.bias_q_nm2.is_some() {
         for l in 0..J {
             let h = array([T::ZERO; 2], |i| [bank.phasor[i][0][l], bank.phasor[i][1][l]]);
-            (load_step[l], bad[l]) =
-                joint::<T, M, J, true>(&par, |i| par.is_ripple(i), bank, &torque, &expected, h, abs_at(l), l, &mut out);
+            (load_step[l], bad[l]) = joint::<T, M, J, true>(
+                &par,
+                |i| par.is_ripple(i),
+                bank,
+                &torque,
+                &expected,
+                h,
+                abs_at(l),
+                l,
+                &mut gains,
+                &mut out,
+            );
         }
     } else {
         for l in 0..J {
@@ -166,11 +177,16 @@ pub(crate) fn step<T: Real, const M: usize, const J: usize>(
                 h,
                 abs_at(l),
                 l,
+                &mut gains,
                 &mut out,
             );
         }
     }
-    settle(model, bank, input, &load_step, &bad, &mut out);
+    if model.bias_q_nm2.is_some() {
+        settle::<T, M, J, true>(model, bank, input, &load_step, &gains, &mut bad, &mut out);
+    } else {
+        settle::<T, M, J, false>(model, bank, input, &load_step, &gains, &mut bad, &mut out);
+    }
     Some(out)
 }
 

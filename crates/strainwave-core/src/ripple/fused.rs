@@ -20,6 +20,7 @@
 use super::bank::{BankInput, BankOutput, RippleBank};
 use super::io::{OrderStatus, StepFlags};
 use super::joint::{array, common_interval, finite, joint, settle, Params};
+use super::kernel::Lanes2;
 use super::layout::{self, FULL, PRODUCT, RUNTIME, SEED_4TH, SEED_6TH};
 use super::model::{PhaseSource, Reference, RippleModel};
 use super::plan::HOLD_AVERAGE;
@@ -184,6 +185,7 @@ fn step_with<T: Real, const M: usize, const J: usize, const L: u32, const BIAS: 
     out.flags = [StepFlags::empty(); J];
     let mut load_step = [false; J];
     let mut bad = [false; J];
+    let mut gains = [[[T::ZERO; J]; 2]; M];
     let par = Params::new(model);
     let sh = Shared { torque: input.torque_nm, expected: input.expected_torque_nm, angle: [*rel, *out_angle], inc };
     // Counters and flags first: other element widths in the main loop would narrow
@@ -193,9 +195,9 @@ fn step_with<T: Real, const M: usize, const J: usize, const L: u32, const BIAS: 
         bank.pending_dt[l] = T::ZERO;
     }
     for l in 0..J {
-        (load_step[l], bad[l]) = joint_step::<T, M, J, L, BIAS, OUT>(&par, orders, &sh, bank, l, out);
+        (load_step[l], bad[l]) = joint_step::<T, M, J, L, BIAS, OUT>(&par, orders, &sh, bank, l, &mut gains, out);
     }
-    settle(model, bank, input, &load_step, &bad, out);
+    settle::<T, M, J, BIAS>(model, bank, input, &load_step, &gains, &mut bad, out);
     true
 }
 
@@ -217,6 +219,7 @@ fn joint_step<T: Real, const M: usize, const J: usize, const L: u32, const BIAS:
     sh: &Shared<T, J>,
     bank: &mut RippleBank<T, M, J>,
     l: usize,
+    gains: &mut Lanes2<T, M, J>,
     out: &mut BankOutput<T, J>,
 ) -> (bool, bool) {
     let mut base = [(T::ONE, T::ZERO); 2];
@@ -253,7 +256,7 @@ fn joint_step<T: Real, const M: usize, const J: usize, const L: u32, const BIAS:
         abs_a[i] = (o.multiple::<L>(i) * sh.inc[r][0][l]).abs();
     }
     let is_ripple = |i: usize| !o.on_output::<L>(i);
-    joint::<T, M, J, BIAS>(par, is_ripple, bank, &sh.torque, &sh.expected, h, abs_a, l, out)
+    joint::<T, M, J, BIAS>(par, is_ripple, bank, &sh.torque, &sh.expected, h, abs_a, l, gains, out)
 }
 
 #[cfg(test)]

@@ -10,24 +10,31 @@
 
 use super::bank::{BankInput, BankOutput, RippleBank};
 use super::io::StepFlags;
+use super::kernel::Lanes2;
 use super::model::RippleModel;
 use crate::Real;
 
-/// Flags for the joints with a load step, and the reset of joints whose covariance
-/// went bad (rare, so after the loop).
+/// After the joints' loop (rare cases, so not in it): the load-step limit for the
+/// joints with a load step (models with the bias state; given their gains `g`, their
+/// update row being the phasor), then the reset of joints whose covariance went bad.
 #[inline(always)]
-pub(super) fn settle<T: Real, const M: usize, const J: usize>(
+pub(super) fn settle<T: Real, const M: usize, const J: usize, const BIAS: bool>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
     load_step: &[bool; J],
-    bad: &[bool; J],
+    g: &Lanes2<T, M, J>,
+    bad: &mut [bool; J],
     out: &mut BankOutput<T, J>,
 ) {
-    if load_step.iter().any(|&s| s) {
+    if BIAS && load_step.iter().any(|&s| s) {
+        let h = bank.phasor;
+        load_steps(model.r_nm2, bank, &h, g, load_step, &out.innovation_nm);
         for l in 0..J {
             if load_step[l] {
                 out.flags[l].insert(StepFlags::LOAD_STEP);
+                out.torque_state_nm[l] = input.expected_torque_nm[l] + bank.b[l];
+                bad[l] = !healthy(true, bank, l, out.innovation_variance_nm2[l]);
             }
         }
     }
@@ -42,6 +49,58 @@ pub(super) fn settle<T: Real, const M: usize, const J: usize>(
             }
         }
     }
+}
+
+/// The load-step limit for the joints `steps`, after their (void, gain 0) update: the
+/// bias takes the innovation `e` and forgets its cross-covariance, and
+/// `Var(b) = R + h P_zz hᵀ`, `Cov(z, b) = −P_zz hᵀ` (see `kernel::innovation`).
+#[inline(never)]
+pub(super) fn load_steps<T: Real, const M: usize, const J: usize>(
+    r_nm2: T,
+    bank: &mut RippleBank<T, M, J>,
+    h: &Lanes2<T, M, J>,
+    g: &Lanes2<T, M, J>,
+    steps: &[bool; J],
+    e: &[T; J],
+) {
+    for l in 0..J {
+        if steps[l] {
+            // P_zz hᵀ = g − Cov(z, b) since the bias entry of h is 1.
+            let mut s_z = T::ZERO;
+            for i in 0..M {
+                for r in 0..2 {
+                    let pzh = g[i][r][l] - bank.pb[i][r][l];
+                    s_z += h[i][r][l] * pzh;
+                    bank.pb[i][r][l] = -pzh;
+                }
+            }
+            bank.pbb[l] = r_nm2 + s_z;
+            bank.b[l] += e[l];
+        }
+    }
+}
+
+/// Whether joint `l`'s state is usable after an update with innovation variance
+/// `s_var`: one sum catches any NaN/∞, one minimum any negative variance.
+#[inline(always)]
+pub(super) fn healthy<T: Real, const M: usize, const J: usize>(
+    bias: bool,
+    bank: &RippleBank<T, M, J>,
+    l: usize,
+    s_var: T,
+) -> bool {
+    let mut sum = s_var + bank.b[l];
+    let mut least = s_var;
+    if bias {
+        sum += bank.pbb[l];
+        least = least.min(bank.pbb[l]);
+    }
+    for i in 0..M {
+        let d = &bank.p[i][i];
+        sum += d[0][0][l] + d[1][1][l] + bank.z[i][0][l] + bank.z[i][1][l];
+        least = least.min(d[0][0][l]).min(d[1][1][l]);
+    }
+    finite(sum) & (least >= T::ZERO) & (s_var > T::ZERO)
 }
 
 /// The model's numbers that one joint's update reads.
@@ -92,6 +151,7 @@ pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
     h: [[T; 2]; M],
     abs_a: [T; M],
     l: usize,
+    gains: &mut Lanes2<T, M, J>,
     out: &mut BankOutput<T, J>,
 ) -> (bool, bool) {
     let infl = par.inflation;
@@ -166,7 +226,8 @@ pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
     let load_step = BIAS & (par.load_step_nis > T::ZERO) & (e * e > par.load_step_nis * s_var);
     inv = if load_step { T::ZERO } else { inv };
 
-    // Measurement update.
+    // Measurement update. A load step (gain 0 here) is completed after the loop
+    // (`settle`), from the gains kept in `gains`.
     let floor = par.r * inv;
     for i in 0..M {
         let [k0, k1] = [g[i][0] * inv, g[i][1] * inv];
@@ -190,6 +251,8 @@ pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
         if BIAS {
             bank.pb[i][0][l] -= k0 * gb;
             bank.pb[i][1][l] -= k1 * gb;
+            gains[i][0][l] = g[i][0];
+            gains[i][1][l] = g[i][1];
         }
     }
     if BIAS {
@@ -197,33 +260,10 @@ pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
         bank.b[l] += kb * e;
         let v = bank.pbb[l];
         bank.pbb[l] = (v - kb * gb).max(v * par.r * inv);
-        // Load step: the update above was void (gain 0); the bias takes the innovation
-        // and forgets its cross-covariance (`kernel::load_step`), as selects.
-        let mut s_z = T::ZERO;
-        for i in 0..M {
-            for r in 0..2 {
-                let pzh = g[i][r] - bank.pb[i][r][l];
-                s_z += h[i][r] * pzh;
-                bank.pb[i][r][l] = if load_step { -pzh } else { bank.pb[i][r][l] };
-            }
-        }
-        bank.pbb[l] = if load_step { par.r + s_z } else { bank.pbb[l] };
-        bank.b[l] = if load_step { bank.b[l] + e } else { bank.b[l] };
     }
 
     // Health check and outputs.
-    let mut sum = s_var + bank.b[l];
-    let mut least = s_var;
-    if BIAS {
-        sum += bank.pbb[l];
-        least = least.min(bank.pbb[l]);
-    }
-    for i in 0..M {
-        let d = &bank.p[i][i];
-        sum += d[0][0][l] + d[1][1][l] + bank.z[i][0][l] + bank.z[i][1][l];
-        least = least.min(d[0][0][l]).min(d[1][1][l]);
-    }
-    let bad = !(finite(sum) & (least >= T::ZERO) & (s_var > T::ZERO));
+    let bad = !healthy(BIAS, bank, l, s_var);
     let torque = torque_nm[l] - ripple - mis;
     out.torque_nm[l] = torque;
     out.ripple_nm[l] = ripple;

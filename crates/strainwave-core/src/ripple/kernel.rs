@@ -48,7 +48,7 @@
 use super::bank::{BankInput, BankOutput, RippleBank};
 use super::filter::StepTrace;
 use super::io::StepFlags;
-use super::joint::sum_from;
+use super::joint::{load_steps, sum_from};
 use super::model::RippleModel;
 use super::plan::{plan, Plan};
 use super::trig::phasors;
@@ -410,33 +410,7 @@ pub(crate) fn update<T: Real, const M: usize, const J: usize>(
             bank.pbb[l] = (v - k * gb[l]).max(v * model.r_nm2 * inv[l]);
         }
         if n.load_step.iter().any(|&s| s) {
-            load_step(model, bank, h, g, n);
-        }
-    }
-}
-
-/// The load-step limit: the bias takes the innovation (see [`innovation`]).
-#[inline(never)]
-fn load_step<T: Real, const M: usize, const J: usize>(
-    model: &RippleModel<T, M>,
-    bank: &mut RippleBank<T, M, J>,
-    h: &Lanes2<T, M, J>,
-    g: &Lanes2<T, M, J>,
-    n: &Innovation<T, J>,
-) {
-    for l in 0..J {
-        if n.load_step[l] {
-            // P_zz hᵀ = g − Cov(z, b) since the bias entry of h is 1.
-            let mut s_z = T::ZERO;
-            for i in 0..M {
-                for r in 0..2 {
-                    let pzh = g[i][r][l] - bank.pb[i][r][l];
-                    s_z += h[i][r][l] * pzh;
-                    bank.pb[i][r][l] = -pzh;
-                }
-            }
-            bank.pbb[l] = model.r_nm2 + s_z;
-            bank.b[l] += n.e_used[l];
+            load_steps(model.r_nm2, bank, h, g, &n.load_step, &n.e_used);
         }
     }
 }

@@ -12,7 +12,7 @@
 
 use super::bank::RippleBank;
 use super::io::{OrderStatus, RippleInput, RippleOutput, StepFlags};
-use super::joint::{common_interval, finite, sum_from};
+use super::joint::{array, common_interval, finite, load_steps, sum_from};
 use super::model::{PhaseSource, RippleModel};
 use super::plan::HOLD_AVERAGE;
 use super::trig::{phasor_power, sin_cos_small, wrap_angle};
@@ -230,7 +230,8 @@ pub(crate) fn step<T: Real, const M: usize>(
         bank.pbb[0] = (v - kb * gb).max(v * model.r_nm2 * inv);
         if load_step {
             flags.insert(StepFlags::LOAD_STEP);
-            load_step_limit(model, bank, &h, &g, e);
+            let lanes = |a: &[[T; 2]; M]| array([[T::ZERO; 1]; 2], |i| [[a[i][0]], [a[i][1]]]);
+            load_steps(model.r_nm2, bank, &lanes(&h), &lanes(&g), &[true], &[e]);
         }
     }
 
@@ -261,25 +262,4 @@ pub(crate) fn step<T: Real, const M: usize>(
         nis: e * e / s_var,
         flags,
     })
-}
-
-/// The load-step limit of `kernel::load_step` for joint 0.
-#[inline(never)]
-fn load_step_limit<T: Real, const M: usize>(
-    model: &RippleModel<T, M>,
-    bank: &mut RippleBank<T, M, 1>,
-    h: &[[T; 2]; M],
-    g: &[[T; 2]; M],
-    e: T,
-) {
-    let mut s_z = T::ZERO;
-    for i in 0..M {
-        for r in 0..2 {
-            let pzh = g[i][r] - bank.pb[i][r][0];
-            s_z += h[i][r] * pzh;
-            bank.pb[i][r][0] = -pzh;
-        }
-    }
-    bank.pbb[0] = model.r_nm2 + s_z;
-    bank.b[0] += e;
 }
