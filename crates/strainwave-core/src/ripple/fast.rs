@@ -138,9 +138,25 @@ pub(crate) fn step<T: Real, const M: usize, const J: usize>(
 
     phasors(model, bank, input);
 
-    // Everything after the phasors, one joint at a time: the temporaries stay in
-    // registers and the loop vectorizes across joints as a whole.
     let mut out = BankOutput::default();
+    if model.bias_q_nm2.is_some() {
+        update::<T, M, J, true>(model, bank, input, &abs_a, &mut out);
+    } else {
+        update::<T, M, J, false>(model, bank, input, &abs_a, &mut out);
+    }
+    Some(out)
+}
+
+/// Everything after the phasors, one joint at a time: the temporaries stay in
+/// registers and the loop vectorizes across joints as a whole.
+#[inline(always)]
+fn update<T: Real, const M: usize, const J: usize, const BIAS: bool>(
+    model: &RippleModel<T, M>,
+    bank: &mut RippleBank<T, M, J>,
+    input: &BankInput<T, J>,
+    abs_a: &[[T; J]; M],
+    out: &mut BankOutput<T, J>,
+) {
     let mut load_step = [false; J];
     let mut bad = [false; J];
     let mut gains = [[[T::ZERO; J]; 2]; M];
@@ -148,46 +164,13 @@ pub(crate) fn step<T: Real, const M: usize, const J: usize>(
     // it vectorizes without run-time overlap checks.
     let par = Params::new(model);
     let (torque, expected) = (input.torque_nm, input.expected_torque_nm);
-    let abs_at = |l: usize| array(T::ZERO, |i| abs_a[i][l]);
-    if model.bias_q_nm2.is_some() {
-        for l in 0..J {
-            let h = array([T::ZERO; 2], |i| [bank.phasor[i][0][l], bank.phasor[i][1][l]]);
-            (load_step[l], bad[l]) = joint::<T, M, J, true>(
-                &par,
-                |i| par.is_ripple(i),
-                bank,
-                &torque,
-                &expected,
-                h,
-                abs_at(l),
-                l,
-                &mut gains,
-                &mut out,
-            );
-        }
-    } else {
-        for l in 0..J {
-            let h = array([T::ZERO; 2], |i| [bank.phasor[i][0][l], bank.phasor[i][1][l]]);
-            (load_step[l], bad[l]) = joint::<T, M, J, false>(
-                &par,
-                |i| par.is_ripple(i),
-                bank,
-                &torque,
-                &expected,
-                h,
-                abs_at(l),
-                l,
-                &mut gains,
-                &mut out,
-            );
-        }
+    for l in 0..J {
+        let h = array([T::ZERO; 2], |i| [bank.phasor[i][0][l], bank.phasor[i][1][l]]);
+        let abs = array(T::ZERO, |i| abs_a[i][l]);
+        (load_step[l], bad[l]) =
+            joint::<T, M, J, BIAS>(&par, |i| par.is_ripple(i), bank, &torque, &expected, h, abs, l, &mut gains, out);
     }
-    if model.bias_q_nm2.is_some() {
-        settle::<T, M, J, true>(model, bank, input, &load_step, &gains, &mut bad, &mut out);
-    } else {
-        settle::<T, M, J, false>(model, bank, input, &load_step, &gains, &mut bad, &mut out);
-    }
-    Some(out)
+    settle::<T, M, J, BIAS>(model, bank, input, &load_step, &gains, &mut bad, out);
 }
 
 #[cfg(test)]

@@ -146,15 +146,15 @@ fn single<T: Real, const M: usize>(
     input: &RippleInput<T>,
     trace: Option<&mut StepTrace<T, M>>,
 ) -> Result<RippleOutput<T>, Error> {
+    let r = &input.references;
+    let bank_input = BankInput {
+        torque_nm: [input.torque_nm],
+        expected_torque_nm: [input.expected_torque_nm],
+        references: ReferenceValues::new([r.relative], [r.output], [r.motor]),
+        dt_s: input.dt_s,
+    };
     // The common sample; the traced step keeps the general path for the smoother.
     if trace.is_none() {
-        let r = &input.references;
-        let bank_input = BankInput {
-            torque_nm: [input.torque_nm],
-            expected_torque_nm: [input.expected_torque_nm],
-            references: ReferenceValues::new([r.relative], [r.output], [r.motor]),
-            dt_s: input.dt_s,
-        };
         let mut out = super::BankOutput::default();
         if super::fused::step(model, &mut state.bank, &bank_input, &mut out) {
             if out.flags[0].contains(StepFlags::COVARIANCE_RESET) {
@@ -169,13 +169,6 @@ fn single<T: Real, const M: usize>(
             return Ok(o);
         }
     }
-    let r = &input.references;
-    let bank_input = BankInput {
-        torque_nm: [input.torque_nm],
-        expected_torque_nm: [input.expected_torque_nm],
-        references: ReferenceValues::new([r.relative], [r.output], [r.motor]),
-        dt_s: input.dt_s,
-    };
     let o = run(model, &mut state.bank, &bank_input, trace);
     if o.flags[0].contains(StepFlags::COVARIANCE_RESET) {
         return Err(Error::NotPositiveDefinite("ripple covariance"));
