@@ -137,9 +137,11 @@ impl<T: Real, const M: usize> Params<T, M> {
 }
 
 /// Joint `l` from the time update to the outputs, given whether each order is ripple
-/// (else misalignment), its update row `h` (the phasors) and phase increments `abs_a`: the kernel's arithmetic in the same order of
-/// operations, with selects instead of branches (so the caller's loop over the joints
-/// vectorizes). Returns (load step, covariance bad); the caller resets bad joints.
+/// (else misalignment), its update row `h` (the phasors) and phase increments `abs_a`:
+/// the kernel's arithmetic in the same order of operations, with selects instead of
+/// branches (so the caller's loop over the joints vectorizes). Keeps the gains in
+/// `gains` (bias models). Returns (load step, covariance bad); the caller completes
+/// load steps and resets bad joints (`settle`).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
