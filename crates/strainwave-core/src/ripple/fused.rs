@@ -187,7 +187,7 @@ fn step_with<T: Real, const M: usize, const J: usize, const L: u32, const BIAS: 
     let mut bad = [false; J];
     let mut gains = [[[T::ZERO; J]; 2]; M];
     let par = Params::new(model);
-    let sh = Shared { torque: input.torque_nm, expected: input.expected_torque_nm, angle: [*rel, *out_angle], inc };
+    let sh = Shared { torque: &input.torque_nm, expected: &input.expected_torque_nm, angle: [rel, out_angle], inc };
     // Counters and flags first: other element widths in the main loop would narrow
     // its vectors.
     for l in 0..J {
@@ -202,11 +202,11 @@ fn step_with<T: Real, const M: usize, const J: usize, const L: u32, const BIAS: 
 }
 
 /// The sample's inputs the joints' loop reads, as locals.
-struct Shared<T: Real, const J: usize> {
-    torque: [T; J],
-    expected: [T; J],
+struct Shared<'a, T: Real, const J: usize> {
+    torque: &'a [T; J],
+    expected: &'a [T; J],
     /// Relative and output angle.
-    angle: [[T; J]; 2],
+    angle: [&'a [T; J]; 2],
     /// Increment and mean of each reference.
     inc: [[[T; J]; 2]; 2],
 }
@@ -216,7 +216,7 @@ struct Shared<T: Real, const J: usize> {
 fn joint_step<T: Real, const M: usize, const J: usize, const L: u32, const BIAS: bool, const OUT: bool>(
     par: &Params<T, M>,
     o: Orders<T, M>,
-    sh: &Shared<T, J>,
+    sh: &Shared<'_, T, J>,
     bank: &mut RippleBank<T, M, J>,
     l: usize,
     gains: &mut Lanes2<T, M, J>,
@@ -256,7 +256,7 @@ fn joint_step<T: Real, const M: usize, const J: usize, const L: u32, const BIAS:
         abs_a[i] = (o.multiple::<L>(i) * sh.inc[r][0][l]).abs();
     }
     let is_ripple = |i: usize| !o.on_output::<L>(i);
-    joint::<T, M, J, BIAS>(par, is_ripple, bank, &sh.torque, &sh.expected, h, abs_a, l, gains, out)
+    joint::<T, M, J, BIAS>(par, is_ripple, bank, sh.torque, sh.expected, h, abs_a, l, gains, out)
 }
 
 #[cfg(test)]
