@@ -181,13 +181,7 @@ pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
         }
         for j in 0..M {
             let [hj0, hj1] = h[j];
-            let (t0, t1) = if j >= i {
-                let b = &bank.p[i][j];
-                (b[0][0][l] * hj0 + b[0][1][l] * hj1, b[1][0][l] * hj0 + b[1][1][l] * hj1)
-            } else {
-                let b = &bank.p[j][i];
-                (b[0][0][l] * hj0 + b[1][0][l] * hj1, b[0][1][l] * hj0 + b[1][1][l] * hj1)
-            };
+            let (t0, t1) = block_times(bank, i, j, l, [hj0, hj1]);
             let first = !BIAS && j == 0;
             g0 = sum_from(first, g0, t0);
             g1 = sum_from(first, g1, t1);
@@ -275,6 +269,25 @@ pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
     out.innovation_variance_nm2[l] = s_var;
     out.nis[l] = e * e / s_var;
     (load_step, bad)
+}
+
+/// `P_ij h_j` for joint `l` (two entries of `g_i`), from the upper blocks of the
+/// symmetric P.
+#[inline(always)]
+pub(super) fn block_times<T: Real, const M: usize, const J: usize>(
+    bank: &RippleBank<T, M, J>,
+    i: usize,
+    j: usize,
+    l: usize,
+    [h0, h1]: [T; 2],
+) -> (T, T) {
+    if j >= i {
+        let b = &bank.p[i][j];
+        (b[0][0][l] * h0 + b[0][1][l] * h1, b[1][0][l] * h0 + b[1][1][l] * h1)
+    } else {
+        let b = &bank.p[j][i];
+        (b[0][0][l] * h0 + b[1][0][l] * h1, b[0][1][l] * h0 + b[1][1][l] * h1)
+    }
 }
 
 /// `[f(0), …, f(N − 1)]` as a plain loop: `core::array::from_fn` is not always

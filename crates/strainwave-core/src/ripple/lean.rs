@@ -12,7 +12,7 @@
 
 use super::bank::RippleBank;
 use super::io::{OrderStatus, RippleInput, RippleOutput, StepFlags};
-use super::joint::{array, common_interval, finite, load_steps, sum_from};
+use super::joint::{array, block_times, common_interval, finite, load_steps, sum_from};
 use super::model::{PhaseSource, RippleModel};
 use super::plan::HOLD_AVERAGE;
 use super::trig::{phasor_power, sin_cos_small, wrap_angle};
@@ -157,13 +157,7 @@ pub(crate) fn step<T: Real, const M: usize>(
         }
         for j in 0..M {
             let [hj0, hj1] = h[j];
-            let (t0, t1) = if j >= i {
-                let b = &bank.p[i][j];
-                (b[0][0][0] * hj0 + b[0][1][0] * hj1, b[1][0][0] * hj0 + b[1][1][0] * hj1)
-            } else {
-                let b = &bank.p[j][i];
-                (b[0][0][0] * hj0 + b[1][0][0] * hj1, b[0][1][0] * hj0 + b[1][1][0] * hj1)
-            };
+            let (t0, t1) = block_times(bank, i, j, 0, [hj0, hj1]);
             let first = !has_bias && j == 0;
             g0 = sum_from(first, g0, t0);
             g1 = sum_from(first, g1, t1);
