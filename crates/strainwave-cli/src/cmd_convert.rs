@@ -27,6 +27,25 @@ pub struct Args {
     pub quiet: bool,
 }
 
+/// Writes `row` to `w`, through `resampler` when resampling; `false` when the resampler
+/// left it out (its time does not increase).
+pub fn write_row(w: &mut RecordingWriter, resampler: Option<&mut LinearResampler>, row: &[f64]) -> Result<bool> {
+    let Some(rs) = resampler else {
+        w.write_row(row)?;
+        return Ok(true);
+    };
+    let mut err = None;
+    let kept = rs.push(row, |o| {
+        if err.is_none() {
+            err = w.write_row(o).err();
+        }
+    });
+    match err {
+        Some(e) => Err(e.into()),
+        None => Ok(kept),
+    }
+}
+
 /// Runs `convert`.
 pub fn run(a: &Args) -> Result<()> {
     if strainwave_io::format_of(&a.input)? == strainwave_io::Format::Mcap {
@@ -49,25 +68,11 @@ pub fn run(a: &Args) -> Result<()> {
     let mut monitor = TimeMonitor::new(None);
     let mut row = Vec::with_capacity(columns.len());
     let mut skipped = 0u64;
-    let mut err = None;
     while r.read_row(&mut row)? {
         if let Some(ti) = time_index {
             monitor.push(row[ti]);
         }
-        match resampler.as_mut() {
-            None => w.write_row(&row)?,
-            Some(rs) => {
-                let ok = rs.push(&row, |o| {
-                    if err.is_none() {
-                        err = w.write_row(o).err();
-                    }
-                });
-                skipped += u64::from(!ok);
-            }
-        }
-        if let Some(e) = err.take() {
-            return Err(e.into());
-        }
+        skipped += u64::from(!write_row(&mut w, resampler.as_mut(), &row)?);
         if a.out.as_os_str() == "-" && r.rows_read() % strainwave_io::DEFAULT_CHUNK_ROWS as u64 == 0 {
             w.flush()?;
         }

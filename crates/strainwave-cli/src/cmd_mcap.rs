@@ -8,6 +8,8 @@ use strainwave_io::mcap_in::McapReader;
 use strainwave_io::resample::LinearResampler;
 use strainwave_io::RecordingWriter;
 
+use crate::cmd_convert::write_row;
+
 /// Converts an MCAP log to a recording.
 pub fn convert(a: &crate::cmd_convert::Args) -> Result<()> {
     if a.time_column != "time" {
@@ -32,22 +34,8 @@ pub fn convert(a: &crate::cmd_convert::Args) -> Result<()> {
     let mut w = RecordingWriter::create(&a.out, &refs)?;
     let mut row = Vec::with_capacity(columns.len());
     let mut skipped = 0u64;
-    let mut err = None;
     while r.read_row(&mut row)? {
-        match resampler.as_mut() {
-            None => w.write_row(&row)?,
-            Some(rs) => {
-                let ok = rs.push(&row, |o| {
-                    if err.is_none() {
-                        err = w.write_row(o).err();
-                    }
-                });
-                skipped += u64::from(!ok);
-            }
-        }
-        if let Some(e) = err.take() {
-            return Err(e.into());
-        }
+        skipped += u64::from(!write_row(&mut w, resampler.as_mut(), &row)?);
     }
     let rows = w.finish()?;
     if !a.quiet {

@@ -6,25 +6,17 @@ use std::path::PathBuf;
 use anyhow::{bail, Context, Result};
 use strainwave_analysis::campbell::{order_slice, OrderSliceConfig};
 
-use crate::cmd_campbell::{column, sample_rate, speed_rpm};
+use crate::recording_args::{SignalArgs, SpeedArgs};
 use crate::report::plot::{LinePlot, Series};
 use crate::report::text::text_table;
 
 /// Arguments of `orders`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Input recording.
-    #[arg(long = "in")]
-    pub input: PathBuf,
-    /// Signal column.
-    #[arg(long)]
-    pub signal: String,
-    /// Speed column.
-    #[arg(long)]
-    pub speed: String,
-    /// Unit of the speed column.
-    #[arg(long, default_value = "rpm", value_parser = ["rpm", "rad_s"])]
-    pub speed_unit: String,
+    #[command(flatten)]
+    pub source: SignalArgs,
+    #[command(flatten)]
+    pub speed: SpeedArgs,
     /// Order (mechanical, cycles per revolution); repeat for several.
     #[arg(long = "order", required = true)]
     pub orders: Vec<f64>,
@@ -55,10 +47,9 @@ fn bin(s: &strainwave_analysis::campbell::OrderSlice, width: f64, nbins: usize) 
 
 /// Runs `orders`.
 pub fn run(a: &Args) -> Result<()> {
-    let t = strainwave_io::read_all(&a.input)?;
-    let x = column(&t, &a.signal, "--signal", &a.input)?;
-    let speed = speed_rpm(&t, &a.speed, &a.speed_unit, &a.input)?;
-    let fs = sample_rate(&t, &a.input)?;
+    let (t, fs) = a.source.read()?;
+    let x = a.source.signal(&t)?;
+    let speed = a.speed.rpm(&t, &a.source.input)?;
     if !(a.speed_bin.is_finite() && a.speed_bin > 0.0) {
         bail!("--speed-bin: must be positive, got {}", a.speed_bin);
     }
@@ -99,14 +90,16 @@ pub fn run(a: &Args) -> Result<()> {
         rows.push(r);
     }
     let h: Vec<&str> = header.iter().map(String::as_str).collect();
-    let mut text =
-        format!("order slices of {} ({} revolutions per block; unit of {}):\n", a.signal, a.revs_per_block, a.signal);
+    let mut text = format!(
+        "order slices of {} ({} revolutions per block; unit of {}):\n",
+        a.source.signal, a.revs_per_block, a.source.signal
+    );
     text += &text_table(&h, &rows);
     crate::stdout::print(&text)?;
     let plot = LinePlot {
-        title: format!("Order amplitudes of {} vs speed", a.signal),
+        title: format!("Order amplitudes of {} vs speed", a.source.signal),
         x_label: "speed (rpm)".into(),
-        y_label: format!("amplitude ({})", a.signal),
+        y_label: format!("amplitude ({})", a.source.signal),
         series: slices
             .iter()
             .map(|s| Series { name: format!("order {}", s.order), x: s.speed_rpm.clone(), y: s.amplitude.clone() })

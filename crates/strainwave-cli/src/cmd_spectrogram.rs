@@ -6,17 +6,14 @@ use anyhow::{Context, Result};
 use strainwave_analysis::psd::SpectralConfig;
 use strainwave_analysis::stft::spectrogram;
 
-use crate::cmd_campbell::{check_window, column, pool_freqs, sample_rate, HeatMap};
+use crate::recording_args::{check_window, SignalArgs};
+use crate::report::heatmap::{pool_freqs, HeatMap};
 
 /// Arguments of `spectrogram`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Input recording.
-    #[arg(long = "in")]
-    pub input: PathBuf,
-    /// Signal column.
-    #[arg(long)]
-    pub signal: String,
+    #[command(flatten)]
+    pub source: SignalArgs,
     /// Output SVG.
     #[arg(long)]
     pub out: PathBuf,
@@ -30,9 +27,8 @@ pub struct Args {
 
 /// Runs `spectrogram`.
 pub fn run(a: &Args) -> Result<()> {
-    let t = strainwave_io::read_all(&a.input)?;
-    let x = column(&t, &a.signal, "--signal", &a.input)?;
-    let fs = sample_rate(&t, &a.input)?;
+    let (t, fs) = a.source.read()?;
+    let x = a.source.signal(&t)?;
     check_window(x.len(), a.nperseg)?;
     let cfg = SpectralConfig::new(a.nperseg).with_noverlap(a.nperseg / 2);
     let s = spectrogram(x, fs, &cfg)?;
@@ -53,13 +49,13 @@ pub fn run(a: &Args) -> Result<()> {
     let map = HeatMap {
         title: format!(
             "Spectrogram of {} (Hann, nperseg {}, {:.2} Hz bins)",
-            a.signal,
+            a.source.signal,
             a.nperseg,
             fs / a.nperseg as f64
         ),
         x_label: "time (s)".into(),
         y_label: "frequency (Hz)".into(),
-        z_label: format!("PSD (dB re 1 ({})²/Hz)", a.signal),
+        z_label: format!("PSD (dB re 1 ({})²/Hz)", a.source.signal),
         x: times,
         y,
         z,

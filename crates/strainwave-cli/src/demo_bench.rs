@@ -201,13 +201,13 @@ fn campbell_section() -> Result<(String, String)> {
     let c = campbell(signal, speed, scenario.sample_rate_hz, &CampbellConfig::new(nperseg, speed_bin_rpm))?;
     let amp_db: Vec<Vec<f64>> =
         c.grid.iter().map(|row| row.iter().map(|v| 20.0 * v.max(1e-300).log10()).collect()).collect();
-    let (y, z) = crate::cmd_campbell::pool_freqs(&c.freqs_hz, &amp_db, 2000.0, 200);
+    let (y, z) = crate::report::heatmap::pool_freqs(&c.freqs_hz, &amp_db, 2000.0, 200);
     let pole_pairs = f64::from(scenario.dut.pole_pairs);
     let n_max = c.speed_axis_rpm.last().copied().unwrap_or(0.0) + speed_bin_rpm;
     let top_rpm = speed.iter().copied().fold(0.0_f64, f64::max);
     let orders = [6.0 * pole_pairs, 12.0 * pole_pairs];
     let lines = orders.iter().map(|&o| (format!("{o:.0}×"), vec![(0.0, 0.0), (n_max, order_hz(o, n_max))])).collect();
-    let map = crate::cmd_campbell::HeatMap {
+    let map = crate::report::heatmap::HeatMap {
         title: format!("Campbell diagram of the accelerometer torque, kit-bench ramp 0–{top_rpm:.0} rpm"),
         x_label: "speed (rpm)".into(),
         y_label: "frequency (Hz)".into(),

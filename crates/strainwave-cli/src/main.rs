@@ -24,6 +24,7 @@ mod demo_estimate;
 mod joint_config;
 mod learned;
 mod progress;
+mod recording_args;
 mod report;
 mod sim_arm;
 mod sim_bench;

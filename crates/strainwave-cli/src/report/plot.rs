@@ -52,12 +52,13 @@ pub struct LinePlot {
     pub x_range: Option<(f64, f64)>,
 }
 
-fn esc(s: &str) -> String {
+/// `s` with the characters XML gives a meaning escaped.
+pub(crate) fn esc(s: &str) -> String {
     s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
 }
 
 /// "Nice" tick positions covering `[lo, hi]`.
-fn ticks(lo: f64, hi: f64, target: usize) -> Vec<f64> {
+pub(crate) fn ticks(lo: f64, hi: f64, target: usize) -> Vec<f64> {
     let span = (hi - lo).abs().max(1e-300);
     let raw = span / target as f64;
     let mag = 10f64.powf(raw.log10().floor());
