@@ -8,30 +8,18 @@ root. Relative agreement 1e-9.
 
 import json
 import math
-import os
-import shutil
-import subprocess
-from pathlib import Path
 
 import pytest
 
 np = pytest.importorskip("numpy")
 signal = pytest.importorskip("scipy.signal")
 
-ROOT = Path(__file__).resolve().parents[2]
 RTOL = 1e-9
 
 
 @pytest.fixture(scope="module")
-def models(tmp_path_factory):
-    if shutil.which("cargo") is None:
-        pytest.skip("cargo not found")
-    out = tmp_path_factory.mktemp("golden")
-    cmd = ["cargo", "run", "--quiet", "-p", "strainwave-analysis", "--example", "spectra_golden", "--", str(out)]
-    res = subprocess.run(cmd, cwd=ROOT, env=os.environ.copy(), capture_output=True, text=True, timeout=1800)
-    if res.returncode != 0:
-        pytest.fail(f"cargo failed:\n{res.stderr}")
-    return json.loads((out / "models.json").read_text())
+def models(spectra_golden):
+    return json.loads((spectra_golden / "models.json").read_text())
 
 
 def table_i_coefficients(t):

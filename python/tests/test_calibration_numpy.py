@@ -6,30 +6,16 @@ Runs cargo from the repository root (honours CARGO_TARGET_DIR); skips without nu
 or cargo.
 """
 
-import os
-import shutil
-import subprocess
-from pathlib import Path
-
 import pytest
 
 np = pytest.importorskip("numpy")
 
-REPO = Path(__file__).resolve().parents[2]
 REL_TOL = 1e-9
 
 
-def run_example(*args):
-    if shutil.which("cargo") is None:
-        pytest.skip("cargo not found")
-    cmd = ["cargo", "run", "-q", "-p", "strainwave-analysis", "--example", "calib_golden", "--", *args]
-    done = subprocess.run(cmd, cwd=REPO, env=os.environ.copy(), capture_output=True, text=True)
-    assert done.returncode == 0, done.stderr
-
-
-def test_series_elastic_fit_matches_polyfit(tmp_path):
+def test_series_elastic_fit_matches_polyfit(tmp_path, cargo_example):
     out = tmp_path / "sea.csv"
-    run_example("sea", str(out))
+    cargo_example("strainwave-analysis", "calib_golden", "sea", out)
     deflection, torque, fit = [], [], None
     for line in out.read_text().splitlines():
         kind, *vals = line.split(",")

@@ -6,25 +6,11 @@ Runs cargo from the repository root (honours CARGO_TARGET_DIR); skips without nu
 or cargo.
 """
 
-import os
-import shutil
-import subprocess
-from pathlib import Path
-
 import pytest
 
 np = pytest.importorskip("numpy")
 
-REPO = Path(__file__).resolve().parents[2]
 REL_TOL = 1e-10
-
-
-def run_example(*args):
-    if shutil.which("cargo") is None:
-        pytest.skip("cargo not found")
-    cmd = ["cargo", "run", "-q", "-p", "strainwave-analysis", "--example", "calib_golden", "--", *args]
-    done = subprocess.run(cmd, cwd=REPO, env=os.environ.copy(), capture_output=True, text=True)
-    assert done.returncode == 0, done.stderr
 
 
 def random_problems(rng, count):
@@ -40,7 +26,7 @@ def random_problems(rng, count):
     return problems
 
 
-def test_lstsq_matches_numpy(tmp_path):
+def test_lstsq_matches_numpy(tmp_path, cargo_example):
     rng = np.random.default_rng(20240611)
     problems = random_problems(rng, 40)
     src = tmp_path / "problems.csv"
@@ -51,7 +37,7 @@ def test_lstsq_matches_numpy(tmp_path):
             f.write(f"problem,{m},{n}\n")
             for i in range(m):
                 f.write(",".join(repr(float(v)) for v in (*a[i], b[i])) + "\n")
-    run_example("lstsq", str(src), str(dst))
+    cargo_example("strainwave-analysis", "calib_golden", "lstsq", src, dst)
     rows = [line.split(",") for line in dst.read_text().splitlines() if line.strip()]
     assert len(rows) == len(problems)
     worst = 0.0

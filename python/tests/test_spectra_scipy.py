@@ -8,36 +8,19 @@ for entries that are zero up to rounding).
 """
 
 import json
-import os
-import shutil
-import subprocess
-from pathlib import Path
 
 import pytest
 
 np = pytest.importorskip("numpy")
 signal = pytest.importorskip("scipy.signal")
 
-ROOT = Path(__file__).resolve().parents[2]
 RTOL = 1e-9
 ATOL_REL = 1e-12
 
 
-def run_golden(tmp_path_factory):
-    if shutil.which("cargo") is None:
-        pytest.skip("cargo not found")
-    out = tmp_path_factory.mktemp("golden")
-    cmd = ["cargo", "run", "--quiet", "-p", "strainwave-analysis", "--example", "spectra_golden", "--", str(out)]
-    res = subprocess.run(cmd, cwd=ROOT, env=os.environ.copy(), capture_output=True, text=True, timeout=1800)
-    if res.returncode != 0:
-        pytest.fail(f"cargo failed:\n{res.stderr}")
-    return out
-
-
 @pytest.fixture(scope="module")
-def spectra(tmp_path_factory):
-    out = run_golden(tmp_path_factory)
-    return json.loads((out / "spectra.json").read_text())
+def spectra(spectra_golden):
+    return json.loads((spectra_golden / "spectra.json").read_text())
 
 
 def close(rust, ref):

@@ -52,14 +52,48 @@ pub fn load_scenario(
         }
         (None, None) => bail!("give --preset NAME or --scenario FILE"),
     };
+    overridden(&mut s, duration, seed)?;
+    Ok(s)
+}
+
+/// A twin's scenario as `simulate` adjusts it: `--duration`, `--seed`, then the check.
+pub trait Adjustable {
+    /// Sets the run length, s.
+    fn set_duration_s(&mut self, duration_s: f64);
+    /// Sets the noise seed.
+    fn set_seed(&mut self, seed: u64);
+    /// Checks every value; the error names the key.
+    fn check(&self) -> Result<(), strainwave_sim::SimError>;
+}
+
+macro_rules! adjustable {
+    ($($t:ty),*) => {$(
+        impl Adjustable for $t {
+            fn set_duration_s(&mut self, duration_s: f64) {
+                self.duration_s = duration_s;
+            }
+            fn set_seed(&mut self, seed: u64) {
+                self.seed = seed;
+            }
+            fn check(&self) -> Result<(), strainwave_sim::SimError> {
+                self.validate()
+            }
+        }
+    )*};
+}
+adjustable!(Scenario, strainwave_sim::arm::ArmScenario, strainwave_sim::bench::BenchScenario);
+
+/// `--duration` and `--seed` applied to `s`, then its values checked (the error names
+/// `--duration` when one was given).
+pub fn overridden<S: Adjustable>(s: &mut S, duration: Option<f64>, seed: Option<u64>) -> Result<()> {
     if let Some(d) = duration {
-        s.duration_s = d;
+        s.set_duration_s(d);
     }
     if let Some(seed) = seed {
-        s.seed = seed;
+        s.set_seed(seed);
     }
-    s.validate().context(if duration.is_some() { "--duration" } else { "scenario" })?;
-    Ok(s)
+    s.check().context(if duration.is_some() { "--duration" } else { "scenario" })?;
+    Ok(())
 }
 
 /// Runs `simulate`.

@@ -22,13 +22,7 @@ pub fn run(a: &crate::cmd_simulate::Args) -> Result<bool> {
     let Some(name) = a.preset.as_deref() else { return Ok(false) };
     let Some(scenario) = arm_preset(name) else { return Ok(false) };
     let mut s = scenario?;
-    if let Some(d) = a.duration {
-        s.duration_s = d;
-    }
-    if let Some(seed) = a.seed {
-        s.seed = seed;
-    }
-    s.validate().context(if a.duration.is_some() { "--duration" } else { "scenario" })?;
+    crate::cmd_simulate::overridden(&mut s, a.duration, a.seed)?;
     if a.print_scenario {
         crate::stdout::print(&s.to_toml())?;
         return Ok(true);

@@ -1,6 +1,6 @@
 //! `strainwave simulate` for the bench presets (`kit-bench`, `kit-bench-sweep`).
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use strainwave_sim::bench::{preset, BenchSimulator, PRESET_NAMES};
 
 /// Runs the preset when it is one of this twin's; `Ok(false)` otherwise.
@@ -9,13 +9,7 @@ pub fn run(a: &crate::cmd_simulate::Args) -> Result<bool> {
         return Ok(false);
     };
     let mut s = preset(name)?;
-    if let Some(d) = a.duration {
-        s.duration_s = d;
-    }
-    if let Some(seed) = a.seed {
-        s.seed = seed;
-    }
-    s.validate().context(if a.duration.is_some() { "--duration" } else { "scenario" })?;
+    crate::cmd_simulate::overridden(&mut s, a.duration, a.seed)?;
     if a.print_scenario {
         crate::stdout::print(&s.to_toml())?;
         return Ok(true);
