@@ -2,7 +2,9 @@
 //! Kalman filter and in adskalman, and the multi-joint bank (ns per sample per joint).
 //!
 //! Same model in each (`Q = 1e-3 I`, `R = 1`, `P0 = I`, `C` = first component of each
-//! oscillator), same torques, inputs and outputs through `black_box`. What each includes:
+//! oscillator), same torques, inputs and whole outputs through `black_box`, each timed
+//! as one plain loop over the recording (the same loop for every variant). What each
+//! includes:
 //! - strainwave: angle input (wrapped angles → increments, sine/cosine per reference),
 //!   every robustness check (finite inputs, gaps, jumps, order status, covariance health),
 //!   innovation variance, NIS and flags.
@@ -14,13 +16,17 @@
 //!   with AVX2 the library runs its AVX2 build (chosen at run time, same results), the
 //!   others run the portable build.
 //!
-//! Run: `cargo bench -p strainwave-core --bench ripple -- --warm-up-time 1 --measurement-time 2`
+//! Run: `cargo bench -p strainwave-core --bench ripple -- --warm-up-time 1 --measurement-time 2`,
+//! then `scripts/bench-summary ripple` for the fastest, 10th-percentile and median
+//! samples beside criterion's slope (on a shared machine the slope takes in whatever
+//! else ran).
 //! (optionally with `RUSTFLAGS="-C target-cpu=native"`: every variant then gets the same
 //! flags; the committed configuration targets any x86-64).
 
 use adskalman::{CovarianceUpdateMethod, ObservationModel, StateAndCovariance, TransitionModelLinearNoControl};
-use criterion::{black_box, Criterion, Throughput};
+use criterion::{black_box, Bencher, Criterion, Throughput};
 use nalgebra::{Const, OMatrix, OVector, RealField, SMatrix, SVector, U1};
+use std::time::Instant;
 use strainwave_core::ripple::{
     step, step_many, BankInput, BankOutput, ReferenceValues, RippleBank, RippleInput, RippleModel, RippleState,
 };
@@ -59,6 +65,19 @@ fn samples(phase: f64) -> Vec<Sample> {
         .collect()
 }
 
+/// Times `iters` samples of the recording (wrapping around) in one plain loop: the
+/// same loop for every variant, so what differs is the step itself. Every output goes
+/// through `black_box`, so nothing the step computes can be left out.
+fn over_the_recording(b: &mut Bencher, mut sample: impl FnMut(usize)) {
+    b.iter_custom(|iters| {
+        let start = Instant::now();
+        for i in 0..iters {
+            sample(i as usize % N_SAMPLES);
+        }
+        start.elapsed()
+    });
+}
+
 fn inputs<T: Real>(data: &[Sample]) -> Vec<RippleInput<T>> {
     let c = T::from_f64;
     data.iter().map(|s| RippleInput::new(c(s.y), ReferenceValues::new(c(s.rel), c(s.out), T::ZERO))).collect()
@@ -67,12 +86,10 @@ fn inputs<T: Real>(data: &[Sample]) -> Vec<RippleInput<T>> {
 fn bench_strainwave<T: Real, const M: usize>(c: &mut Criterion, name: &str, model: RippleModel<T, M>) {
     let data = inputs::<T>(&samples(0.0));
     let mut state = RippleState::new(&model);
-    let mut k = 0usize;
     c.bench_function(name, |b| {
-        b.iter(|| {
-            k = (k + 1) % N_SAMPLES;
-            let out = step(&model, &mut state, black_box(&data[k]));
-            black_box(out.map(|o| o.torque_nm).unwrap_or(T::ZERO))
+        over_the_recording(b, |k| {
+            // The whole result (every output, or the error) is kept.
+            let _ = black_box(step(&model, &mut state, black_box(&data[k])));
         })
     });
 }
@@ -121,11 +138,9 @@ fn bench_dense<T: RealField + Copy, const N: usize>(c: &mut Criterion, name: &st
     let ys: Vec<T> = data.iter().map(|s| conv(s.y)).collect();
     let incs: Vec<[T; 3]> = data.iter().map(|s| s.inc.map(conv)).collect();
     let mut kf = Dense::<T, N>::new();
-    let mut k = 0usize;
     c.bench_function(name, |b| {
-        b.iter(|| {
-            k = (k + 1) % N_SAMPLES;
-            black_box(kf.step(black_box(ys[k]), black_box(&incs[k])))
+        over_the_recording(b, |k| {
+            black_box(kf.step(black_box(ys[k]), black_box(&incs[k])));
         })
     });
 }
@@ -190,10 +205,8 @@ macro_rules! bench_ads {
                 q: OMatrix::<T, Const<$n>, Const<$n>>::identity() * conv(1e-3),
             };
             let mut prior = StateAndCovariance::new(OVector::<T, Const<$n>>::zeros(), SMatrix::<T, $n, $n>::identity());
-            let mut k = 0usize;
             c.bench_function(name, |b| {
-                b.iter(|| {
-                    k = (k + 1) % N_SAMPLES;
+                over_the_recording(b, |k| {
                     let mut phi = OMatrix::<T, Const<$n>, Const<$n>>::zeros();
                     for (i, &a) in black_box(&incs[k]).iter().enumerate().take($n / 2) {
                         let (s, co) = a.sin_cos();
@@ -209,7 +222,7 @@ macro_rules! bench_ads {
                     trans.f = phi;
                     trans.ft = phi.transpose();
                     prior = trans.predict(&post);
-                    black_box(prior.state()[0])
+                    black_box(&prior);
                 })
             });
         }
@@ -229,14 +242,12 @@ fn bench_bank<T: Real, const M: usize, const JOINTS: usize>(c: &mut Criterion, n
         .collect();
     let mut bank = RippleBank::<T, M, JOINTS>::new(&model);
     let mut out = BankOutput::default();
-    let mut k = 0usize;
     let mut group = c.benchmark_group("ripple/bank");
     group.throughput(Throughput::Elements(JOINTS as u64));
     group.bench_function(name, |b| {
-        b.iter(|| {
-            k = (k + 1) % N_SAMPLES;
+        over_the_recording(b, |k| {
             step_many(&model, &mut bank, black_box(&inputs[k]), &mut out);
-            black_box(out.torque_nm[0])
+            black_box(&out);
         })
     });
     group.finish();
