@@ -65,16 +65,21 @@ fn samples(phase: f64) -> Vec<Sample> {
         .collect()
 }
 
-/// Times `iters` samples of the recording (wrapping around) in one plain loop: the
-/// same loop for every variant, so what differs is the step itself. Every output goes
-/// through `black_box`, so nothing the step computes can be left out.
+/// Times `iters` samples of the recording in one plain loop, each call going on where
+/// the last one stopped (wrapping around): the same loop for every variant, so what
+/// differs is the step itself. Every output goes through `black_box`, so nothing the
+/// step computes can be left out.
 fn over_the_recording(b: &mut Bencher, mut sample: impl FnMut(usize)) {
+    let mut next = 0usize;
     b.iter_custom(|iters| {
+        let first = next;
         let start = Instant::now();
-        for i in 0..iters {
-            sample(i as usize % N_SAMPLES);
+        for i in 0..iters as usize {
+            sample((first + i) % N_SAMPLES);
         }
-        start.elapsed()
+        let elapsed = start.elapsed();
+        next = (first + iters as usize) % N_SAMPLES;
+        elapsed
     });
 }
 
