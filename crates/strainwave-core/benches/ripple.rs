@@ -12,6 +12,8 @@
 //!   per order), no checks.
 //! - adskalman: update (forced symmetric) then predict, given the increments; builds `Φ`.
 //!
+//! - alternating: two joints, each its own state, stepped one after the other by `step`
+//!   (ns per joint): the one-joint step's dependency chain, seen from outside.
 //! - banks (`step_many`): as strainwave above, for `J` joints at once; on x86-64 CPUs
 //!   with AVX2 the library runs its AVX2 build (chosen at run time, same results), the
 //!   others run the portable build.
@@ -97,6 +99,25 @@ fn bench_strainwave<T: Real, const M: usize>(c: &mut Criterion, name: &str, mode
             let _ = black_box(step(&model, &mut state, black_box(&data[k])));
         })
     });
+}
+
+/// Two joints, each its own `RippleState` and recording, stepped one after the other
+/// by `step` (per joint). Beside the one-joint row this shows how much of a step's time
+/// is its dependency chain (the covariance recursion from one sample to the next):
+/// independent joints' chains overlap in the CPU, one joint's cannot.
+fn bench_alternating<T: Real, const M: usize>(c: &mut Criterion, name: &str, model: RippleModel<T, M>) {
+    let data = [inputs::<T>(&samples(0.0)), inputs::<T>(&samples(0.37))];
+    let mut states = [RippleState::new(&model), RippleState::new(&model)];
+    let mut group = c.benchmark_group("ripple/alternating");
+    group.throughput(Throughput::Elements(2));
+    group.bench_function(name, |b| {
+        over_the_recording(b, |k| {
+            for (state, data) in states.iter_mut().zip(&data) {
+                let _ = black_box(step(&model, state, black_box(&data[k])));
+            }
+        })
+    });
+    group.finish();
 }
 
 /// The textbook prediction-type filter (seed 000 eqs 12–14) with dense nalgebra algebra.
@@ -275,6 +296,8 @@ fn all(c: &mut Criterion) {
     bench_strainwave(c, "ripple/7-state-product/f32/strainwave", RippleModel::<f32, 3>::product(1000.0, 0.1).unwrap());
     bench_strainwave(c, "ripple/11-state-full/f64/strainwave", RippleModel::<f64, 5>::full(1000.0, 0.1).unwrap());
     bench_strainwave(c, "ripple/11-state-full/f32/strainwave", RippleModel::<f32, 5>::full(1000.0, 0.1).unwrap());
+    bench_alternating(c, "6-state/f64/2-joints", RippleModel::<f64, 3>::seed_6th_order(1000.0).unwrap());
+    bench_bank::<f64, 3, 2>(c, "6-state/f64/2-joints", RippleModel::seed_6th_order(1000.0).unwrap());
     bench_bank::<f32, 3, 8>(c, "6-state/f32/8-joints", RippleModel::seed_6th_order(1000.0).unwrap());
     bench_bank::<f32, 3, 16>(c, "6-state/f32/16-joints", RippleModel::seed_6th_order(1000.0).unwrap());
     bench_bank::<f64, 3, 8>(c, "6-state/f64/8-joints", RippleModel::seed_6th_order(1000.0).unwrap());
