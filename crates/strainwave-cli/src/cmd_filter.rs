@@ -6,10 +6,10 @@ use std::path::PathBuf;
 use anyhow::{bail, Context, Result};
 use strainwave_core::ripple::{
     step, Order, PhaseSource, Reference, ReferenceValues, RippleInput, RippleModel, RippleOutput, RippleState,
-    StepFlags,
 };
-use strainwave_io::{BoundChannel, RecordingReader, RecordingWriter, TimeMonitor};
+use strainwave_io::{BoundChannel, RecordingReader, RecordingWriter};
 
+use crate::filter_rows::RowCheck;
 use crate::joint_config::{JointConfig, MAX_TABLE_LEN};
 
 /// Columns the filter adds.
@@ -37,6 +37,11 @@ pub struct Args {
     /// Prefix for the added columns (when the input already has a `torque` column).
     #[arg(long, default_value = "")]
     pub prefix: String,
+    /// Go on over bad rows instead of stopping at the first: samples with a non-finite
+    /// torque or angle are skipped by the canceller (flag bits 0-1 in filter_flags) and
+    /// time that does not move forward restarts the phase; counts are reported at the end.
+    #[arg(long)]
+    pub lenient: bool,
     /// No summary on stderr.
     #[arg(long, short)]
     pub quiet: bool,
@@ -71,6 +76,20 @@ fn bind(cfg: &JointConfig, r: &RecordingReader) -> Result<Bound> {
         motor_velocity: opt(&ch.motor_velocity, "motor_velocity")?,
         expected: opt(&ch.expected_torque, "expected_torque")?,
     })
+}
+
+impl Bound {
+    /// The row check over every channel the canceller reads.
+    fn check(&self, a: &Args, cfg: &JointConfig, columns: &[String]) -> RowCheck {
+        let channels = [
+            ("torque", Some(self.torque)),
+            ("motor_angle", self.motor_angle),
+            ("output_angle", self.output_angle),
+            ("motor_velocity", self.motor_velocity),
+            ("expected_torque", self.expected),
+        ];
+        RowCheck::new(&channels, self.time, columns, cfg.filter.sample_rate_hz, a.lenient, a.out.as_os_str() == "-")
+    }
 }
 
 fn reference(name: &str) -> Result<Reference> {
@@ -173,13 +192,15 @@ fn stream<const M: usize>(a: &Args, cfg: &JointConfig, model: &RippleModel<f64, 
     let learned_model;
     let model = match (&cfg.filter.learned, &a.learn) {
         (Some(path), None) => {
-            learned_model = crate::learned::LearnedFile::load(path)?.apply(*model, path)?;
+            let field = || format!("{}: `filter.learned`", a.config.display());
+            learned_model =
+                crate::learned::LearnedFile::load(path).with_context(field)?.apply(*model, path).with_context(field)?;
             &learned_model
         }
         _ => model,
     };
     let gear = cfg.gear()?;
-    let cal = cfg.calibration()?;
+    let cal = cfg.calibration().with_context(|| a.config.display().to_string())?;
     let mut r = RecordingReader::open(&a.input)?;
     let ch = bind(cfg, &r)?;
     let velocity = model.phase_source() == PhaseSource::Velocity;
@@ -198,21 +219,23 @@ fn stream<const M: usize>(a: &Args, cfg: &JointConfig, model: &RippleModel<f64, 
         columns.push(name);
     }
     let refs: Vec<&str> = columns.iter().map(String::as_str).collect();
+    let mut check = ch.check(a, cfg, r.columns());
     if a.smooth {
-        return crate::cmd_filter_smooth::smooth(a, model, &mut r, &refs, |row| {
+        return crate::cmd_filter_smooth::smooth(a, model, &mut r, &refs, &mut check, |row| {
             (inputs(&ch, &gear, &cal, row, velocity).0, ch.time.get(row))
         });
     }
     let mut w = RecordingWriter::create(&a.out, &refs)?;
     let mut state = RippleState::new(model);
-    let mut monitor = TimeMonitor::new(Some(1.0 / cfg.filter.sample_rate_hz));
     let mut row = Vec::with_capacity(columns.len());
     let mut last_t: Option<f64> = None;
-    let (mut skipped, mut extrapolated) = (0u64, 0u64);
+    let mut first_t: Option<f64> = None;
+    let mut extrapolated = 0u64;
     let progress = crate::progress::Progress::new("filter", a.quiet, None);
     while r.read_row(&mut row)? {
+        let n = r.rows_read();
+        check.row(&row, n, n - 1).with_context(|| a.input.display().to_string())?;
         let t = ch.time.get(&row);
-        monitor.push(t);
         let (input, extra) = inputs(&ch, &gear, &cal, &row, velocity);
         extrapolated += u64::from(extra);
         let mut input = input;
@@ -220,11 +243,12 @@ fn stream<const M: usize>(a: &Args, cfg: &JointConfig, model: &RippleModel<f64, 
             input = input.with_dt(t - t0);
         }
         if t.is_finite() {
+            first_t.get_or_insert(t);
             last_t = Some(t);
         }
         let o: RippleOutput<f64> = step(model, &mut state, &input)
-            .map_err(|e| anyhow::anyhow!("{}: row {}: filter: {e}", a.input.display(), r.rows_read()))?;
-        skipped += u64::from(o.flags.contains(StepFlags::MEASUREMENT_SKIPPED));
+            .map_err(|e| anyhow::anyhow!("{}: data row {n}: filter: {e}", a.input.display()))?;
+        check.flags(o.flags, n);
         row.extend_from_slice(&[
             o.torque_nm,
             o.ripple_nm,
@@ -255,14 +279,12 @@ fn stream<const M: usize>(a: &Args, cfg: &JointConfig, model: &RippleModel<f64, 
     }
     if !a.quiet {
         eprintln!("filtered {rows} rows of {} -> {}", a.input.display(), a.out.display());
-        if skipped > 0 {
-            eprintln!("warning: {skipped} samples with a non-finite torque or angle were skipped (flag bit 0 in filter_flags)");
-        }
         if extrapolated > 0 {
             eprintln!("warning: {extrapolated} samples used the calibration outside its speed range (its extrapolation policy)");
         }
-        if let Some(msg) = monitor.report() {
-            eprintln!("warning: {}: {msg}", a.input.display());
+        let span = first_t.zip(last_t).map(|(t0, t1)| t1 - t0);
+        for w in check.warnings(&a.input.display().to_string(), rows, span) {
+            eprintln!("warning: {w}");
         }
     }
     Ok(())

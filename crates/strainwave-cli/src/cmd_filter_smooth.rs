@@ -1,10 +1,12 @@
 //! `strainwave filter --smooth`: the offline zero-phase smoother (forward filter plus
 //! Rauch–Tung–Striebel pass) over a whole recording.
 
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use strainwave_analysis::smoother::smooth as rts_smooth;
 use strainwave_core::ripple::{RippleInput, RippleModel};
 use strainwave_io::{RecordingReader, RecordingWriter};
+
+use crate::filter_rows::RowCheck;
 
 /// The smoother keeps every sample's covariance: recordings longer than this are refused
 /// (about 1.6 GB for the full configuration) rather than exhausting memory.
@@ -16,12 +18,13 @@ pub fn smooth<const M: usize>(
     model: &RippleModel<f64, M>,
     r: &mut RecordingReader,
     columns: &[&str],
+    check: &mut RowCheck,
     input_and_time: impl Fn(&[f64]) -> (RippleInput<f64>, f64),
 ) -> Result<()> {
     let mut rows: Vec<Vec<f64>> = Vec::new();
     let mut ins: Vec<RippleInput<f64>> = Vec::new();
     let mut row = Vec::new();
-    let mut last_t: Option<f64> = None;
+    let (mut first_t, mut last_t): (Option<f64>, Option<f64>) = (None, None);
     while r.read_row(&mut row)? {
         if r.rows_read() > MAX_SMOOTH_ROWS {
             bail!(
@@ -30,11 +33,13 @@ pub fn smooth<const M: usize>(
                 a.input.display()
             );
         }
+        check.row(&row, r.rows_read(), 0).with_context(|| a.input.display().to_string())?;
         let (mut input, t) = input_and_time(&row);
         if let Some(t0) = last_t.filter(|t0| t.is_finite() && t > *t0) {
             input = input.with_dt(t - t0);
         }
         if t.is_finite() {
+            first_t.get_or_insert(t);
             last_t = Some(t);
         }
         ins.push(input);
@@ -57,8 +62,15 @@ pub fn smooth<const M: usize>(
         w.write_row(&row)?;
     }
     let n = w.finish()?;
+    for (k, f) in out.filtered.iter().enumerate() {
+        check.flags(f.flags, k as u64 + 1);
+    }
     if !a.quiet {
         eprintln!("smoothed {n} rows of {} -> {} (zero phase, offline)", a.input.display(), a.out.display());
+        let span = first_t.zip(last_t).map(|(t0, t1)| t1 - t0);
+        for w in check.warnings(&a.input.display().to_string(), n, span) {
+            eprintln!("warning: {w}");
+        }
     }
     Ok(())
 }

@@ -69,7 +69,7 @@ pub struct CalibrationConfig {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FilterConfig {
-    /// `full`, `product`, `seed-4th-order`, `seed-6th-order` or `orders`.
+    /// `full` (default), `product`, `seed-4th-order`, `seed-6th-order` or `orders`.
     #[serde(default = "default_model")]
     pub model: String,
     /// Nominal sample rate, Hz.
@@ -92,7 +92,7 @@ pub struct FilterConfig {
 }
 
 fn default_model() -> String {
-    "product".into()
+    "full".into()
 }
 
 fn default_phase() -> String {
@@ -119,7 +119,16 @@ impl JointConfig {
     /// Reads and checks a config file.
     pub fn load(path: &Path) -> Result<Self> {
         let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
-        let mut c: Self = toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {}", path.display(), e.message()))?;
+        let mut c: Self = toml::from_str(&text).map_err(|e| {
+            // Line and column of the offending text, on one line.
+            let at = e.span().map_or(String::new(), |s| {
+                let before = &text[..s.start.min(text.len())];
+                let line = before.matches('\n').count() + 1;
+                let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+                format!("line {line}, column {column}: ")
+            });
+            anyhow::anyhow!("{}: {at}{}", path.display(), e.message().trim().replace('\n', "; "))
+        })?;
         if let Some(cal) = c.calibration.as_mut() {
             if let Some(f) = cal.file.as_mut() {
                 if f.is_relative() {
@@ -156,7 +165,7 @@ impl JointConfig {
         match (c.gain_nm_per_v, &c.file) {
             (Some(g), None) => Calibration::gain(g).map_err(|e| anyhow::anyhow!("`calibration.gain_nm_per_v`: {e}")),
             (None, Some(f)) => {
-                let file = strainwave_analysis::calibration::CalibrationFile::load(f)?;
+                let file = strainwave_analysis::calibration::CalibrationFile::load(f).context("`calibration.file`")?;
                 Ok(file.to_core::<f64, MAX_TABLE_LEN>().with_context(|| format!("{}", f.display()))?)
             }
             _ => bail!("`[calibration]` needs exactly one of `gain_nm_per_v` and `file`"),

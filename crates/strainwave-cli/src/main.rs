@@ -21,6 +21,7 @@ mod cmd_spectrogram;
 mod demo_bench;
 mod demo_calibration;
 mod demo_estimate;
+mod filter_rows;
 mod joint_config;
 mod learned;
 mod progress;

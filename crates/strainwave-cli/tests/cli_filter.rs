@@ -116,27 +116,92 @@ fn filter_streams_through_a_pipe() {
     assert!(text.lines().next().unwrap().ends_with("torque,ripple,misalignment,innovation,nis,filter_flags"));
 }
 
+/// A copy of the simulated recording with one cell of data row `row` replaced.
+fn with_cell(sim: &Path, row: usize, column: &str, value: &str, name: &str) -> PathBuf {
+    let text = std::fs::read_to_string(sim).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let i = lines[0].split(',').position(|c| c == column).unwrap();
+    let mut cells: Vec<String> = lines[row].split(',').map(String::from).collect();
+    cells[i] = value.into();
+    lines[row] = cells.join(",");
+    let bad = sim.with_file_name(name);
+    std::fs::write(&bad, lines.join("\n") + "\n").unwrap();
+    bad
+}
+
+/// A non-finite sample stops the filter with the row, column and channel named (exit 1,
+/// nothing written); with `--lenient` it is skipped with a flag and counted, by the
+/// filter and by the smoother.
 #[test]
-fn nan_samples_are_skipped_with_a_flag_and_reported() {
+fn nan_samples_are_errors_or_with_lenient_skipped_with_a_flag() {
     let d = tmp("nan");
     let sim = simulate(&d, "0.5");
-    let text = std::fs::read_to_string(&sim).unwrap();
-    let mut lines: Vec<String> = text.lines().map(String::from).collect();
-    let h: Vec<&str> = lines[0].split(',').collect();
-    let i = h.iter().position(|c| *c == "bridge_voltage").unwrap();
-    let mut cells: Vec<String> = lines[100].split(',').map(String::from).collect();
-    cells[i] = "NaN".into();
-    lines[100] = cells.join(",");
-    let bad = d.join("nan.csv");
-    std::fs::write(&bad, lines.join("\n") + "\n").unwrap();
+    let bad = with_cell(&sim, 100, "bridge_voltage", "NaN", "nan.csv");
     let out = d.join("f.csv");
-    let o = run(&["filter", "--config", &config(), "--in", bad.to_str().unwrap(), "--out", out.to_str().unwrap()]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stderr(&o).contains("1 samples with a non-finite torque or angle were skipped"), "{}", stderr(&o));
-    let (h, rows) = read(&out);
-    let flags = col(&h, &rows, "filter_flags");
-    assert_eq!(flags[99] as u32 & 1, 1, "row 100 flagged");
-    assert!(col(&h, &rows, "torque")[101].is_finite());
+    let args = ["filter", "--config", &config(), "--in", bad.to_str().unwrap(), "--out", out.to_str().unwrap()];
+    assert_user_error(&run(&args), "data row 100: column `bridge_voltage` (`channels.torque`) is NaN");
+    assert!(!out.exists());
+    let angle = with_cell(&sim, 7, "motor_angle", "inf", "inf.csv");
+    let o = run(&["filter", "--config", &config(), "--in", angle.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_user_error(&o, "data row 7: column `motor_angle` (`channels.motor_angle`) is inf");
+    let back = with_cell(&sim, 50, "time", "0.01", "back.csv");
+    let o = run(&["filter", "--config", &config(), "--in", back.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_user_error(&o, "data row 50: time 0.01 s is not after the previous row's");
+    // On standard output the rows already written are counted in the message.
+    let o = run(&["filter", "--config", &config(), "--in", bad.to_str().unwrap(), "--out", "-"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("(99 rows were already written to standard output)"), "{}", stderr(&o));
+
+    for extra in [None, Some("--smooth")] {
+        let mut lenient = args.to_vec();
+        lenient.push("--lenient");
+        lenient.extend(extra);
+        let o = run(&lenient);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let e = stderr(&o);
+        assert!(
+            e.contains("1 samples with a non-finite torque or angle were skipped, the first at data row 100"),
+            "{e}"
+        );
+        let (h, rows) = read(&out);
+        let flags = col(&h, &rows, "filter_flags");
+        assert_eq!(flags[99] as u32 & 1, 1, "row 100 flagged");
+        assert!(col(&h, &rows, "torque")[101].is_finite());
+        std::fs::remove_file(&out).unwrap();
+    }
+}
+
+/// Each shipped joint config runs on the preset it was written for. The full
+/// configurations (with their learned files) remove at least 20 dB of the raw error
+/// against `true_torque`; the seed's own models only have to run.
+#[test]
+fn every_shipped_joint_config_runs_on_its_preset() {
+    let d = tmp("examples");
+    let cases = [
+        ("joint-taghirad.toml", "taghirad-loaded", Some(20.0)),
+        ("joint-flexspline-fixed.toml", "flexspline-fixed", Some(20.0)),
+        ("joint-taghirad-seed-4th.toml", "taghirad", None),
+        ("joint-taghirad-seed-6th.toml", "taghirad", None),
+    ];
+    for (cfg, preset, floor_db) in cases {
+        let sim = d.join(format!("{preset}.csv"));
+        if !sim.exists() {
+            simulate_preset(&d, preset);
+        }
+        let out = d.join(format!("{cfg}.csv"));
+        let cfg_path = root().join("examples").join(cfg);
+        let o = run(&["filter", "--config", cfg_path.to_str().unwrap(), "--in", sim.to_str().unwrap(), "--out"]
+            .into_iter()
+            .chain([out.to_str().unwrap(), "-q"])
+            .collect::<Vec<_>>());
+        assert!(o.status.success(), "{cfg}: {}", stderr(&o));
+        let (raw, filtered) = (rms_error(&out, "measured_torque", 0.3), rms_error(&out, "torque", 0.3));
+        assert!(filtered.is_finite(), "{cfg}");
+        if let Some(floor) = floor_db {
+            let db = 20.0 * (raw / filtered).log10();
+            assert!(db >= floor, "{cfg} on {preset}: {db:.1} dB");
+        }
+    }
 }
 
 #[test]
@@ -159,8 +224,11 @@ fn bad_inputs_are_one_line_errors_and_write_nothing() {
         (with("noise_nm = 0.0162", "noise_nm = -1.0"), "noise_nm"),
         (with("model = \"full\"", "model = \"magic\""), "filter.model"),
         (with("model = \"full\"", "model = \"product\""), "has 5 orders, the model has 3"),
-        (with("learned = \"joint-taghirad-learned.toml\"", "learned = \"missing.toml\""), "missing.toml"),
+        (with("learned = \"joint-taghirad-learned.toml\"", "learned = \"missing.toml\""), "`filter.learned`: "),
+        (with("gain_nm_per_v = 6.611", "file = \"nope.toml\""), "`calibration.file`: "),
         (with("[filter]", "[filter]\ncutoff = 3"), "cutoff"),
+        (with("torque = \"bridge_voltage\"", "torque = { column = \"bridge_voltage\", sclae = 2 }"), "`sclae`"),
+        (with("[channels]", "[channels"), "line 12, column 36: invalid table header"),
     ];
     for (cfg, needle) in cases {
         let o = run(&[

@@ -15,8 +15,10 @@ use serde::{Deserialize, Serialize};
 use crate::csv_io::CsvReader;
 use crate::error::IoError;
 
-/// Where a signal comes from.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// Where a signal comes from. A table with a key other than `column`, `scale`,
+/// `offset` and `unit` is refused with the key named (a misspelt `scale` must not
+/// leave the signal unscaled).
+#[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(untagged)]
 pub enum Channel {
     /// Just the column name (scale 1, offset 0).
@@ -39,6 +41,42 @@ pub enum Channel {
 
 fn one() -> f64 {
     1.0
+}
+
+/// The table form, read with unknown keys refused.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MappedTable {
+    column: String,
+    #[serde(default = "one")]
+    scale: f64,
+    #[serde(default)]
+    offset: f64,
+    #[serde(default)]
+    unit: Option<String>,
+}
+
+impl<'de> Deserialize<'de> for Channel {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct Form;
+        impl<'de> serde::de::Visitor<'de> for Form {
+            type Value = Channel;
+
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a column name or a table { column, scale, offset, unit }")
+            }
+
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<Channel, E> {
+                Ok(Channel::Column(v.to_string()))
+            }
+
+            fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<Channel, A::Error> {
+                let t = MappedTable::deserialize(serde::de::value::MapAccessDeserializer::new(map))?;
+                Ok(Channel::Mapped { column: t.column, scale: t.scale, offset: t.offset, unit: t.unit })
+            }
+        }
+        deserializer.deserialize_any(Form)
+    }
 }
 
 impl Channel {
@@ -122,5 +160,14 @@ mod tests {
         assert_eq!(t.get(&[0.25, 4.0]), 0.25);
         let e = Channel::column("torque").bind(&r, "torque").unwrap_err().to_string();
         assert_eq!(e, "log.csv: no column `torque` for channel `torque` (columns: t, counts)");
+    }
+
+    #[test]
+    fn a_misspelt_key_in_a_channel_table_is_refused_by_name() {
+        let e = toml::from_str::<Cfg>("[channels]\ntorque = { column = \"v\", sclae = 2.0 }\n").err().unwrap();
+        assert!(e.to_string().contains("unknown field `sclae`"), "{e}");
+        assert!(toml::from_str::<Cfg>("[channels]\ntorque = 3\n").is_err());
+        let ok: Cfg = toml::from_str("[channels]\nt = { column = \"c\", unit = \"s\" }\n").unwrap();
+        assert_eq!((ok.channels["t"].column_name(), ok.channels["t"].scale_offset()), ("c", (1.0, 0.0)));
     }
 }

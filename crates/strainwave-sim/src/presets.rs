@@ -10,6 +10,7 @@ pub const PRESETS: &[(&str, &str)] = &[
     ("taghirad-loaded", include_str!("../presets/taghirad-loaded.toml")),
     ("taghirad-commissioning", include_str!("../presets/taghirad-commissioning.toml")),
     ("flexspline-fixed", include_str!("../presets/flexspline-fixed.toml")),
+    ("flexspline-fixed-commissioning", include_str!("../presets/flexspline-fixed-commissioning.toml")),
     ("flexspline-fixed-static", include_str!("../presets/flexspline-fixed-static.toml")),
     ("flexspline-fixed-dynamic", include_str!("../presets/flexspline-fixed-dynamic.toml")),
 ];
