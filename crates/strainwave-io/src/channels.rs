@@ -24,36 +24,28 @@ pub enum Channel {
     /// Just the column name (scale 1, offset 0).
     Column(String),
     /// Column with scale, offset and unit.
-    Mapped {
-        /// Column name in the recording.
-        column: String,
-        /// Multiplier into SI units.
-        #[serde(default = "one")]
-        scale: f64,
-        /// Added after scaling, SI units.
-        #[serde(default)]
-        offset: f64,
-        /// Unit after scaling (documentation only).
-        #[serde(default)]
-        unit: Option<String>,
-    },
+    Mapped(ChannelTable),
+}
+
+/// The table form of a channel; unknown keys are refused.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ChannelTable {
+    /// Column name in the recording.
+    pub column: String,
+    /// Multiplier into SI units.
+    #[serde(default = "one")]
+    pub scale: f64,
+    /// Added after scaling, SI units.
+    #[serde(default)]
+    pub offset: f64,
+    /// Unit after scaling (documentation only).
+    #[serde(default)]
+    pub unit: Option<String>,
 }
 
 fn one() -> f64 {
     1.0
-}
-
-/// The table form, read with unknown keys refused.
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct MappedTable {
-    column: String,
-    #[serde(default = "one")]
-    scale: f64,
-    #[serde(default)]
-    offset: f64,
-    #[serde(default)]
-    unit: Option<String>,
 }
 
 impl<'de> Deserialize<'de> for Channel {
@@ -71,8 +63,7 @@ impl<'de> Deserialize<'de> for Channel {
             }
 
             fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<Channel, A::Error> {
-                let t = MappedTable::deserialize(serde::de::value::MapAccessDeserializer::new(map))?;
-                Ok(Channel::Mapped { column: t.column, scale: t.scale, offset: t.offset, unit: t.unit })
+                ChannelTable::deserialize(serde::de::value::MapAccessDeserializer::new(map)).map(Channel::Mapped)
             }
         }
         deserializer.deserialize_any(Form)
@@ -88,7 +79,7 @@ impl Channel {
     /// The column name.
     pub fn column_name(&self) -> &str {
         match self {
-            Channel::Column(c) | Channel::Mapped { column: c, .. } => c,
+            Channel::Column(c) | Channel::Mapped(ChannelTable { column: c, .. }) => c,
         }
     }
 
@@ -96,7 +87,7 @@ impl Channel {
     pub fn scale_offset(&self) -> (f64, f64) {
         match self {
             Channel::Column(_) => (1.0, 0.0),
-            Channel::Mapped { scale, offset, .. } => (*scale, *offset),
+            Channel::Mapped(t) => (t.scale, t.offset),
         }
     }
 

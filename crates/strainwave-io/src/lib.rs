@@ -15,7 +15,7 @@ pub mod recording;
 pub mod resample;
 pub mod time_axis;
 
-pub use channels::{BoundChannel, Channel};
+pub use channels::{BoundChannel, Channel, ChannelTable};
 pub use csv_io::{read_table, CsvReader, CsvWriter, Table, DEFAULT_CHUNK_ROWS};
 pub use error::IoError;
 pub use recording::{format_of, read_all, Format, RecordingReader, RecordingWriter};
