@@ -15,10 +15,14 @@
 //! (a load-step sample is the limit `Var(b) → ∞`: its bias row of `P(k+1|k)⁻¹` is 0).
 //! The smoothed order waveforms `Σ h(k) ẑ(k|N)` are zero-phase: what Vold–Kalman order
 //! tracking gives in batch. Memory: one prior mean and covariance per sample,
-//! `O(N n²)` for `n = 2M + 1` states (about 0.3 kB per sample for the product model).
+//! `O(N n²)` for `n = 2M + 1` states (about 1.2 kB per sample for the product model);
+//! [`CheckpointedSmoother`] gives the same result in memory bounded by a block.
 
 use strainwave_core::ripple::{step_traced, RippleInput, RippleModel, RippleOutput, RippleState, StepTrace};
 use strainwave_core::Real;
+
+mod checkpointed;
+pub use checkpointed::CheckpointedSmoother;
 
 /// Why the smoother stopped.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -37,6 +41,22 @@ pub enum SmootherError {
         /// Sample index.
         index: usize,
     },
+    /// [`CheckpointedSmoother::smooth_block`] was given blocks out of order (the last
+    /// first) or a block with another number of inputs than were pushed.
+    #[error("block {block} with {inputs} inputs: expected block {expected_block} with {expected_inputs}")]
+    BlockMismatch {
+        /// The block given.
+        block: usize,
+        /// Its inputs given.
+        inputs: usize,
+        /// The block expected next (`usize::MAX` when all are done).
+        expected_block: usize,
+        /// Its number of samples.
+        expected_inputs: usize,
+    },
+    /// [`CheckpointedSmoother::push`] after the backward pass began.
+    #[error("sample pushed after the backward pass began")]
+    PushAfterBackward,
 }
 
 /// One smoothed sample, zero-phase.
@@ -62,7 +82,8 @@ pub struct Smoothed<T: Real> {
 }
 
 /// What the backward pass keeps of one forward step (f64, dense, rotating frame).
-struct Record {
+#[derive(Clone)]
+pub(crate) struct Record {
     prior_mean: Vec<f64>,
     prior_cov: Vec<f64>,
     post_mean: Vec<f64>,
@@ -172,41 +193,80 @@ pub fn smooth<T: Real, const M: usize>(
     model: &RippleModel<T, M>,
     inputs: &[RippleInput<T>],
 ) -> Result<Smoothed<T>, SmootherError> {
-    let n = model.state_len();
-    let bias = (n > 2 * M).then_some(2 * M);
-    let r_nm2 = model.r_nm2().to_f64();
     let mut state = RippleState::new(model);
+    let (filtered, records) = forward(model, &mut state, inputs, 0)?;
+    let means = backward::<M>(model.state_len(), &records, None, 0)?;
+    let smoothed = samples(model, inputs, &records, &means);
+    Ok(Smoothed { filtered, smoothed })
+}
+
+/// The real-time filter from `state` over `inputs` (the first being sample `first`),
+/// with what the backward pass keeps of each step.
+pub(crate) fn forward<T: Real, const M: usize>(
+    model: &RippleModel<T, M>,
+    state: &mut RippleState<T, M>,
+    inputs: &[RippleInput<T>],
+    first: usize,
+) -> Result<(Vec<RippleOutput<T>>, Vec<Record>), SmootherError> {
+    let (n, r_nm2) = (model.state_len(), model.r_nm2().to_f64());
     let mut trace = StepTrace::new();
     let mut filtered = Vec::with_capacity(inputs.len());
     let mut records = Vec::with_capacity(inputs.len());
-    for (index, input) in inputs.iter().enumerate() {
-        let out = step_traced(model, &mut state, input, &mut trace)
-            .map_err(|source| SmootherError::Filter { index, source })?;
+    for (k, input) in inputs.iter().enumerate() {
+        let out = step_traced(model, state, input, &mut trace)
+            .map_err(|source| SmootherError::Filter { index: first + k, source })?;
         filtered.push(out);
         records.push(record(&trace, n, r_nm2));
     }
+    Ok((filtered, records))
+}
 
-    // Backward pass: ẑ(k|N) = ẑ(k|k) + P(k|k) Dᵀ P(k+1|k)⁻¹ [ẑ(k+1|N) − ẑ(k+1|k)].
-    let mut smoothed_mean = vec![Vec::new(); records.len()];
-    if let Some(last) = records.last() {
-        smoothed_mean[records.len() - 1] = last.post_mean.clone();
-    }
-    for k in (0..records.len().saturating_sub(1)).rev() {
-        let (cur, next) = (&records[k], &records[k + 1]);
-        let diff: Vec<f64> = (0..n).map(|i| smoothed_mean[k + 1][i] - next.prior_mean[i]).collect();
+/// The smoothed means `ẑ(k|N)` of `records` (the first being sample `first`), given the
+/// record and smoothed mean of the sample after the last one (`None`: the last one is
+/// the end of the recording).
+pub(crate) fn backward<const M: usize>(
+    n: usize,
+    records: &[Record],
+    after: Option<(&Record, &[f64])>,
+    first: usize,
+) -> Result<Vec<Vec<f64>>, SmootherError> {
+    let bias = (n > 2 * M).then_some(2 * M);
+    // ẑ(k|N) = ẑ(k|k) + P(k|k) Dᵀ P(k+1|k)⁻¹ [ẑ(k+1|N) − ẑ(k+1|k)].
+    let step = |k: usize, cur: &Record, next: &Record, next_mean: &[f64]| -> Result<Vec<f64>, SmootherError> {
+        let diff: Vec<f64> = (0..n).map(|i| next_mean[i] - next.prior_mean[i]).collect();
         let skip = if next.load_step { bias } else { None };
-        let v =
-            solve_spd(&next.prior_cov, n, skip, &diff).ok_or(SmootherError::NotPositiveDefinite { index: k + 1 })?;
+        let v = solve_spd(&next.prior_cov, n, skip, &diff)
+            .ok_or(SmootherError::NotPositiveDefinite { index: first + k + 1 })?;
         // Dᵀ v: zero where the oscillator was reset entering k+1.
         let dv: Vec<f64> = (0..n).map(|i| if i < 2 * M && !next.kept[i / 2] { 0.0 } else { v[i] }).collect();
-        smoothed_mean[k] =
-            (0..n).map(|i| cur.post_mean[i] + (0..n).map(|j| cur.post_cov[i * n + j] * dv[j]).sum::<f64>()).collect();
+        Ok((0..n).map(|i| cur.post_mean[i] + (0..n).map(|j| cur.post_cov[i * n + j] * dv[j]).sum::<f64>()).collect())
+    };
+    let mut means = vec![Vec::new(); records.len()];
+    let Some(last) = records.len().checked_sub(1) else {
+        return Ok(means);
+    };
+    means[last] = match after {
+        Some((next, next_mean)) => step(last, &records[last], next, next_mean)?,
+        None => records[last].post_mean.clone(),
+    };
+    for k in (0..last).rev() {
+        means[k] = step(k, &records[k], &records[k + 1], &means[k + 1])?;
     }
+    Ok(means)
+}
 
-    let smoothed = inputs
+/// The smoothed outputs of `inputs` from their records and smoothed means.
+pub(crate) fn samples<T: Real, const M: usize>(
+    model: &RippleModel<T, M>,
+    inputs: &[RippleInput<T>],
+    records: &[Record],
+    means: &[Vec<f64>],
+) -> Vec<SmoothedSample<T>> {
+    let bias = (model.state_len() > 2 * M).then_some(2 * M);
+    inputs
         .iter()
-        .zip(&records)
-        .zip(&smoothed_mean)
+        .zip(records)
+        .zip(means)
         .map(|((input, rec), z)| {
             let (mut ripple, mut mis) = (0.0, 0.0);
             for (i, o) in model.orders().iter().enumerate() {
@@ -229,8 +289,7 @@ pub fn smooth<T: Real, const M: usize>(
                 torque_state_nm: T::from_f64(state_torque),
             }
         })
-        .collect();
-    Ok(Smoothed { filtered, smoothed })
+        .collect()
 }
 
 #[cfg(test)]

@@ -1,16 +1,105 @@
 //! `strainwave filter --smooth`: the offline zero-phase smoother (forward filter plus
-//! Rauch–Tung–Striebel pass) over a whole recording.
+//! Rauch–Tung–Striebel pass) over a whole recording, in bounded memory.
+//!
+//! Three passes: the forward filter reads the recording once, keeping its state every
+//! [`BLOCK_ROWS`] rows and the rows themselves in a scratch file; the backward pass
+//! takes the blocks from the last to the first (each filtered again from its state) and
+//! writes the smoothed values to a second scratch file; the last pass writes the rows
+//! with their smoothed values in order. The scratch files go beside the output (or in
+//! the system's temporary folder for standard output) and are removed at the end, also
+//! on an error.
 
-use anyhow::{bail, Context, Result};
-use strainwave_analysis::smoother::smooth as rts_smooth;
-use strainwave_core::ripple::{RippleInput, RippleModel};
+use std::fs::File;
+use std::io::{BufReader, BufWriter, Read, Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+
+use anyhow::{anyhow, bail, Context, Result};
+use strainwave_analysis::smoother::CheckpointedSmoother;
+use strainwave_core::ripple::{ReferenceValues, RippleInput, RippleModel};
 use strainwave_io::{RecordingReader, RecordingWriter};
 
 use crate::filter_rows::RowCheck;
 
-/// The smoother keeps every sample's covariance: recordings longer than this are refused
-/// (about 1.6 GB for the full configuration) rather than exhausting memory.
-pub const MAX_SMOOTH_ROWS: u64 = 1_000_000;
+/// Rows per block of the backward pass. Memory: one block of the smoother's records
+/// (about 2.3 kB per row for the full model, so about 10 MB) and one filter state per
+/// block (about 1.5 kB, so 0.4 kB per 1000 rows).
+pub const BLOCK_ROWS: usize = 4096;
+
+/// Values per row the smoother adds: torque, ripple, misalignment, innovation, nis, flags.
+const ADDED: usize = 6;
+/// The canceller's input as stored: torque, expected torque, three references, dt (NaN: none).
+const INPUT: usize = 6;
+
+/// A scratch file of `f64` records of one width, removed when dropped.
+struct Scratch {
+    path: PathBuf,
+    file: File,
+    width: usize,
+}
+
+impl Scratch {
+    fn create(dir: &Path, tag: &str, width: usize) -> Result<Self> {
+        let path = dir.join(format!(".strainwave-smooth-{}-{tag}.tmp", std::process::id()));
+        let file = File::options()
+            .read(true)
+            .write(true)
+            .create_new(true)
+            .open(&path)
+            .with_context(|| format!("{}: cannot create the smoother's scratch file", path.display()))?;
+        Ok(Self { path, file, width })
+    }
+
+    fn context(&self) -> String {
+        format!("{}: smoother scratch file", self.path.display())
+    }
+
+    /// Reads rows `first..first + rows` into `out` (flattened).
+    fn read_rows(&mut self, first: usize, rows: usize, out: &mut Vec<f64>) -> Result<()> {
+        let mut bytes = vec![0u8; rows * self.width * 8];
+        self.file.seek(SeekFrom::Start((first * self.width * 8) as u64)).with_context(|| self.context())?;
+        self.file.read_exact(&mut bytes).with_context(|| self.context())?;
+        out.clear();
+        out.extend(bytes.chunks_exact(8).map(|b| f64::from_le_bytes(b.try_into().unwrap_or([0; 8]))));
+        Ok(())
+    }
+
+    /// Writes `values` (whole rows) from row `first` on.
+    fn write_rows(&mut self, first: usize, values: &[f64]) -> Result<()> {
+        let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+        self.file.seek(SeekFrom::Start((first * self.width * 8) as u64)).with_context(|| self.context())?;
+        self.file.write_all(&bytes).with_context(|| self.context())
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.path);
+    }
+}
+
+fn put(w: &mut impl Write, values: &[f64]) -> std::io::Result<()> {
+    values.iter().try_for_each(|v| w.write_all(&v.to_le_bytes()))
+}
+
+fn get(r: &mut impl Read, values: &mut [f64]) -> std::io::Result<()> {
+    let mut b = [0u8; 8];
+    for v in values {
+        r.read_exact(&mut b)?;
+        *v = f64::from_le_bytes(b);
+    }
+    Ok(())
+}
+
+fn encode(i: &RippleInput<f64>) -> [f64; INPUT] {
+    let r = i.references;
+    [i.torque_nm, i.expected_torque_nm, r.relative, r.output, r.motor, i.dt_s.unwrap_or(f64::NAN)]
+}
+
+fn decode(v: &[f64]) -> RippleInput<f64> {
+    let mut i = RippleInput::new(v[0], ReferenceValues::new(v[2], v[3], v[4])).with_expected_torque(v[1]);
+    i.dt_s = (!v[5].is_nan()).then_some(v[5]);
+    i
+}
 
 /// Runs the smoother over the whole recording and writes the smoothed columns.
 pub fn smooth<const M: usize>(
@@ -21,18 +110,21 @@ pub fn smooth<const M: usize>(
     check: &mut RowCheck,
     input_and_time: impl Fn(&[f64]) -> (RippleInput<f64>, f64),
 ) -> Result<()> {
-    let mut rows: Vec<Vec<f64>> = Vec::new();
-    let mut ins: Vec<RippleInput<f64>> = Vec::new();
+    let dir = match a.out.parent() {
+        _ if a.out.as_os_str() == "-" => std::env::temp_dir(),
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let width = r.columns().len();
+    let smoother_error = |e| anyhow!("{}: smoother: {e}", a.input.display());
+
+    // Forward: filter, keep a state per block and the rows.
+    let mut rows = Scratch::create(&dir, "rows", width + INPUT)?;
+    let mut spool = BufWriter::new(rows.file.try_clone().with_context(|| rows.context())?);
+    let mut sm = CheckpointedSmoother::new(model, BLOCK_ROWS);
     let mut row = Vec::new();
     let (mut first_t, mut last_t): (Option<f64>, Option<f64>) = (None, None);
     while r.read_row(&mut row)? {
-        if r.rows_read() > MAX_SMOOTH_ROWS {
-            bail!(
-                "{}: --smooth holds the whole recording in memory and takes at most {MAX_SMOOTH_ROWS} rows; \
-                 split the file or filter without --smooth",
-                a.input.display()
-            );
-        }
         check.row(&row, r.rows_read(), 0).with_context(|| a.input.display().to_string())?;
         let (mut input, t) = input_and_time(&row);
         if let Some(t0) = last_t.filter(|t0| t.is_finite() && t > *t0) {
@@ -42,29 +134,50 @@ pub fn smooth<const M: usize>(
             first_t.get_or_insert(t);
             last_t = Some(t);
         }
-        ins.push(input);
-        rows.push(std::mem::take(&mut row));
+        let o = sm.push(&input).map_err(smoother_error)?;
+        check.flags(o.flags, r.rows_read());
+        put(&mut spool, &row).and_then(|()| put(&mut spool, &encode(&input))).with_context(|| rows.context())?;
     }
-    if rows.is_empty() {
+    spool.flush().with_context(|| rows.context())?;
+    drop(spool);
+    if sm.is_empty() {
         bail!("{}: no data rows", a.input.display());
     }
-    let out = rts_smooth(model, &ins).map_err(|e| anyhow::anyhow!("{}: smoother: {e}", a.input.display()))?;
+
+    // Backward, block by block from the last.
+    let mut added = Scratch::create(&dir, "smoothed", ADDED)?;
+    let (mut block, mut inputs, mut values) = (Vec::new(), Vec::new(), Vec::new());
+    for b in (0..sm.blocks()).rev() {
+        let range = sm.block_range(b);
+        rows.read_rows(range.start, range.len(), &mut block)?;
+        inputs.clear();
+        inputs.extend(block.chunks_exact(width + INPUT).map(|v| decode(&v[width..])));
+        let s = sm.smooth_block(b, &inputs).map_err(smoother_error)?;
+        values.clear();
+        for (s, f) in s.smoothed.iter().zip(&s.filtered) {
+            values.extend_from_slice(&[s.torque_nm, s.ripple_nm, s.misalignment_nm, f.innovation_nm, f.nis]);
+            values.push(f.flags.bits() as f64);
+        }
+        added.write_rows(range.start, &values)?;
+    }
+
+    // In order: the rows and their smoothed values.
     let mut w = RecordingWriter::create(&a.out, columns)?;
-    for ((mut row, s), f) in rows.into_iter().zip(&out.smoothed).zip(&out.filtered) {
-        row.extend_from_slice(&[
-            s.torque_nm,
-            s.ripple_nm,
-            s.misalignment_nm,
-            f.innovation_nm,
-            f.nis,
-            f.flags.bits() as f64,
-        ]);
-        w.write_row(&row)?;
+    let rewind = |s: &mut Scratch| -> Result<BufReader<File>> {
+        s.file.seek(SeekFrom::Start(0)).with_context(|| s.context())?;
+        Ok(BufReader::new(s.file.try_clone().with_context(|| s.context())?))
+    };
+    let (mut rows_in, mut added_in) = (rewind(&mut rows)?, rewind(&mut added)?);
+    let (mut line, mut extra) = (vec![0.0; width + INPUT], [0.0; ADDED]);
+    for _ in 0..sm.len() {
+        get(&mut rows_in, &mut line).with_context(|| rows.context())?;
+        get(&mut added_in, &mut extra).with_context(|| added.context())?;
+        line.truncate(width);
+        line.extend_from_slice(&extra);
+        w.write_row(&line)?;
+        line.resize(width + INPUT, 0.0);
     }
     let n = w.finish()?;
-    for (k, f) in out.filtered.iter().enumerate() {
-        check.flags(f.flags, k as u64 + 1);
-    }
     if !a.quiet {
         eprintln!("smoothed {n} rows of {} -> {} (zero phase, offline)", a.input.display(), a.out.display());
         let span = first_t.zip(last_t).map(|(t0, t1)| t1 - t0);

@@ -356,3 +356,52 @@ fn learn_on_commissioning_then_filter_and_smooth_a_loaded_run() {
     ]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
 }
+
+fn scratch_files(d: &Path) -> Vec<String> {
+    std::fs::read_dir(d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with(".strainwave-smooth"))
+        .collect()
+}
+
+/// `--smooth` over a recording of several backward blocks (4096 rows each): every row
+/// out, at the noise floor, to a file or to standard output, and its scratch files
+/// removed after a run and after an error.
+#[test]
+fn smooth_spans_blocks_and_leaves_no_scratch_files() {
+    let d = tmp("smooth-blocks");
+    let sim = simulate(&d, "10");
+    let out = d.join("s.csv");
+    let args = ["filter", "--config", &config(), "--in", sim.to_str().unwrap(), "--smooth", "-q"];
+    let o = run(&[&args[..], &["--out", out.to_str().unwrap()]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(scratch_files(&d), Vec::<String>::new());
+    let (h, rows) = read(&out);
+    assert_eq!(rows.len(), 10_000);
+    let (t, truth) = (col(&h, &rows, "torque"), col(&h, &rows, "true_torque"));
+    let err = (300..10_000).map(|k| (t[k] - truth[k]).powi(2)).sum::<f64>() / 9_700.0;
+    assert!(err.sqrt() < 1.5 * 0.0162, "smoothed RMS error {}", err.sqrt());
+
+    let o = run(&[&args[..], &["--out", "-"]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8(o.stdout).unwrap();
+    assert_eq!(text.lines().count(), 10_001);
+    assert_eq!(text.lines().nth(5000), std::fs::read_to_string(&out).unwrap().lines().nth(5000));
+
+    let bad = with_cell(&sim, 9_000, "bridge_voltage", "NaN", "nan.csv");
+    std::fs::remove_file(&out).unwrap();
+    let o = run(&[
+        "filter",
+        "--config",
+        &config(),
+        "--in",
+        bad.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--smooth",
+    ]);
+    assert_user_error(&o, "data row 9000: column `bridge_voltage`");
+    assert!(!out.exists());
+    assert_eq!(scratch_files(&d), Vec::<String>::new());
+}
