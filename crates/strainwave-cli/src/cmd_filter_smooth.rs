@@ -6,8 +6,9 @@
 //! takes the blocks from the last to the first (each filtered again from its state) and
 //! writes the smoothed values to a second scratch file; the last pass writes the rows
 //! with their smoothed values in order. The scratch files go beside the output (or in
-//! the system's temporary folder for standard output) and are removed at the end, also
-//! on an error.
+//! the system's temporary folder for standard output). On Unix they are unlinked as
+//! soon as they are open, so nothing is left behind even if the run is killed;
+//! elsewhere they are removed at the end, also on an error.
 
 use std::fs::File;
 use std::io::{BufReader, BufWriter, Read, Seek, SeekFrom, Write};
@@ -30,7 +31,8 @@ const ADDED: usize = 6;
 /// The canceller's input as stored: torque, expected torque, three references, dt (NaN: none).
 const INPUT: usize = 6;
 
-/// A scratch file of `f64` records of one width, removed when dropped.
+/// A scratch file of `f64` records of one width: unlinked once open (Unix), else
+/// removed when dropped.
 struct Scratch {
     path: PathBuf,
     file: File,
@@ -39,13 +41,18 @@ struct Scratch {
 
 impl Scratch {
     fn create(dir: &Path, tag: &str, width: usize) -> Result<Self> {
-        let path = dir.join(format!(".strainwave-smooth-{}-{tag}.tmp", std::process::id()));
-        let file = File::options()
-            .read(true)
-            .write(true)
-            .create_new(true)
+        let nanos = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.subsec_nanos());
+        let path = dir.join(format!(".strainwave-smooth-{}-{nanos}-{tag}.tmp", std::process::id()));
+        let mut options = File::options();
+        options.read(true).write(true).create_new(true);
+        #[cfg(unix)]
+        std::os::unix::fs::OpenOptionsExt::mode(&mut options, 0o600);
+        let file = options
             .open(&path)
             .with_context(|| format!("{}: cannot create the smoother's scratch file", path.display()))?;
+        // Open handles keep an unlinked file: nothing stays behind whatever ends the run.
+        #[cfg(unix)]
+        let _ = std::fs::remove_file(&path);
         Ok(Self { path, file, width })
     }
 
@@ -73,6 +80,7 @@ impl Scratch {
 
 impl Drop for Scratch {
     fn drop(&mut self) {
+        #[cfg(not(unix))]
         let _ = std::fs::remove_file(&self.path);
     }
 }
@@ -117,6 +125,9 @@ pub fn smooth<const M: usize>(
     };
     let width = r.columns().len();
     let smoother_error = |e| anyhow!("{}: smoother: {e}", a.input.display());
+    // The output first, so that a bad output path fails before the passes (it appears
+    // under its name only when finished).
+    let mut w = RecordingWriter::create(&a.out, columns)?;
 
     // Forward: filter, keep a state per block and the rows.
     let mut rows = Scratch::create(&dir, "rows", width + INPUT)?;
@@ -162,7 +173,6 @@ pub fn smooth<const M: usize>(
     }
 
     // In order: the rows and their smoothed values.
-    let mut w = RecordingWriter::create(&a.out, columns)?;
     let rewind = |s: &mut Scratch| -> Result<BufReader<File>> {
         s.file.seek(SeekFrom::Start(0)).with_context(|| s.context())?;
         Ok(BufReader::new(s.file.try_clone().with_context(|| s.context())?))
