@@ -15,7 +15,7 @@ use std::io::{BufReader, BufWriter, Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, bail, Context, Result};
-use strainwave_analysis::smoother::CheckpointedSmoother;
+use strainwave_analysis::smoother::{CheckpointedSmoother, SmootherError};
 use strainwave_core::ripple::{ReferenceValues, RippleInput, RippleModel};
 use strainwave_io::{RecordingReader, RecordingWriter};
 
@@ -124,7 +124,16 @@ pub fn smooth<const M: usize>(
         _ => PathBuf::from("."),
     };
     let width = r.columns().len();
-    let smoother_error = |e| anyhow!("{}: smoother: {e}", a.input.display());
+    // Samples count from 0, data rows from 1.
+    let smoother_error = |e: SmootherError| match e {
+        SmootherError::Filter { index, source } => {
+            anyhow!("{}: data row {}: filter: {source}", a.input.display(), index + 1)
+        }
+        SmootherError::NotPositiveDefinite { index } => {
+            anyhow!("{}: data row {}: smoother: prior covariance not positive definite", a.input.display(), index + 1)
+        }
+        e => anyhow!("{}: smoother: {e}", a.input.display()),
+    };
     // The output first, so that a bad output path fails before the passes (it appears
     // under its name only when finished).
     let mut w = RecordingWriter::create(&a.out, columns)?;

@@ -122,7 +122,7 @@ impl JointConfig {
         let mut c: Self = toml::from_str(&text).map_err(|e| {
             // Line and column of the offending text, on one line.
             let at = e.span().map_or(String::new(), |s| {
-                let before = &text[..s.start.min(text.len())];
+                let before = text.get(..s.start).unwrap_or(&text);
                 let line = before.matches('\n').count() + 1;
                 let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
                 format!("line {line}, column {column}: ")
