@@ -12,7 +12,7 @@ use crate::{Error, Real};
 /// The model is separate: see [`RippleModel`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RippleState<T: Real, const M: usize> {
-    bank: RippleBank<T, M, 1>,
+    pub(super) bank: RippleBank<T, M, 1>,
 }
 
 impl<T: Real, const M: usize> RippleState<T, M> {
@@ -116,6 +116,10 @@ pub fn step<T: Real, const M: usize>(
     state: &mut RippleState<T, M>,
     input: &RippleInput<T>,
 ) -> Result<RippleOutput<T>, Error> {
+    #[cfg(all(feature = "std", target_arch = "x86_64"))]
+    if super::avx2::single_pays::<T, M>() && super::avx2::available() {
+        return super::avx2::single(model, state, input);
+    }
     single(model, state, input, None)
 }
 
@@ -140,7 +144,9 @@ pub fn step_traced<T: Real, const M: usize>(
     single(model, state, input, Some(trace))
 }
 
-fn single<T: Real, const M: usize>(
+/// [`step`] or [`step_traced`] in the build the caller is compiled for.
+#[inline(always)]
+pub(super) fn single<T: Real, const M: usize>(
     model: &RippleModel<T, M>,
     state: &mut RippleState<T, M>,
     input: &RippleInput<T>,

@@ -38,8 +38,8 @@
 //!
 //! Banks of more than one joint run a build for AVX2 when the CPU has it (`avx2`). A
 //! single joint (`step`) takes `fused` first, then the scalar `lean` path, in the
-//! portable build: for one joint, AVX2 lengthened the step's dependency chain (measured
-//! slower).
+//! portable build, but for the 4-state model in f32: elsewhere the AVX2 build measured
+//! no faster or slower for one joint.
 
 // Lane loops index several arrays by the same joint index (structure of arrays), and
 // `!(x <= limit)` is deliberate: NaN must count as out of range.

@@ -23,7 +23,7 @@ use crate::Real;
 
 /// Whether the scalar is single precision (decides the series length; constant-folded).
 #[inline(always)]
-fn is_single<T: Real>() -> bool {
+pub(super) fn is_single<T: Real>() -> bool {
     T::EPSILON.to_f64() > 1e-10
 }
 
