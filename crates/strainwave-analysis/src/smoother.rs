@@ -22,7 +22,7 @@ use strainwave_core::ripple::{step_traced, RippleInput, RippleModel, RippleOutpu
 use strainwave_core::Real;
 
 mod checkpointed;
-pub use checkpointed::CheckpointedSmoother;
+pub use checkpointed::{CheckpointStore, CheckpointedSmoother};
 
 /// Why the smoother stopped.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -57,6 +57,14 @@ pub enum SmootherError {
     /// [`CheckpointedSmoother::push`] after the backward pass began.
     #[error("sample pushed after the backward pass began")]
     PushAfterBackward,
+    /// The [`CheckpointStore`] could not keep or give back a block's state.
+    #[error("checkpoint of block {block}: {message}")]
+    Checkpoint {
+        /// The block.
+        block: usize,
+        /// What the store reported.
+        message: String,
+    },
 }
 
 /// One smoothed sample, zero-phase.

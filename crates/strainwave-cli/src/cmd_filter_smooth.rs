@@ -1,10 +1,10 @@
 //! `strainwave filter --smooth`: the offline zero-phase smoother (forward filter plus
-//! Rauch–Tung–Striebel pass) over a whole recording, in bounded memory.
+//! Rauch–Tung–Striebel pass) over a whole recording, in constant memory.
 //!
 //! Three passes: the forward filter reads the recording once, keeping its state every
-//! [`BLOCK_ROWS`] rows and the rows themselves in a scratch file; the backward pass
+//! [`BLOCK_ROWS`] rows and the rows themselves in scratch files; the backward pass
 //! takes the blocks from the last to the first (each filtered again from its state) and
-//! writes the smoothed values to a second scratch file; the last pass writes the rows
+//! writes the smoothed values to another scratch file; the last pass writes the rows
 //! with their smoothed values in order. The scratch files go beside the output (or in
 //! the system's temporary folder for standard output). On Unix they are unlinked as
 //! soon as they are open, so nothing is left behind even if the run is killed;
@@ -15,15 +15,15 @@ use std::io::{BufReader, BufWriter, Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, bail, Context, Result};
-use strainwave_analysis::smoother::{CheckpointedSmoother, SmootherError};
-use strainwave_core::ripple::{ReferenceValues, RippleInput, RippleModel};
+use strainwave_analysis::smoother::{CheckpointStore, CheckpointedSmoother, SmootherError};
+use strainwave_core::ripple::{ReferenceValues, RippleInput, RippleModel, RippleState};
 use strainwave_io::{RecordingReader, RecordingWriter};
 
 use crate::filter_rows::RowCheck;
 
 /// Rows per block of the backward pass. Memory: one block of the smoother's records
-/// (about 2.3 kB per row for the full model, so about 10 MB) and one filter state per
-/// block (about 1.5 kB, so 0.4 kB per 1000 rows).
+/// (about 2.3 kB per row for the full model, so about 10 MB), whatever the length; the
+/// filter state at each block's start (about 1.3 kB) goes to a scratch file.
 pub const BLOCK_ROWS: usize = 4096;
 
 /// Values per row the smoother adds: torque, ripple, misalignment, innovation, nis, flags.
@@ -85,6 +85,27 @@ impl Drop for Scratch {
     }
 }
 
+/// The smoother's block-start states, one snapshot per scratch-file row, so that its
+/// memory does not grow with the recording.
+struct ScratchStates<const M: usize> {
+    model: RippleModel<f64, M>,
+    file: Scratch,
+    values: Vec<f64>,
+}
+
+impl<const M: usize> CheckpointStore<f64, M> for ScratchStates<M> {
+    fn save(&mut self, block: usize, state: &RippleState<f64, M>) -> Result<(), String> {
+        self.values.resize(RippleState::<f64, M>::SNAPSHOT_LEN, 0.0);
+        state.snapshot(&mut self.values).map_err(|e| e.to_string())?;
+        self.file.write_rows(block, &self.values).map_err(|e| format!("{e:#}"))
+    }
+
+    fn load(&mut self, block: usize) -> Result<RippleState<f64, M>, String> {
+        self.file.read_rows(block, 1, &mut self.values).map_err(|e| format!("{e:#}"))?;
+        RippleState::from_snapshot(&self.model, &self.values).map_err(|e| e.to_string())
+    }
+}
+
 fn put(w: &mut impl Write, values: &[f64]) -> std::io::Result<()> {
     values.iter().try_for_each(|v| w.write_all(&v.to_le_bytes()))
 }
@@ -138,10 +159,12 @@ pub fn smooth<const M: usize>(
     // under its name only when finished).
     let mut w = RecordingWriter::create(&a.out, columns)?;
 
-    // Forward: filter, keep a state per block and the rows.
+    // Forward: filter, keep a state per block and the rows (both on disk).
     let mut rows = Scratch::create(&dir, "rows", width + INPUT)?;
     let mut spool = BufWriter::new(rows.file.try_clone().with_context(|| rows.context())?);
-    let mut sm = CheckpointedSmoother::new(model, BLOCK_ROWS);
+    let states = Scratch::create(&dir, "states", RippleState::<f64, M>::SNAPSHOT_LEN)?;
+    let states = ScratchStates { model: *model, file: states, values: Vec::new() };
+    let mut sm = CheckpointedSmoother::with_store(model, BLOCK_ROWS, states);
     let mut row = Vec::new();
     let (mut first_t, mut last_t): (Option<f64>, Option<f64>) = (None, None);
     while r.read_row(&mut row)? {

@@ -6,12 +6,37 @@
 //! last to the first: each is filtered again from its checkpoint, which rebuilds its
 //! per-sample records exactly, and smoothed backward from the first sample of the block
 //! after it (its record and smoothed mean are carried over). Cost: the forward filter
-//! twice; memory: one state per block plus one block of records.
+//! twice; memory: one block of records, plus one state per block in the
+//! [`CheckpointStore`] (a `Vec` by default; a file keeps memory bounded by one block).
 
 use strainwave_core::ripple::{step_traced, RippleInput, RippleModel, RippleOutput, RippleState, StepTrace};
 use strainwave_core::Real;
 
 use super::{backward, forward, samples, Record, Smoothed, SmootherError};
+
+/// Where a [`CheckpointedSmoother`] keeps the state at the start of each block: in
+/// memory (`Vec`), or elsewhere (a scratch file, say, through
+/// [`RippleState::snapshot`]) so that memory stays bounded whatever the length.
+pub trait CheckpointStore<T: Real, const M: usize> {
+    /// Keeps the state at the start of `block` (blocks come in order: 0, 1, …).
+    fn save(&mut self, block: usize, state: &RippleState<T, M>) -> Result<(), String>;
+    /// The state kept for `block`.
+    fn load(&mut self, block: usize) -> Result<RippleState<T, M>, String>;
+}
+
+impl<T: Real, const M: usize> CheckpointStore<T, M> for Vec<RippleState<T, M>> {
+    fn save(&mut self, block: usize, state: &RippleState<T, M>) -> Result<(), String> {
+        if block != self.len() {
+            return Err(format!("saved out of order (expected block {})", self.len()));
+        }
+        self.push(*state);
+        Ok(())
+    }
+
+    fn load(&mut self, block: usize) -> Result<RippleState<T, M>, String> {
+        self.get(block).copied().ok_or_else(|| format!("not saved ({} blocks are)", self.len()))
+    }
+}
 
 /// Forward pass sample by sample ([`push`](Self::push)), then the backward pass block by
 /// block, the last first ([`smooth_block`](Self::smooth_block)); the caller keeps the
@@ -36,13 +61,14 @@ use super::{backward, forward, samples, Record, Smoothed, SmootherError};
 /// }
 /// ```
 #[derive(Clone)]
-pub struct CheckpointedSmoother<T: Real, const M: usize> {
+pub struct CheckpointedSmoother<T: Real, const M: usize, S = Vec<RippleState<T, M>>> {
     model: RippleModel<T, M>,
     block_len: usize,
     state: RippleState<T, M>,
     trace: StepTrace<T, M>,
     /// The state before the first sample of each block.
-    checkpoints: Vec<RippleState<T, M>>,
+    checkpoints: S,
+    blocks: usize,
     len: usize,
     /// The block `smooth_block` takes next.
     next_block: Option<usize>,
@@ -52,14 +78,24 @@ pub struct CheckpointedSmoother<T: Real, const M: usize> {
 }
 
 impl<T: Real, const M: usize> CheckpointedSmoother<T, M> {
-    /// A smoother on `model` with blocks of `block_len` samples (at least 1).
+    /// A smoother on `model` with blocks of `block_len` samples (at least 1), keeping
+    /// its checkpoints in memory.
     pub fn new(model: &RippleModel<T, M>, block_len: usize) -> Self {
+        Self::with_store(model, block_len, Vec::new())
+    }
+}
+
+impl<T: Real, const M: usize, S: CheckpointStore<T, M>> CheckpointedSmoother<T, M, S> {
+    /// A smoother on `model` with blocks of `block_len` samples (at least 1), keeping
+    /// its checkpoints in `store` (empty).
+    pub fn with_store(model: &RippleModel<T, M>, block_len: usize, store: S) -> Self {
         Self {
             model: *model,
             block_len: block_len.max(1),
             state: RippleState::new(model),
             trace: StepTrace::new(),
-            checkpoints: Vec::new(),
+            checkpoints: store,
+            blocks: 0,
             len: 0,
             next_block: None,
             after: None,
@@ -74,7 +110,11 @@ impl<T: Real, const M: usize> CheckpointedSmoother<T, M> {
             return Err(SmootherError::PushAfterBackward);
         }
         if self.len.is_multiple_of(self.block_len) {
-            self.checkpoints.push(self.state);
+            let block = self.blocks;
+            self.checkpoints
+                .save(block, &self.state)
+                .map_err(|message| SmootherError::Checkpoint { block, message })?;
+            self.blocks += 1;
         }
         let out = step_traced(&self.model, &mut self.state, input, &mut self.trace)
             .map_err(|source| SmootherError::Filter { index: self.len, source })?;
@@ -95,7 +135,7 @@ impl<T: Real, const M: usize> CheckpointedSmoother<T, M> {
 
     /// Blocks of the samples pushed (the last may be shorter).
     pub fn blocks(&self) -> usize {
-        self.checkpoints.len()
+        self.blocks
     }
 
     /// The samples of block `b`.
@@ -118,7 +158,7 @@ impl<T: Real, const M: usize> CheckpointedSmoother<T, M> {
             });
         }
         self.backward_began = true;
-        let mut state = self.checkpoints[b];
+        let mut state = self.checkpoints.load(b).map_err(|message| SmootherError::Checkpoint { block: b, message })?;
         let (filtered, mut records) = forward(&self.model, &mut state, inputs, expected.start)?;
         let after = self.after.as_ref().map(|(r, m)| (r, m.as_slice()));
         let mut means = backward::<M>(self.model.state_len(), &records, after, expected.start)?;
@@ -160,7 +200,16 @@ mod tests {
         ins: &[RippleInput<T>],
         block: usize,
     ) -> Smoothed<T> {
-        let mut s = CheckpointedSmoother::new(model, block);
+        blockwise_in(model, ins, block, Vec::new())
+    }
+
+    fn blockwise_in<T: Real, const M: usize>(
+        model: &RippleModel<T, M>,
+        ins: &[RippleInput<T>],
+        block: usize,
+        store: impl CheckpointStore<T, M>,
+    ) -> Smoothed<T> {
+        let mut s = CheckpointedSmoother::with_store(model, block, store);
         let mut forward = Vec::new();
         for i in ins {
             forward.push(s.push(i).unwrap());
@@ -193,6 +242,66 @@ mod tests {
             })
             .collect();
         assert_eq!(blockwise(&seed, &ins32, 333), smooth(&seed, &ins32).unwrap());
+    }
+
+    /// Checkpoints as snapshots in one flat buffer, as a scratch file keeps them.
+    struct Flat<T: Real, const M: usize> {
+        model: RippleModel<T, M>,
+        values: Vec<f64>,
+        /// Loads fail from this block on.
+        lost_from: usize,
+    }
+
+    impl<T: Real, const M: usize> Flat<T, M> {
+        fn new(model: &RippleModel<T, M>) -> Self {
+            Self { model: *model, values: Vec::new(), lost_from: usize::MAX }
+        }
+    }
+
+    impl<T: Real, const M: usize> CheckpointStore<T, M> for Flat<T, M> {
+        fn save(&mut self, block: usize, state: &RippleState<T, M>) -> Result<(), String> {
+            let n = RippleState::<T, M>::SNAPSHOT_LEN;
+            assert_eq!(self.values.len(), block * n, "blocks are saved in order");
+            self.values.resize((block + 1) * n, 0.0);
+            state.snapshot(&mut self.values[block * n..]).map_err(|e| e.to_string())
+        }
+
+        fn load(&mut self, block: usize) -> Result<RippleState<T, M>, String> {
+            if block >= self.lost_from {
+                return Err("unreadable".into());
+            }
+            let n = RippleState::<T, M>::SNAPSHOT_LEN;
+            let values = self.values.get(block * n..(block + 1) * n).ok_or("not saved")?;
+            RippleState::from_snapshot(&self.model, values).map_err(|e| e.to_string())
+        }
+    }
+
+    #[test]
+    fn checkpoints_kept_as_snapshots_give_the_same_result() {
+        let ins = inputs(7001);
+        let product = RippleModel::<f64, 3>::product(1000.0, 0.05).unwrap();
+        let whole = smooth(&product, &ins).unwrap();
+        for block in [1, 1000, 4096] {
+            assert_eq!(blockwise_in(&product, &ins, block, Flat::new(&product)), whole, "block {block}");
+        }
+        let full = RippleModel::<f32, 5>::full(1000.0, 0.05).unwrap();
+        let ins32: Vec<RippleInput<f32>> = ins
+            .iter()
+            .map(|i| {
+                let r = i.references;
+                RippleInput::new(i.torque_nm as f32, ReferenceValues::new(r.relative as f32, r.output as f32, 0.0))
+            })
+            .collect();
+        assert_eq!(blockwise_in(&full, &ins32, 333, Flat::new(&full)), smooth(&full, &ins32).unwrap());
+
+        // A store that loses a block: the smoother says which, and stops.
+        let mut s = CheckpointedSmoother::with_store(&product, 1000, Flat { lost_from: 2, ..Flat::new(&product) });
+        for i in &ins[..2500] {
+            s.push(i).unwrap();
+        }
+        let err = s.smooth_block(2, &ins[2000..2500]).unwrap_err();
+        assert_eq!(err, SmootherError::Checkpoint { block: 2, message: "unreadable".into() });
+        assert_eq!(err.to_string(), "checkpoint of block 2: unreadable");
     }
 
     #[test]

@@ -62,6 +62,7 @@ mod model;
 mod path_check;
 mod plan;
 mod presets;
+mod snapshot;
 mod trig;
 pub mod tuning;
 
