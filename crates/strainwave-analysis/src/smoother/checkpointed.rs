@@ -195,6 +195,16 @@ mod tests {
             .collect()
     }
 
+    /// The same inputs in f32.
+    fn single(ins: &[RippleInput<f64>]) -> Vec<RippleInput<f32>> {
+        ins.iter()
+            .map(|i| {
+                let r = i.references;
+                RippleInput::new(i.torque_nm as f32, ReferenceValues::new(r.relative as f32, r.output as f32, 0.0))
+            })
+            .collect()
+    }
+
     fn blockwise<T: Real, const M: usize>(
         model: &RippleModel<T, M>,
         ins: &[RippleInput<T>],
@@ -234,13 +244,7 @@ mod tests {
             assert_eq!(blockwise(&product, &ins, block), whole, "block {block}");
         }
         let seed = RippleModel::<f32, 3>::seed_6th_order(1000.0).unwrap();
-        let ins32: Vec<RippleInput<f32>> = ins
-            .iter()
-            .map(|i| {
-                let r = i.references;
-                RippleInput::new(i.torque_nm as f32, ReferenceValues::new(r.relative as f32, r.output as f32, 0.0))
-            })
-            .collect();
+        let ins32 = single(&ins);
         assert_eq!(blockwise(&seed, &ins32, 333), smooth(&seed, &ins32).unwrap());
     }
 
@@ -285,13 +289,7 @@ mod tests {
             assert_eq!(blockwise_in(&product, &ins, block, Flat::new(&product)), whole, "block {block}");
         }
         let full = RippleModel::<f32, 5>::full(1000.0, 0.05).unwrap();
-        let ins32: Vec<RippleInput<f32>> = ins
-            .iter()
-            .map(|i| {
-                let r = i.references;
-                RippleInput::new(i.torque_nm as f32, ReferenceValues::new(r.relative as f32, r.output as f32, 0.0))
-            })
-            .collect();
+        let ins32 = single(&ins);
         assert_eq!(blockwise_in(&full, &ins32, 333, Flat::new(&full)), smooth(&full, &ins32).unwrap());
 
         // A store that loses a block: the smoother says which, and stops.
