@@ -14,9 +14,12 @@
 //!
 //! - alternating: two joints, each its own state, stepped one after the other by `step`
 //!   (ns per joint): the one-joint step's dependency chain, seen from outside.
-//! - banks (`step_many`): as strainwave above, for `J` joints at once; on x86-64 CPUs
-//!   with AVX2 the library runs its AVX2 build (chosen at run time, same results), the
-//!   others run the portable build.
+//! - banks (`step_many`): as strainwave above, for `J` joints at once.
+//!
+//! On x86-64 CPUs with AVX2 and FMA the library runs its build for them (chosen at run
+//! time; multiply–adds of the common sample fused, so results equal to rounding), one
+//! joint and banks alike; other CPUs run the portable build. nalgebra and adskalman run
+//! as compiled (no run-time choice of build: they form no fused multiply–add).
 //!
 //! Run: `cargo bench -p strainwave-core --bench ripple -- --warm-up-time 1 --measurement-time 2`,
 //! then `scripts/bench-summary ripple` for the fastest, 10th-percentile and median

@@ -109,6 +109,9 @@ pub trait Real:
             other
         }
     }
+    /// `self + a b` rounded once (fused multiply–add): one instruction where the code is
+    /// compiled for a CPU with FMA, a library call otherwise.
+    fn fused_mul_add(self, a: Self, b: Self) -> Self;
     /// Clamps into `[lo, hi]`.
     #[inline(always)]
     fn clamp(self, lo: Self, hi: Self) -> Self {
@@ -127,8 +130,18 @@ pub trait Real:
 
 macro_rules! impl_real {
     ($t:ty, $sin:path, $cos:path, $tan:path, $atan:path, $atan2:path, $exp:path, $ln:path,
-     $sqrt:path, $floor:path, $round:path, $pow:path) => {
+     $sqrt:path, $floor:path, $round:path, $pow:path, $fma:path) => {
         impl Real for $t {
+            #[cfg(feature = "std")]
+            #[inline(always)]
+            fn fused_mul_add(self, a: Self, b: Self) -> Self {
+                a.mul_add(b, self)
+            }
+            #[cfg(not(feature = "std"))]
+            #[inline(always)]
+            fn fused_mul_add(self, a: Self, b: Self) -> Self {
+                $fma(a, b, self)
+            }
             const ZERO: Self = 0.0;
             const ONE: Self = 1.0;
             const TWO: Self = 2.0;
@@ -212,7 +225,8 @@ impl_real!(
     libm::sqrtf,
     libm::floorf,
     libm::roundf,
-    libm::powf
+    libm::powf,
+    libm::fmaf
 );
 impl_real!(
     f64,
@@ -226,7 +240,8 @@ impl_real!(
     libm::sqrt,
     libm::floor,
     libm::round,
-    libm::pow
+    libm::pow,
+    libm::fma
 );
 
 #[cfg(test)]

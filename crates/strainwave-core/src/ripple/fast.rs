@@ -167,8 +167,18 @@ fn update<T: Real, const M: usize, const J: usize, const BIAS: bool>(
     for l in 0..J {
         let h = array([T::ZERO; 2], |i| [bank.phasor[i][0][l], bank.phasor[i][1][l]]);
         let abs = array(T::ZERO, |i| abs_a[i][l]);
-        (load_step[l], bad[l]) =
-            joint::<T, M, J, BIAS>(&par, |i| par.is_ripple(i), bank, &torque, &expected, h, abs, l, &mut gains, out);
+        (load_step[l], bad[l]) = joint::<T, M, J, BIAS, false>(
+            &par,
+            |i| par.is_ripple(i),
+            bank,
+            &torque,
+            &expected,
+            h,
+            abs,
+            l,
+            &mut gains,
+            out,
+        );
     }
     settle::<T, M, J, BIAS>(model, bank, input, &load_step, &gains, &mut bad, out);
 }

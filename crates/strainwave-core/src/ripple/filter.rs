@@ -96,6 +96,10 @@ impl<T: Real, const M: usize> RippleState<T, M> {
 /// went bad; the state has then been reset to the initial one and the next sample
 /// starts over. Never panics, whatever the input.
 ///
+/// On x86-64 CPUs with AVX2 and FMA (std builds) this runs a build whose common sample
+/// fuses its multiply–adds: the same decisions, the numbers equal to rounding to those of
+/// the portable build (which [`step_traced`] runs).
+///
 /// ```
 /// use strainwave_core::ripple::{step, ReferenceValues, RippleInput, RippleModel, RippleState};
 /// let model = RippleModel::<f64, 2>::seed_4th_order(1000.0)?;
@@ -117,10 +121,10 @@ pub fn step<T: Real, const M: usize>(
     input: &RippleInput<T>,
 ) -> Result<RippleOutput<T>, Error> {
     #[cfg(all(feature = "std", target_arch = "x86_64"))]
-    if super::avx2::single_pays::<T, M>() && super::avx2::available() {
+    if super::avx2::available() {
         return super::avx2::single(model, state, input);
     }
-    single(model, state, input, None)
+    single::<T, M, false>(model, state, input, None)
 }
 
 /// [`step`] that also records the filter's intermediate quantities in `trace`
@@ -141,12 +145,13 @@ pub fn step_traced<T: Real, const M: usize>(
     input: &RippleInput<T>,
     trace: &mut StepTrace<T, M>,
 ) -> Result<RippleOutput<T>, Error> {
-    single(model, state, input, Some(trace))
+    single::<T, M, false>(model, state, input, Some(trace))
 }
 
-/// [`step`] or [`step_traced`] in the build the caller is compiled for.
+/// [`step`] or [`step_traced`] in the build the caller is compiled for; `F`: the
+/// common sample's multiply–adds fused (a build for FMA).
 #[inline(always)]
-pub(super) fn single<T: Real, const M: usize>(
+pub(super) fn single<T: Real, const M: usize, const F: bool>(
     model: &RippleModel<T, M>,
     state: &mut RippleState<T, M>,
     input: &RippleInput<T>,
@@ -162,7 +167,7 @@ pub(super) fn single<T: Real, const M: usize>(
     // The common sample; the traced step keeps the general path for the smoother.
     if trace.is_none() {
         let mut out = super::BankOutput::default();
-        if super::fused::step(model, &mut state.bank, &bank_input, &mut out) {
+        if super::fused::step::<T, M, 1, F>(model, &mut state.bank, &bank_input, &mut out) {
             if out.flags[0].contains(StepFlags::COVARIANCE_RESET) {
                 return Err(Error::NotPositiveDefinite("ripple covariance"));
             }

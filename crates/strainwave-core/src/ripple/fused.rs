@@ -6,8 +6,10 @@
 //! across joints as a whole.
 //!
 //! Same decisions and same arithmetic as the `fast` module (and so the general path),
-//! bit for bit. The check runs first and writes nothing; if any joint fails it, the
-//! caller takes the `fast` path, which handles the wider case.
+//! bit for bit when `F` is false; with `F` (the build for FMA) its multiply–adds are
+//! fused, so the numbers agree to rounding. The check runs first and writes nothing;
+//! if any joint fails it, the caller takes the `fast` path, which handles the wider
+//! case.
 //!
 //! The presets' layouts are compiled with their orders as constants (see `layout`), so
 //! nothing is selected per order in the loop; other layouts read the model. A single
@@ -19,12 +21,12 @@
 
 use super::bank::{BankInput, BankOutput, RippleBank};
 use super::io::{OrderStatus, StepFlags};
-use super::joint::{array, common_interval, finite, joint, settle, Params};
+use super::joint::{array, common_interval, finite, joint, madd, settle, Params};
 use super::kernel::Lanes2;
 use super::layout::{self, FULL, PRODUCT, RUNTIME, SEED_4TH, SEED_6TH};
 use super::model::{PhaseSource, Reference, RippleModel};
 use super::plan::HOLD_AVERAGE;
-use super::trig::{phasor_power, sin_cos_small, wrap_near};
+use super::trig::{phasor_power_with, sin_cos_with, wrap_near};
 use crate::Real;
 
 /// One step into `out` if the model and every joint qualify (true), else false with
@@ -33,7 +35,7 @@ use crate::Real;
 /// The presets' layouts are compiled with their orders known ([`layout`]); any other
 /// layout of the same kind reads them from the model.
 #[inline(always)]
-pub(crate) fn step<T: Real, const M: usize, const J: usize>(
+pub(crate) fn step<T: Real, const M: usize, const J: usize, const F: bool>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
@@ -43,14 +45,14 @@ pub(crate) fn step<T: Real, const M: usize, const J: usize>(
         return false;
     }
     match (model.layout, model.bias_q_nm2.is_some(), model.uses[1]) {
-        (SEED_4TH, _, _) => step_with::<T, M, J, SEED_4TH, false, false>(model, bank, input, out),
-        (SEED_6TH, _, _) => step_with::<T, M, J, SEED_6TH, false, true>(model, bank, input, out),
-        (PRODUCT, _, _) => step_with::<T, M, J, PRODUCT, true, true>(model, bank, input, out),
-        (FULL, _, _) => step_with::<T, M, J, FULL, true, true>(model, bank, input, out),
-        (_, false, false) => step_with::<T, M, J, RUNTIME, false, false>(model, bank, input, out),
-        (_, false, true) => step_with::<T, M, J, RUNTIME, false, true>(model, bank, input, out),
-        (_, true, false) => step_with::<T, M, J, RUNTIME, true, false>(model, bank, input, out),
-        (_, true, true) => step_with::<T, M, J, RUNTIME, true, true>(model, bank, input, out),
+        (SEED_4TH, _, _) => step_with::<T, M, J, SEED_4TH, false, false, F>(model, bank, input, out),
+        (SEED_6TH, _, _) => step_with::<T, M, J, SEED_6TH, false, true, F>(model, bank, input, out),
+        (PRODUCT, _, _) => step_with::<T, M, J, PRODUCT, true, true, F>(model, bank, input, out),
+        (FULL, _, _) => step_with::<T, M, J, FULL, true, true, F>(model, bank, input, out),
+        (_, false, false) => step_with::<T, M, J, RUNTIME, false, false, F>(model, bank, input, out),
+        (_, false, true) => step_with::<T, M, J, RUNTIME, false, true, F>(model, bank, input, out),
+        (_, true, false) => step_with::<T, M, J, RUNTIME, true, false, F>(model, bank, input, out),
+        (_, true, true) => step_with::<T, M, J, RUNTIME, true, true, F>(model, bank, input, out),
     }
 }
 
@@ -117,7 +119,7 @@ impl<T: Real, const M: usize> Orders<T, M> {
 /// speed, and within the model's `fused_bounds` (a step below the limit, every order's
 /// line below the off limit and above the hold limit).
 #[inline(always)]
-fn increment<T: Real, const M: usize, const J: usize>(
+fn increment<T: Real, const M: usize, const J: usize, const F: bool>(
     model: &RippleModel<T, M>,
     bank: &RippleBank<T, M, J>,
     v: T,
@@ -131,12 +133,20 @@ fn increment<T: Real, const M: usize, const J: usize>(
     let d = wrap_near(d);
     let steady = (d - bank.last_delta[r][l]).abs() <= model.limits.max_step_change_rad;
     let m = bank.mean_delta[r][l];
-    let mean = m + (d - m) * T::from_f64(HOLD_AVERAGE);
+    let mean = madd::<T, F>(m, d - m, T::from_f64(HOLD_AVERAGE));
     (d, mean, near & (d.abs() <= step) & steady & !(mean.abs() < mean_low))
 }
 
 #[inline(always)]
-fn step_with<T: Real, const M: usize, const J: usize, const L: u32, const BIAS: bool, const OUT: bool>(
+fn step_with<
+    T: Real,
+    const M: usize,
+    const J: usize,
+    const L: u32,
+    const BIAS: bool,
+    const OUT: bool,
+    const F: bool,
+>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
@@ -167,11 +177,11 @@ fn step_with<T: Real, const M: usize, const J: usize, const L: u32, const BIAS: 
     for l in 0..J {
         let y = input.torque_nm[l] - input.expected_torque_nm[l];
         let mut k = finite(y) & (bank.pending_samples[l] == T::ZERO);
-        let (d, m, fine) = increment(model, bank, rel[l], 0, l);
+        let (d, m, fine) = increment::<T, M, J, F>(model, bank, rel[l], 0, l);
         (inc[0][0][l], inc[0][1][l]) = (d, m);
         k &= fine;
         if OUT {
-            let (d, m, fine) = increment(model, bank, out_angle[l], 1, l);
+            let (d, m, fine) = increment::<T, M, J, F>(model, bank, out_angle[l], 1, l);
             (inc[1][0][l], inc[1][1][l]) = (d, m);
             k &= fine;
         }
@@ -195,7 +205,7 @@ fn step_with<T: Real, const M: usize, const J: usize, const L: u32, const BIAS: 
         bank.pending_dt[l] = T::ZERO;
     }
     for l in 0..J {
-        (load_step[l], bad[l]) = joint_step::<T, M, J, L, BIAS, OUT>(&par, orders, &sh, bank, l, &mut gains, out);
+        (load_step[l], bad[l]) = joint_step::<T, M, J, L, BIAS, OUT, F>(&par, orders, &sh, bank, l, &mut gains, out);
     }
     settle::<T, M, J, BIAS>(model, bank, input, &load_step, &gains, &mut bad, out);
     true
@@ -213,7 +223,15 @@ struct Shared<'a, T: Real, const J: usize> {
 
 /// Joint `l`: phase bookkeeping, phasors and the filter update.
 #[inline(always)]
-fn joint_step<T: Real, const M: usize, const J: usize, const L: u32, const BIAS: bool, const OUT: bool>(
+fn joint_step<
+    T: Real,
+    const M: usize,
+    const J: usize,
+    const L: u32,
+    const BIAS: bool,
+    const OUT: bool,
+    const F: bool,
+>(
     par: &Params<T, M>,
     o: Orders<T, M>,
     sh: &Shared<'_, T, J>,
@@ -230,7 +248,7 @@ fn joint_step<T: Real, const M: usize, const J: usize, const L: u32, const BIAS:
         bank.last[r][l] = sh.angle[r][l];
         let psi = wrap_near(sh.angle[r][l]);
         bank.psi[r][l] = psi;
-        let (s, c) = sin_cos_small(psi);
+        let (s, c) = sin_cos_with::<T, F>(psi);
         base[r] = (c, s);
     }
     let load = (sh.expected[l] + bank.b[l]).abs();
@@ -242,8 +260,8 @@ fn joint_step<T: Real, const M: usize, const J: usize, const L: u32, const BIAS:
         let (c, s) = base[r];
         // Both squarings, then selects: no branch in the loop (and for a layout's
         // constant power, no select either; orders on one angle share the squarings).
-        let c2 = phasor_power(c, s, 2);
-        let c4 = phasor_power(c2.0, c2.1, 2);
+        let c2 = phasor_power_with::<T, F>(c, s, 2);
+        let c4 = phasor_power_with::<T, F>(c2.0, c2.1, 2);
         let (c, s) = match o.power::<L>(i) {
             4 => c4,
             2 => c2,
@@ -256,7 +274,7 @@ fn joint_step<T: Real, const M: usize, const J: usize, const L: u32, const BIAS:
         abs_a[i] = (o.multiple::<L>(i) * sh.inc[r][0][l]).abs();
     }
     let is_ripple = |i: usize| !o.on_output::<L>(i);
-    joint::<T, M, J, BIAS>(par, is_ripple, bank, sh.torque, sh.expected, h, abs_a, l, gains, out)
+    joint::<T, M, J, BIAS, F>(par, is_ripple, bank, sh.torque, sh.expected, h, abs_a, l, gains, out)
 }
 
 #[cfg(test)]
@@ -269,7 +287,7 @@ mod tests {
     fn took<T: Real, const M: usize, const J: usize>(model: RippleModel<T, M>, unwrapped_after: usize) -> usize {
         against_general::<T, M, J>(&model, unwrapped_after, |m, b, i| {
             let mut out = super::super::BankOutput::default();
-            super::step(m, b, i, &mut out).then_some(out)
+            super::step::<T, M, J, false>(m, b, i, &mut out).then_some(out)
         })
     }
 

@@ -144,7 +144,7 @@ impl<T: Real, const M: usize> Params<T, M> {
 /// load steps and resets bad joints (`settle`).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
+pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool, const F: bool>(
     par: &Params<T, M>,
     is_ripple: impl Fn(usize) -> bool,
     bank: &mut RippleBank<T, M, J>,
@@ -160,15 +160,16 @@ pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
 
     // Time update: inflation and process noise on the diagonal blocks, and the bias.
     for i in 0..M {
-        let q = par.q_per_sample[i] + par.q_per_rad[i] * abs_a[i];
+        let q = madd::<T, F>(par.q_per_sample[i], par.q_per_rad[i], abs_a[i]);
         let d = &mut bank.p[i][i];
-        let grow = infl * T::HALF * (d[0][0][l] + d[1][1][l]);
-        d[0][0][l] = d[0][0][l] + grow + q;
-        d[1][1][l] = d[1][1][l] + grow + q;
+        let trace = d[0][0][l] + d[1][1][l];
+        // `d + grow + q` with `grow = ρ/2 · trace`.
+        d[0][0][l] = madd::<T, F>(d[0][0][l], infl * T::HALF, trace) + q;
+        d[1][1][l] = madd::<T, F>(d[1][1][l], infl * T::HALF, trace) + q;
     }
     if BIAS {
         let v = bank.pbb[l];
-        bank.pbb[l] = v + v * infl + par.q_bias;
+        bank.pbb[l] = madd::<T, F>(v, v, infl) + par.q_bias;
     }
 
     // Gains g = P hᵀ from the upper blocks of the symmetric P.
@@ -181,7 +182,7 @@ pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
         }
         for j in 0..M {
             let [hj0, hj1] = h[j];
-            let (t0, t1) = block_times(bank, i, j, l, [hj0, hj1]);
+            let (t0, t1) = block_times::<T, M, J, F>(bank, i, j, l, [hj0, hj1]);
             let first = !BIAS && j == 0;
             g0 = sum_from(first, g0, t0);
             g1 = sum_from(first, g1, t1);
@@ -192,7 +193,7 @@ pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
     if BIAS {
         gb = bank.pbb[l] * T::ONE;
         for j in 0..M {
-            gb += bank.pb[j][0][l] * h[j][0] + bank.pb[j][1][l] * h[j][1];
+            gb += madd::<T, F>(bank.pb[j][0][l] * h[j][0], bank.pb[j][1][l], h[j][1]);
         }
     }
 
@@ -200,7 +201,7 @@ pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
     let (mut ripple, mut mis) = (T::ZERO, T::ZERO);
     let (mut any_ripple, mut any_mis) = (false, false);
     for i in 0..M {
-        let v = h[i][0] * bank.z[i][0][l] + h[i][1] * bank.z[i][1][l];
+        let v = madd::<T, F>(h[i][0] * bank.z[i][0][l], h[i][1], bank.z[i][1][l]);
         if is_ripple(i) {
             ripple = sum_from(!any_ripple, ripple, v);
             any_ripple = true;
@@ -213,7 +214,7 @@ pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
     // Innovation and the load-step decision.
     let mut s = if BIAS { gb * T::ONE } else { T::ZERO };
     for i in 0..M {
-        s = sum_from(!BIAS && i == 0, s, h[i][0] * g[i][0] + h[i][1] * g[i][1]);
+        s = sum_from(!BIAS && i == 0, s, madd::<T, F>(h[i][0] * g[i][0], h[i][1], g[i][1]));
     }
     let s_var = par.r + s;
     let mut inv = T::ONE / s_var;
@@ -227,35 +228,35 @@ pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
     let floor = par.r * inv;
     for i in 0..M {
         let [k0, k1] = [g[i][0] * inv, g[i][1] * inv];
-        bank.z[i][0][l] += k0 * e;
-        bank.z[i][1][l] += k1 * e;
+        bank.z[i][0][l] = madd::<T, F>(bank.z[i][0][l], k0, e);
+        bank.z[i][1][l] = madd::<T, F>(bank.z[i][1][l], k1, e);
         let d = &mut bank.p[i][i];
         let (v0, v1) = (d[0][0][l], d[1][1][l]);
-        d[0][0][l] = (v0 - k0 * g[i][0]).max(v0 * floor);
-        d[1][1][l] = (v1 - k1 * g[i][1]).max(v1 * floor);
-        let off = d[0][1][l] - k0 * g[i][1];
+        d[0][0][l] = madd::<T, F>(v0, -k0, g[i][0]).max(v0 * floor);
+        d[1][1][l] = madd::<T, F>(v1, -k1, g[i][1]).max(v1 * floor);
+        let off = madd::<T, F>(d[0][1][l], -k0, g[i][1]);
         d[0][1][l] = off;
         d[1][0][l] = off;
         for j in i + 1..M {
             let [gj0, gj1] = g[j];
             let b = &mut bank.p[i][j];
-            b[0][0][l] -= k0 * gj0;
-            b[0][1][l] -= k0 * gj1;
-            b[1][0][l] -= k1 * gj0;
-            b[1][1][l] -= k1 * gj1;
+            b[0][0][l] = madd::<T, F>(b[0][0][l], -k0, gj0);
+            b[0][1][l] = madd::<T, F>(b[0][1][l], -k0, gj1);
+            b[1][0][l] = madd::<T, F>(b[1][0][l], -k1, gj0);
+            b[1][1][l] = madd::<T, F>(b[1][1][l], -k1, gj1);
         }
         if BIAS {
-            bank.pb[i][0][l] -= k0 * gb;
-            bank.pb[i][1][l] -= k1 * gb;
+            bank.pb[i][0][l] = madd::<T, F>(bank.pb[i][0][l], -k0, gb);
+            bank.pb[i][1][l] = madd::<T, F>(bank.pb[i][1][l], -k1, gb);
             gains[i][0][l] = g[i][0];
             gains[i][1][l] = g[i][1];
         }
     }
     if BIAS {
         let kb = gb * inv;
-        bank.b[l] += kb * e;
+        bank.b[l] = madd::<T, F>(bank.b[l], kb, e);
         let v = bank.pbb[l];
-        bank.pbb[l] = (v - kb * gb).max(v * par.r * inv);
+        bank.pbb[l] = madd::<T, F>(v, -kb, gb).max(v * par.r * inv);
     }
 
     // Health check and outputs.
@@ -274,7 +275,7 @@ pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool>(
 /// `P_ij h_j` for joint `l` (two entries of `g_i`), from the upper blocks of the
 /// symmetric P.
 #[inline(always)]
-pub(super) fn block_times<T: Real, const M: usize, const J: usize>(
+pub(super) fn block_times<T: Real, const M: usize, const J: usize, const F: bool>(
     bank: &RippleBank<T, M, J>,
     i: usize,
     j: usize,
@@ -283,10 +284,10 @@ pub(super) fn block_times<T: Real, const M: usize, const J: usize>(
 ) -> (T, T) {
     if j >= i {
         let b = &bank.p[i][j];
-        (b[0][0][l] * h0 + b[0][1][l] * h1, b[1][0][l] * h0 + b[1][1][l] * h1)
+        (madd::<T, F>(b[0][0][l] * h0, b[0][1][l], h1), madd::<T, F>(b[1][0][l] * h0, b[1][1][l], h1))
     } else {
         let b = &bank.p[j][i];
-        (b[0][0][l] * h0 + b[1][0][l] * h1, b[0][1][l] * h0 + b[1][1][l] * h1)
+        (madd::<T, F>(b[0][0][l] * h0, b[1][0][l], h1), madd::<T, F>(b[0][1][l] * h0, b[1][1][l], h1))
     }
 }
 
@@ -299,6 +300,18 @@ pub(super) fn array<T: Copy, const N: usize>(fill: T, f: impl Fn(usize) -> T) ->
         *v = f(i);
     }
     a
+}
+
+/// `c + a b`: rounded once (fused) in the build `F = true` (compiled for FMA, chosen at
+/// run time for one joint), else rounded twice exactly as written. `c − a b` is
+/// `madd(c, −a, b)`, bit for bit.
+#[inline(always)]
+pub(super) fn madd<T: Real, const F: bool>(c: T, a: T, b: T) -> T {
+    if F {
+        c.fused_mul_add(a, b)
+    } else {
+        c + a * b
+    }
 }
 
 /// `acc + t`, or `t` itself for a sum's first term: sums start from their first term,

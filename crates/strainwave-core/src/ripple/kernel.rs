@@ -26,7 +26,8 @@
 //! fractional multiples (and velocity input) accumulate `ψ += a` instead. Both are
 //! exactly the seed's Φ sequence with `ω_i T` replaced by the measured `n_i Δθ(k)`.
 //!
-//! Three paths, the same arithmetic bit for bit (tested sample for sample):
+//! Three paths, the same arithmetic bit for bit in the portable build (tested sample
+//! for sample):
 //! - `fused`: the common sample (every joint valid, caught up, no reset, every order
 //!   active) of the common models (relative and output orders of multiple 1, 2, 4):
 //!   one loop over the joints that vectorizes as a whole;
@@ -36,10 +37,11 @@
 //!   `plan` module and the arithmetic below applies them as 0/1 masks, joint index
 //!   innermost, no branch.
 //!
-//! Banks of more than one joint run a build for AVX2 when the CPU has it (`avx2`). A
-//! single joint (`step`) takes `fused` first, then the scalar `lean` path, in the
-//! portable build, but for the 4-state model in f32: elsewhere the AVX2 build measured
-//! no faster or slower for one joint.
+//! On x86-64 CPUs with AVX2 and FMA, banks (`step_many`) and one joint (`step`) run a
+//! build for both (`avx2`), chosen at run time, whose `fused` path rounds its
+//! multiply–adds once (`madd`): the same decisions, the numbers equal to rounding. The
+//! step's time is bound by the FP ports, so fusing is what pays. A single joint takes
+//! `fused` first, then the scalar `lean` path.
 
 // Lane loops index several arrays by the same joint index (structure of arrays), and
 // `!(x <= limit)` is deliberate: NaN must count as out of range.
@@ -86,7 +88,7 @@ pub fn step_many<T: Real, const M: usize, const J: usize>(
     if J > 1 && super::avx2::available() {
         return super::avx2::step(model, bank, input, out);
     }
-    fill(model, bank, input, None, out);
+    fill::<T, M, J, false>(model, bank, input, None, out);
 }
 
 /// The whole step; `trace` (for `J = 1`) records joint 0's intermediate quantities.
@@ -98,14 +100,15 @@ pub(crate) fn run<T: Real, const M: usize, const J: usize>(
     trace: Option<&mut StepTrace<T, M>>,
 ) -> BankOutput<T, J> {
     let mut out = BankOutput::default();
-    fill(model, bank, input, trace, &mut out);
+    fill::<T, M, J, false>(model, bank, input, trace, &mut out);
     out
 }
 
 /// [`run`] into `out`: the one-loop step writes it in place, so the common sample
-/// costs no copy of the output.
+/// costs no copy of the output. `F`: the one-loop step's multiply–adds fused (the
+/// build for FMA).
 #[inline(always)]
-pub(crate) fn fill<T: Real, const M: usize, const J: usize>(
+pub(crate) fn fill<T: Real, const M: usize, const J: usize, const F: bool>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
@@ -113,7 +116,7 @@ pub(crate) fn fill<T: Real, const M: usize, const J: usize>(
     out: &mut BankOutput<T, J>,
 ) {
     let common = trace.is_none();
-    if !(common && fused::step(model, bank, input, out)) {
+    if !(common && fused::step::<T, M, J, F>(model, bank, input, out)) {
         *out = match common.then(|| fast::step(model, bank, input)).flatten() {
             Some(o) => o,
             None => general(model, bank, input, trace),

@@ -157,7 +157,7 @@ pub(crate) fn step<T: Real, const M: usize>(
         }
         for j in 0..M {
             let [hj0, hj1] = h[j];
-            let (t0, t1) = block_times(bank, i, j, 0, [hj0, hj1]);
+            let (t0, t1) = block_times::<T, M, 1, false>(bank, i, j, 0, [hj0, hj1]);
             let first = !has_bias && j == 0;
             g0 = sum_from(first, g0, t0);
             g1 = sum_from(first, g1, t1);

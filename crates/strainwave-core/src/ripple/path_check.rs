@@ -77,3 +77,60 @@ pub(crate) fn against_general<T: Real, const M: usize, const J: usize>(
     }
     took
 }
+
+/// Runs 6000 samples through `path` from its own state, and each sample also through
+/// the general path from a copy of that state; asserts the same decisions (flags,
+/// statuses, counters: every non-numeric part of the state and outputs) and every
+/// number within `tol` relative to its magnitude (at least 1). For a build that rounds
+/// differently (fused multiply–adds), where bit equality cannot hold.
+pub(crate) fn close_to_general<T: Real, const M: usize, const J: usize>(
+    model: &RippleModel<T, M>,
+    tol: f64,
+    mut path: impl FnMut(&RippleModel<T, M>, &mut RippleBank<T, M, J>, &BankInput<T, J>) -> BankOutput<T, J>,
+) {
+    let mut a = RippleBank::<T, M, J>::new(model);
+    for k in 0..6000 {
+        let input = sample::<T, M, J>(model, k, 5000);
+        let mut b = a;
+        let out_a = path(model, &mut a, &input);
+        let out_b = general(model, &mut b, &input, None);
+        close(&format!("{out_a:?}"), &format!("{out_b:?}"), tol, k);
+        close(&format!("{a:?}"), &format!("{b:?}"), tol, k);
+    }
+}
+
+/// Debug texts `a` and `b` equal but for their numbers, which agree within `tol`.
+fn close(a: &str, b: &str, tol: f64, k: usize) {
+    let split = |s: &str| -> (String, Vec<f64>) {
+        let (mut text, mut numbers, mut cur) = (String::new(), Vec::new(), String::new());
+        let flush = |cur: &mut String, text: &mut String, numbers: &mut Vec<f64>| {
+            if !cur.is_empty() {
+                match cur.parse::<f64>() {
+                    Ok(v) => {
+                        numbers.push(v);
+                        text.push('#');
+                    }
+                    Err(_) => text.push_str(cur),
+                }
+                cur.clear();
+            }
+        };
+        for ch in s.chars() {
+            if ch.is_ascii_digit() || matches!(ch, '.' | '-' | 'e' | 'N' | 'a' | 'i' | 'n' | 'f') {
+                cur.push(ch);
+            } else {
+                flush(&mut cur, &mut text, &mut numbers);
+                text.push(ch);
+            }
+        }
+        flush(&mut cur, &mut text, &mut numbers);
+        (text, numbers)
+    };
+    let ((ta, na), (tb, nb)) = (split(a), split(b));
+    assert_eq!(ta, tb, "k {k}: decisions differ");
+    assert_eq!(na.len(), nb.len(), "k {k}");
+    for (x, y) in na.iter().zip(&nb) {
+        let same = x.to_bits() == y.to_bits() || (x - y).abs() <= tol * x.abs().max(y.abs()).max(1.0);
+        assert!(same, "k {k}: {x} against {y}\n{a}\n{b}");
+    }
+}

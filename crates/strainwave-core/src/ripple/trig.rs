@@ -18,6 +18,7 @@
 //! sine/cosine per reference angle, not one per order.
 
 use super::bank::{BankInput, RippleBank};
+use super::joint::madd;
 use super::model::RippleModel;
 use crate::Real;
 
@@ -59,18 +60,18 @@ const COS_F32: [f64; 5] = [1.0, -0.499999997251031, 0.04166662332373906, -0.0013
 /// Estrin evaluation of `Σ c[k] x^k` for 5 to 8 coefficients: pairs `c[2k] + c[2k+1] x`
 /// combined with `x²` and `x⁴`, a dependency chain of 4 multiply–adds instead of 7.
 #[inline(always)]
-fn estrin<T: Real, const N: usize>(c: &[f64; N], x: T) -> T {
+fn estrin<T: Real, const N: usize, const F: bool>(c: &[f64; N], x: T) -> T {
     let k = |i: usize| T::from_f64(c.get(i).copied().unwrap_or(0.0));
-    let (x2, pair) = (x * x, |i: usize| k(i) + k(i + 1) * x);
+    let (x2, pair) = (x * x, |i: usize| madd::<T, F>(k(i), k(i + 1), x));
     let x4 = x2 * x2;
-    let low = pair(0) + x2 * pair(2);
+    let low = madd::<T, F>(pair(0), x2, pair(2));
     let high = match N {
         5 => k(4),
         6 => pair(4),
-        7 => pair(4) + x2 * k(6),
-        _ => pair(4) + x2 * pair(6),
+        7 => madd::<T, F>(pair(4), x2, k(6)),
+        _ => madd::<T, F>(pair(4), x2, pair(6)),
     };
-    low + x4 * high
+    madd::<T, F>(low, x4, high)
 }
 
 /// `(sin a, cos a)` for `|a| ≤ π`; arguments beyond are clamped to `±π` (NaN to `−π`),
@@ -79,25 +80,37 @@ fn estrin<T: Real, const N: usize>(c: &[f64; N], x: T) -> T {
 /// Accurate to a few ulp of 1 (absolute) over the whole range.
 #[inline(always)]
 pub fn sin_cos_small<T: Real>(a: T) -> (T, T) {
+    sin_cos_with::<T, false>(a)
+}
+
+/// [`sin_cos_small`], its multiply–adds fused in the build `F` (see [`madd`]).
+#[inline(always)]
+pub(super) fn sin_cos_with<T: Real, const F: bool>(a: T) -> (T, T) {
     let a = a.clamp(-T::PI, T::PI);
     let h = a * T::from_f64(0.25);
     let h2 = h * h;
     let (s, co) = if is_single::<T>() {
-        (h * estrin(&SIN_F32, h2), estrin(&COS_F32, h2))
+        (h * estrin::<T, 5, F>(&SIN_F32, h2), estrin::<T, 5, F>(&COS_F32, h2))
     } else {
-        (h * estrin(&SIN, h2), estrin(&COS, h2))
+        (h * estrin::<T, 7, F>(&SIN, h2), estrin::<T, 8, F>(&COS, h2))
     };
     // Two doublings: h → 2h → 4h = a.
-    let (s, co) = (T::TWO * s * co, T::ONE - T::TWO * s * s);
-    (T::TWO * s * co, T::ONE - T::TWO * s * s)
+    let (s, co) = (T::TWO * s * co, madd::<T, F>(T::ONE, -(T::TWO * s), s));
+    (T::TWO * s * co, madd::<T, F>(T::ONE, -(T::TWO * s), s))
 }
 
 /// `(cos nψ, sin nψ)` from `(cos ψ, sin ψ)` for a whole `n ≥ 1`, by repeated squaring
 /// (`n = 1, 2, 4` cost 0, 1, 2 complex squarings).
 #[inline(always)]
 pub fn phasor_power<T: Real>(c: T, s: T, n: u8) -> (T, T) {
-    let sq = |(c, s): (T, T)| (c * c - s * s, T::TWO * c * s);
-    let mul = |(a, b): (T, T), (c, d): (T, T)| (a * c - b * d, a * d + b * c);
+    phasor_power_with::<T, false>(c, s, n)
+}
+
+/// [`phasor_power`], its multiply–adds fused in the build `F` (see [`madd`]).
+#[inline(always)]
+pub(super) fn phasor_power_with<T: Real, const F: bool>(c: T, s: T, n: u8) -> (T, T) {
+    let sq = |(c, s): (T, T)| (madd::<T, F>(c * c, -s, s), T::TWO * c * s);
+    let mul = |(a, b): (T, T), (c, d): (T, T)| (madd::<T, F>(a * c, -b, d), madd::<T, F>(a * d, b, c));
     match n {
         0 | 1 => (c, s),
         2 => sq((c, s)),
