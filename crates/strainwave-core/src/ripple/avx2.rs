@@ -6,9 +6,11 @@
 //! one difference: the common sample's multiply–adds (`madd` in the one-loop step) are
 //! fused, rounded once instead of twice. The results therefore agree with the portable
 //! build to rounding, not bit for bit; the decisions (skips, resets, load steps, order
-//! status) are the same, and a bank and its joints stepped one by one still agree bit
-//! for bit on one CPU. The FP ports are what bound one joint's step, so fusing pays:
-//! 6-state f64 38 ns against 44 in the portable build (x86-64, plain timing loop).
+//! status) are the same, and a bank and its joints stepped one by one agree to rounding
+//! (bit for bit in the portable build: samples the fallback paths take are not fused).
+//! Fusing pays because a multiply–add is one instruction on the step's dependency chain
+//! instead of two: 6-state f64 38 ns against 44 in the portable build when it came in
+//! (x86-64, plain timing loop; see the README for today's figures).
 
 // The one place the project uses `unsafe`: calling a function compiled for a CPU
 // feature, after checking that the CPU has it.

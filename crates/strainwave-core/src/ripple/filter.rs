@@ -173,6 +173,22 @@ pub(super) fn single<T: Real, const M: usize, const F: bool>(
             }
             return Ok(out.into());
         }
+        return uncommon(model, state, input, None);
+    }
+    uncommon(model, state, input, trace)
+}
+
+/// The samples the one-loop step declines (or every sample, traced): the lean
+/// single-joint path if it takes them (untraced), else the general path. Kept out of
+/// line, so that the common sample's registers are not shared with these paths.
+#[inline(never)]
+fn uncommon<T: Real, const M: usize>(
+    model: &RippleModel<T, M>,
+    state: &mut RippleState<T, M>,
+    input: &RippleInput<T>,
+    trace: Option<&mut StepTrace<T, M>>,
+) -> Result<RippleOutput<T>, Error> {
+    if trace.is_none() {
         if let Some(o) = lean::step(model, &mut state.bank, input) {
             if o.flags.contains(StepFlags::COVARIANCE_RESET) {
                 return Err(Error::NotPositiveDefinite("ripple covariance"));
@@ -180,6 +196,13 @@ pub(super) fn single<T: Real, const M: usize, const F: bool>(
             return Ok(o);
         }
     }
+    let r = &input.references;
+    let bank_input = BankInput {
+        torque_nm: [input.torque_nm],
+        expected_torque_nm: [input.expected_torque_nm],
+        references: ReferenceValues::new([r.relative], [r.output], [r.motor]),
+        dt_s: input.dt_s,
+    };
     let o = run(model, &mut state.bank, &bank_input, trace);
     if o.flags[0].contains(StepFlags::COVARIANCE_RESET) {
         return Err(Error::NotPositiveDefinite("ripple covariance"));

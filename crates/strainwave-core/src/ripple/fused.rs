@@ -7,9 +7,10 @@
 //!
 //! Same decisions and same arithmetic as the `fast` module (and so the general path),
 //! bit for bit when `F` is false; with `F` (the build for FMA) its multiply–adds are
-//! fused, so the numbers agree to rounding. The check runs first and writes nothing;
-//! if any joint fails it, the caller takes the `fast` path, which handles the wider
-//! case.
+//! fused, so the numbers agree to rounding. The check runs first and writes nothing
+//! (the references' phasors are computed before it, as the start of the step's
+//! longest dependency chain); if any joint fails it, the caller takes the `fast` path,
+//! which handles the wider case.
 //!
 //! The presets' layouts are compiled with their orders as constants (see `layout`), so
 //! nothing is selected per order in the loop; other layouts read the model. A single
@@ -26,7 +27,7 @@ use super::kernel::Lanes2;
 use super::layout::{self, FULL, PRODUCT, RUNTIME, SEED_4TH, SEED_6TH};
 use super::model::{PhaseSource, Reference, RippleModel};
 use super::plan::HOLD_AVERAGE;
-use super::trig::{phasor_power_with, sin_cos_with, wrap_near};
+use super::trig::{phasor_of_wrapped, wrap_near, Doubling};
 use crate::Real;
 
 /// One step into `out` if the model and every joint qualify (true), else false with
@@ -157,8 +158,27 @@ fn step_with<
     }
     let orders = Orders::of(model);
 
-    // Decide, writing nothing. The flags first, as bytes: every joint caught up (a
-    // last angle and increment) and every order active.
+    // The references' phasors first, before the checks: they depend on the angles
+    // alone and start the step's longest dependency chain, so it runs beside the
+    // checks instead of after them. The decision reads them (finite, as they are for
+    // any angle), so that the compiler keeps them before it. Used only if every joint
+    // qualifies: then each angle is within ±3π, so its wrapped phase within ±π and no
+    // clamp is needed (see `trig`'s tests).
+    let (rel, out_angle) = (&input.references.relative, &input.references.output);
+    let references = if OUT { 2 } else { 1 };
+    // `base[r][part][joint]`: parts of each reference's phasor (see `Doubling`).
+    let mut base = [[[T::ZERO; J]; 4]; 2];
+    for (r, angle) in [rel, out_angle].into_iter().enumerate().take(references) {
+        for l in 0..J {
+            let parts = phasor_of_wrapped::<T, F>(wrap_near(angle[l])).parts();
+            for p in 0..4 {
+                base[r][p][l] = parts[p];
+            }
+        }
+    }
+
+    // The flags, as bytes: every joint caught up (a last angle and increment) and
+    // every order active.
     let mut caught_up = true;
     for l in 0..J {
         let mut c = bank.has_last[l] & bank.delta_known[l];
@@ -167,16 +187,15 @@ fn step_with<
         }
         caught_up &= c;
     }
-    if !caught_up {
-        return false;
-    }
     // Then the numbers, as one mask. `inc`: increment and mean of each reference.
-    let (rel, out_angle) = (&input.references.relative, &input.references.output);
-    let mut ok = true;
+    let mut ok = caught_up;
     let mut inc = [[[T::ZERO; J]; 2]; 2];
     for l in 0..J {
         let y = input.torque_nm[l] - input.expected_torque_nm[l];
         let mut k = finite(y) & (bank.pending_samples[l] == T::ZERO);
+        for r in 0..references {
+            k &= finite(base[r][0][l] + base[r][1][l]);
+        }
         let (d, m, fine) = increment::<T, M, J, F>(model, bank, rel[l], 0, l);
         (inc[0][0][l], inc[0][1][l]) = (d, m);
         k &= fine;
@@ -187,17 +206,19 @@ fn step_with<
         }
         ok &= k;
     }
+
     if !ok {
         return false;
     }
 
-    // Commit, phasors and update, one joint at a time.
+    // Commit: bookkeeping, phasors and the update, one joint at a time.
     out.flags = [StepFlags::empty(); J];
     let mut load_step = [false; J];
     let mut bad = [false; J];
     let mut gains = [[[T::ZERO; J]; 2]; M];
     let par = Params::new(model);
-    let sh = Shared { torque: &input.torque_nm, expected: &input.expected_torque_nm, angle: [rel, out_angle], inc };
+    let sh =
+        Shared { torque: &input.torque_nm, expected: &input.expected_torque_nm, angle: [rel, out_angle], inc, base };
     // Counters and flags first: other element widths in the main loop would narrow
     // its vectors.
     for l in 0..J {
@@ -219,9 +240,12 @@ struct Shared<'a, T: Real, const J: usize> {
     angle: [&'a [T; J]; 2],
     /// Increment and mean of each reference.
     inc: [[[T; J]; 2]; 2],
+    /// Phasor of each reference, `[reference][part][joint]`.
+    base: [[[T; J]; 4]; 2],
 }
 
-/// Joint `l`: phase bookkeeping, phasors and the filter update.
+/// Joint `l`: phase bookkeeping, its orders' phasors (update row) and the filter
+/// update.
 #[inline(always)]
 fn joint_step<
     T: Real,
@@ -240,41 +264,53 @@ fn joint_step<
     gains: &mut Lanes2<T, M, J>,
     out: &mut BankOutput<T, J>,
 ) -> (bool, bool) {
-    let mut base = [(T::ONE, T::ZERO); 2];
     let references = if OUT { 2 } else { 1 };
     for r in 0..references {
         bank.last_delta[r][l] = sh.inc[r][0][l];
         bank.mean_delta[r][l] = sh.inc[r][1][l];
         bank.last[r][l] = sh.angle[r][l];
-        let psi = wrap_near(sh.angle[r][l]);
-        bank.psi[r][l] = psi;
-        let (s, c) = sin_cos_with::<T, F>(psi);
-        base[r] = (c, s);
+        bank.psi[r][l] = wrap_near(sh.angle[r][l]);
     }
-    let load = (sh.expected[l] + bank.b[l]).abs();
-    let load = if finite(load) { load } else { T::ZERO };
-    let mut h = [[T::ZERO; 2]; M];
+    let h = update_row::<T, M, J, L, F>(o, bank, sh.expected, &sh.base, l);
     let mut abs_a = [T::ZERO; M];
     for i in 0..M {
         let r = usize::from(o.on_output::<L>(i));
-        let (c, s) = base[r];
-        // Both squarings, then selects: no branch in the loop (and for a layout's
-        // constant power, no select either; orders on one angle share the squarings).
-        let c2 = phasor_power_with::<T, F>(c, s, 2);
-        let c4 = phasor_power_with::<T, F>(c2.0, c2.1, 2);
-        let (c, s) = match o.power::<L>(i) {
-            4 => c4,
-            2 => c2,
-            _ => (c, s),
-        };
-        let (c, s) = if o.load_scaled::<L>(i) { (c * load, s * load) } else { (c, s) };
-        bank.phasor[i][0][l] = c;
-        bank.phasor[i][1][l] = s;
-        h[i] = [c, s];
+        bank.phasor[i][0][l] = h[i][0];
+        bank.phasor[i][1][l] = h[i][1];
         abs_a[i] = (o.multiple::<L>(i) * sh.inc[r][0][l]).abs();
     }
     let is_ripple = |i: usize| !o.on_output::<L>(i);
     joint::<T, M, J, BIAS, F>(par, is_ripple, bank, sh.torque, sh.expected, h, abs_a, l, gains, out)
+}
+
+/// Joint `l`'s update row: each order's phasor from its reference's (times the load
+/// for load-scaled orders).
+#[inline(always)]
+fn update_row<T: Real, const M: usize, const J: usize, const L: u32, const F: bool>(
+    o: Orders<T, M>,
+    bank: &RippleBank<T, M, J>,
+    expected: &[T; J],
+    base: &[[[T; J]; 4]; 2],
+    l: usize,
+) -> [[T; 2]; M] {
+    let load = (expected[l] + bank.b[l]).abs();
+    let load = if finite(load) { load } else { T::ZERO };
+    let mut h = [[T::ZERO; 2]; M];
+    for i in 0..M {
+        let r = usize::from(o.on_output::<L>(i));
+        // Both doublings, then selects: no branch in the loop (and for a layout's
+        // constant power, no select either; orders on one angle share the doublings).
+        let b = Doubling::from_parts(array(T::ZERO, |p| base[r][p][l]));
+        let twice = b.doubled::<F>();
+        let four = twice.doubled::<F>();
+        let (c, s) = match o.power::<L>(i) {
+            4 => (four.c, four.s),
+            2 => (twice.c, twice.s),
+            _ => (b.c, b.s),
+        };
+        h[i] = if o.load_scaled::<L>(i) { [c * load, s * load] } else { [c, s] };
+    }
+    h
 }
 
 #[cfg(test)]

@@ -223,8 +223,9 @@ pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool, c
     let load_step = BIAS & (par.load_step_nis > T::ZERO) & (e * e > par.load_step_nis * s_var);
     inv = if load_step { T::ZERO } else { inv };
 
-    // Measurement update. A load step (gain 0 here) is completed after the loop
-    // (`settle`), from the gains kept in `gains`.
+    // Measurement update, `P −= (g_i g_j)·(1/S)`: the products wait for no division.
+    // A load step (gain 0 here) is completed after the loop (`settle`), from the gains
+    // kept in `gains`.
     let floor = par.r * inv;
     for i in 0..M {
         let [k0, k1] = [g[i][0] * inv, g[i][1] * inv];
@@ -232,18 +233,19 @@ pub(super) fn joint<T: Real, const M: usize, const J: usize, const BIAS: bool, c
         bank.z[i][1][l] = madd::<T, F>(bank.z[i][1][l], k1, e);
         let d = &mut bank.p[i][i];
         let (v0, v1) = (d[0][0][l], d[1][1][l]);
-        d[0][0][l] = madd::<T, F>(v0, -k0, g[i][0]).max(v0 * floor);
-        d[1][1][l] = madd::<T, F>(v1, -k1, g[i][1]).max(v1 * floor);
-        let off = madd::<T, F>(d[0][1][l], -k0, g[i][1]);
+        d[0][0][l] = madd::<T, F>(v0, -(g[i][0] * g[i][0]), inv).max(v0 * floor);
+        d[1][1][l] = madd::<T, F>(v1, -(g[i][1] * g[i][1]), inv).max(v1 * floor);
+        let off = madd::<T, F>(d[0][1][l], -(g[i][0] * g[i][1]), inv);
         d[0][1][l] = off;
         d[1][0][l] = off;
         for j in i + 1..M {
             let [gj0, gj1] = g[j];
             let b = &mut bank.p[i][j];
-            b[0][0][l] = madd::<T, F>(b[0][0][l], -k0, gj0);
-            b[0][1][l] = madd::<T, F>(b[0][1][l], -k0, gj1);
-            b[1][0][l] = madd::<T, F>(b[1][0][l], -k1, gj0);
-            b[1][1][l] = madd::<T, F>(b[1][1][l], -k1, gj1);
+            let [gi0, gi1] = g[i];
+            b[0][0][l] = madd::<T, F>(b[0][0][l], -(gi0 * gj0), inv);
+            b[0][1][l] = madd::<T, F>(b[0][1][l], -(gi0 * gj1), inv);
+            b[1][0][l] = madd::<T, F>(b[1][0][l], -(gi1 * gj0), inv);
+            b[1][1][l] = madd::<T, F>(b[1][1][l], -(gi1 * gj1), inv);
         }
         if BIAS {
             bank.pb[i][0][l] = madd::<T, F>(bank.pb[i][0][l], -k0, gb);

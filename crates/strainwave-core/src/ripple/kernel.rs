@@ -354,7 +354,8 @@ pub(crate) fn innovation<T: Real, const M: usize, const J: usize>(
     n
 }
 
-/// Measurement update: `ẑ += g e / S`, `P −= g gᵀ / S` (upper blocks).
+/// Measurement update: `ẑ += g e / S`, `P −= g gᵀ / S` (upper blocks; each product
+/// `g_i g_j` times `1/S`, so that it waits on the division for one multiply–add).
 #[inline(always)]
 pub(crate) fn update<T: Real, const M: usize, const J: usize>(
     model: &RippleModel<T, M>,
@@ -378,24 +379,24 @@ pub(crate) fn update<T: Real, const M: usize, const J: usize>(
     for i in 0..M {
         // Diagonal block: exactly symmetric, variances never below `P_ii R / S`.
         for l in 0..J {
-            let (k0, k1) = (k[i][0][l], k[i][1][l]);
+            let (g0, g1) = (g[i][0][l], g[i][1][l]);
             let floor = model.r_nm2 * inv[l];
             let d = &mut bank.p[i][i];
             let (v0, v1) = (d[0][0][l], d[1][1][l]);
-            d[0][0][l] = (v0 - k0 * g[i][0][l]).max(v0 * floor);
-            d[1][1][l] = (v1 - k1 * g[i][1][l]).max(v1 * floor);
-            let off = d[0][1][l] - k0 * g[i][1][l];
+            d[0][0][l] = (v0 - g0 * g0 * inv[l]).max(v0 * floor);
+            d[1][1][l] = (v1 - g1 * g1 * inv[l]).max(v1 * floor);
+            let off = d[0][1][l] - g0 * g1 * inv[l];
             d[0][1][l] = off;
             d[1][0][l] = off;
         }
         for j in i + 1..M {
             let b = &mut bank.p[i][j];
             for l in 0..J {
-                let (k0, k1, gj0, gj1) = (k[i][0][l], k[i][1][l], g[j][0][l], g[j][1][l]);
-                b[0][0][l] -= k0 * gj0;
-                b[0][1][l] -= k0 * gj1;
-                b[1][0][l] -= k1 * gj0;
-                b[1][1][l] -= k1 * gj1;
+                let (gi0, gi1, gj0, gj1) = (g[i][0][l], g[i][1][l], g[j][0][l], g[j][1][l]);
+                b[0][0][l] -= gi0 * gj0 * inv[l];
+                b[0][1][l] -= gi0 * gj1 * inv[l];
+                b[1][0][l] -= gi1 * gj0 * inv[l];
+                b[1][1][l] -= gi1 * gj1 * inv[l];
             }
         }
         if has_bias {

@@ -196,20 +196,21 @@ pub(crate) fn step<T: Real, const M: usize>(
     let floor = model.r_nm2 * inv;
     for i in 0..M {
         let [k0, k1] = k[i];
+        let [g0, g1] = g[i];
         let d = &mut bank.p[i][i];
         let (v0, v1) = (d[0][0][0], d[1][1][0]);
-        d[0][0][0] = (v0 - k0 * g[i][0]).max(v0 * floor);
-        d[1][1][0] = (v1 - k1 * g[i][1]).max(v1 * floor);
-        let off = d[0][1][0] - k0 * g[i][1];
+        d[0][0][0] = (v0 - g0 * g0 * inv).max(v0 * floor);
+        d[1][1][0] = (v1 - g1 * g1 * inv).max(v1 * floor);
+        let off = d[0][1][0] - g0 * g1 * inv;
         d[0][1][0] = off;
         d[1][0][0] = off;
         for j in i + 1..M {
             let [gj0, gj1] = g[j];
             let b = &mut bank.p[i][j];
-            b[0][0][0] -= k0 * gj0;
-            b[0][1][0] -= k0 * gj1;
-            b[1][0][0] -= k1 * gj0;
-            b[1][1][0] -= k1 * gj1;
+            b[0][0][0] -= g0 * gj0 * inv;
+            b[0][1][0] -= g0 * gj1 * inv;
+            b[1][0][0] -= g1 * gj0 * inv;
+            b[1][1][0] -= g1 * gj1 * inv;
         }
         if has_bias {
             bank.pb[i][0][0] -= k0 * gb;

@@ -8,14 +8,23 @@
 //! ```text
 //! h = a / 4                       |h| ≤ π/4
 //! sin h, cos h                    minimax polynomials of degree 13 / 14 (9 / 8 for f32), Estrin form
-//! sin 2h = 2 sin h cos h,  cos 2h = 1 − 2 sin² h      applied twice
+//!                                 in a² (the powers of 1/16 folded into the coefficients, exactly)
+//! sin 2h = (2 sin h) cos h,  cos 2h = 1 − (2 sin h) sin h      applied twice
 //! ```
 //!
 //! The polynomial error is below 4e-18 (f64) and 1e-9 (f32) on |h| ≤ π/4; the two
 //! doublings multiply it by at most 4. There is no branch and no table, so the loop
 //! over the lanes of a joint bank vectorizes. Whole multiples of a reference angle
-//! come from its phasor by complex squaring ([`phasor_power`]), so a step needs one
+//! come from its phasor by the same doubling ([`phasor_power`]), so a step needs one
 //! sine/cosine per reference angle, not one per order.
+//!
+//! Each doubling carries the phasor's double along ([`Doubling`]): `2 sin 2h =
+//! (2 sin h)(2 cos h)` and `2 cos 2h = 2 − (2 sin h)²` round exactly like the phasor
+//! itself (doubling is exact), so one doubling is one multiply–add deep instead of
+//! two. The numbers are the same as doubling `(cos, sin)` alone; only the dependency
+//! chain from the angle to the orders' phasors is shorter (four doublings of one
+//! multiply–add each to the 4× order instead of eight steps), and that chain is what
+//! bounds one joint's step.
 
 use super::bank::{BankInput, RippleBank};
 use super::joint::madd;
@@ -86,21 +95,95 @@ pub fn sin_cos_small<T: Real>(a: T) -> (T, T) {
 /// [`sin_cos_small`], its multiply–adds fused in the build `F` (see [`madd`]).
 #[inline(always)]
 pub(super) fn sin_cos_with<T: Real, const F: bool>(a: T) -> (T, T) {
-    let a = a.clamp(-T::PI, T::PI);
-    let h = a * T::from_f64(0.25);
-    let h2 = h * h;
-    let (s, co) = if is_single::<T>() {
-        (h * estrin::<T, 5, F>(&SIN_F32, h2), estrin::<T, 5, F>(&COS_F32, h2))
-    } else {
-        (h * estrin::<T, 7, F>(&SIN, h2), estrin::<T, 8, F>(&COS, h2))
-    };
-    // Two doublings: h → 2h → 4h = a.
-    let (s, co) = (T::TWO * s * co, madd::<T, F>(T::ONE, -(T::TWO * s), s));
-    (T::TWO * s * co, madd::<T, F>(T::ONE, -(T::TWO * s), s))
+    let p = phasor_of_wrapped::<T, F>(a.clamp(-T::PI, T::PI));
+    (p.s, p.c)
 }
 
-/// `(cos nψ, sin nψ)` from `(cos ψ, sin ψ)` for a whole `n ≥ 1`, by repeated squaring
-/// (`n = 1, 2, 4` cost 0, 1, 2 complex squarings).
+/// `(cos a, sin a)` and their doubles for `|a| ≤ π` (not checked: the caller's angle
+/// is wrapped), bit for bit [`sin_cos_with`] there.
+#[inline(always)]
+pub(super) fn phasor_of_wrapped<T: Real, const F: bool>(a: T) -> Doubling<T> {
+    // Polynomials in u = a² = 16 h²: coefficient k scaled by 16^-k, exactly, so every
+    // partial sum is the one in h² scaled by a power of two, and the result the same.
+    let u = a * a;
+    let (ps, pc) = if is_single::<T>() {
+        (estrin::<T, 5, F>(&SIN_F32_IN_U, u), estrin::<T, 5, F>(&COS_F32_IN_U, u))
+    } else {
+        (estrin::<T, 7, F>(&SIN_IN_U, u), estrin::<T, 8, F>(&COS_IN_U, u))
+    };
+    // sin h = h P(h²) with h = a/4, and 2 sin h = (a/2) P: both products exact scalings.
+    let quarter = Doubling { c: pc, s: a * T::from_f64(0.25) * ps, c2: pc + pc, s2: a * T::HALF * ps };
+    // Two doublings: h → 2h → 4h = a.
+    quarter.doubled::<F>().doubled::<F>()
+}
+
+/// [`SIN`] and [`COS`] as polynomials in `u = 16 h²`.
+const SIN_IN_U: [f64; 7] = scaled(SIN);
+/// See [`SIN_IN_U`].
+const COS_IN_U: [f64; 8] = scaled(COS);
+/// See [`SIN_IN_U`].
+const SIN_F32_IN_U: [f64; 5] = scaled(SIN_F32);
+/// See [`SIN_IN_U`].
+const COS_F32_IN_U: [f64; 5] = scaled(COS_F32);
+
+/// `c[k] / 16^k`: a power-of-two scaling, exact.
+const fn scaled<const N: usize>(c: [f64; N]) -> [f64; N] {
+    let mut out = c;
+    let mut k = 0;
+    let mut scale = 1.0;
+    while k < N {
+        out[k] = c[k] * scale;
+        scale /= 16.0;
+        k += 1;
+    }
+    out
+}
+
+/// A phasor `(cos x, sin x)` with its double `(2 cos x, 2 sin x)`.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Doubling<T> {
+    pub(super) c: T,
+    pub(super) s: T,
+    c2: T,
+    s2: T,
+}
+
+impl<T: Real> Doubling<T> {
+    /// `(c, s)` and its double (exact).
+    #[inline(always)]
+    pub(super) fn new(c: T, s: T) -> Self {
+        Self { c, s, c2: c + c, s2: s + s }
+    }
+
+    /// `[cos, sin, 2 cos, 2 sin]`.
+    #[inline(always)]
+    pub(super) fn parts(self) -> [T; 4] {
+        [self.c, self.s, self.c2, self.s2]
+    }
+
+    /// From [`parts`](Self::parts).
+    #[inline(always)]
+    pub(super) fn from_parts([c, s, c2, s2]: [T; 4]) -> Self {
+        Self { c, s, c2, s2 }
+    }
+
+    /// The angle doubled: `sin 2x = (2 sin x) cos x`, `cos 2x = 1 − (2 sin x) sin x`, and
+    /// the same times two from the doubles (rounded alike: doubling is exact). The four
+    /// are independent, so the chain is one multiply–add per doubling.
+    #[inline(always)]
+    pub(super) fn doubled<const F: bool>(self) -> Self {
+        Self {
+            c: madd::<T, F>(T::ONE, -self.s2, self.s),
+            s: self.s2 * self.c,
+            c2: madd::<T, F>(T::TWO, -self.s2, self.s2),
+            s2: self.s2 * self.c2,
+        }
+    }
+}
+
+/// `(cos nψ, sin nψ)` from `(cos ψ, sin ψ)` for a whole `n ≥ 1`, by repeated angle
+/// doubling (`n = 1, 2, 4` cost 0, 1, 2 doublings; `cos 2ψ = 1 − 2 sin² ψ`, which
+/// takes the phasor as a unit vector).
 #[inline(always)]
 pub fn phasor_power<T: Real>(c: T, s: T, n: u8) -> (T, T) {
     phasor_power_with::<T, false>(c, s, n)
@@ -109,7 +192,10 @@ pub fn phasor_power<T: Real>(c: T, s: T, n: u8) -> (T, T) {
 /// [`phasor_power`], its multiply–adds fused in the build `F` (see [`madd`]).
 #[inline(always)]
 pub(super) fn phasor_power_with<T: Real, const F: bool>(c: T, s: T, n: u8) -> (T, T) {
-    let sq = |(c, s): (T, T)| (madd::<T, F>(c * c, -s, s), T::TWO * c * s);
+    let sq = |(c, s): (T, T)| {
+        let d = Doubling::new(c, s).doubled::<F>();
+        (d.c, d.s)
+    };
     let mul = |(a, b): (T, T), (c, d): (T, T)| (madd::<T, F>(a * c, -b, d), madd::<T, F>(a * d, b, c));
     match n {
         0 | 1 => (c, s),
@@ -252,6 +338,64 @@ mod tests {
         assert!(s.abs() < TOL_F64 && (c + 1.0).abs() < TOL_F64);
         let (s, c) = sin_cos_small(f64::NAN);
         assert!(s.is_finite() && (s * s + c * c - 1.0).abs() < TOL_F64);
+    }
+
+    /// The phasors (polynomials in `a²`, doubles carried along) are bit for bit those
+    /// of the plain algorithm: polynomials in `h² = (a/4)²`, then `(c, s)` doubled
+    /// alone, `sin 2x = (2 sin x) cos x`, `cos 2x = 1 − (2 sin x) sin x`.
+    fn ladder_is_exact<T: Real, const F: bool>() {
+        let plain_double = |(c, s): (T, T)| (madd::<T, F>(T::ONE, -(s + s), s), (s + s) * c);
+        let n = 4001;
+        for k in 0..n {
+            let a = T::from_f64(-core::f64::consts::PI + core::f64::consts::TAU * k as f64 / (n - 1) as f64);
+            let a = a.clamp(-T::PI, T::PI);
+            let h = a * T::from_f64(0.25);
+            let h2 = h * h;
+            let quarter = if is_single::<T>() {
+                (estrin::<T, 5, F>(&COS_F32, h2), h * estrin::<T, 5, F>(&SIN_F32, h2))
+            } else {
+                (estrin::<T, 8, F>(&COS, h2), h * estrin::<T, 7, F>(&SIN, h2))
+            };
+            let mut want = plain_double(plain_double(quarter));
+            let mut d = phasor_of_wrapped::<T, F>(a);
+            for _ in 0..3 {
+                let [c, s, c2, s2] = d.parts();
+                assert_eq!((c, s), want, "{a:?}");
+                assert_eq!((c2, s2), (c + c, s + s), "{a:?}");
+                d = d.doubled::<F>();
+                want = plain_double(want);
+            }
+        }
+    }
+
+    #[test]
+    fn doubling_ladder_is_the_plain_algorithm_bit_for_bit() {
+        ladder_is_exact::<f64, false>();
+        ladder_is_exact::<f32, false>();
+        ladder_is_exact::<f64, true>();
+        ladder_is_exact::<f32, true>();
+    }
+
+    /// The one-loop step takes angles within ±3π (`3.0 * PI`, rounded) and gives their
+    /// wrapped phase to `phasor_of_wrapped` unclamped: it must be within ±π.
+    fn wrapped_within_pi<T: Real>() {
+        let bound = T::from_f64(3.0) * T::PI;
+        let ulp = |x: T| x.abs() * T::EPSILON;
+        for v in [bound, -bound, T::PI, -T::PI, T::TAU, -T::TAU, T::ZERO] {
+            for k in -3..=3 {
+                let x = v + T::from_f64(f64::from(k)) * ulp(v).max(T::EPSILON);
+                if x.abs() <= bound {
+                    let w = wrap_near(x);
+                    assert!(w.abs() <= T::PI, "{x:?} wraps to {w:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn wrapped_angles_need_no_clamp() {
+        wrapped_within_pi::<f64>();
+        wrapped_within_pi::<f32>();
     }
 
     #[test]
