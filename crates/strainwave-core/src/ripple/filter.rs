@@ -157,13 +157,7 @@ pub(super) fn single<T: Real, const M: usize, const F: bool>(
     input: &RippleInput<T>,
     trace: Option<&mut StepTrace<T, M>>,
 ) -> Result<RippleOutput<T>, Error> {
-    let r = &input.references;
-    let bank_input = BankInput {
-        torque_nm: [input.torque_nm],
-        expected_torque_nm: [input.expected_torque_nm],
-        references: ReferenceValues::new([r.relative], [r.output], [r.motor]),
-        dt_s: input.dt_s,
-    };
+    let bank_input = one_joint(input);
     // The common sample; the traced step keeps the general path for the smoother.
     if trace.is_none() {
         let mut out = super::BankOutput::default();
@@ -176,6 +170,18 @@ pub(super) fn single<T: Real, const M: usize, const F: bool>(
         return uncommon(model, state, input, None);
     }
     uncommon(model, state, input, trace)
+}
+
+/// `input` as a bank input of one joint.
+#[inline(always)]
+fn one_joint<T: Real>(input: &RippleInput<T>) -> BankInput<T, 1> {
+    let r = &input.references;
+    BankInput {
+        torque_nm: [input.torque_nm],
+        expected_torque_nm: [input.expected_torque_nm],
+        references: ReferenceValues::new([r.relative], [r.output], [r.motor]),
+        dt_s: input.dt_s,
+    }
 }
 
 /// The samples the one-loop step declines (or every sample, traced): the lean
@@ -196,13 +202,7 @@ fn uncommon<T: Real, const M: usize>(
             return Ok(o);
         }
     }
-    let r = &input.references;
-    let bank_input = BankInput {
-        torque_nm: [input.torque_nm],
-        expected_torque_nm: [input.expected_torque_nm],
-        references: ReferenceValues::new([r.relative], [r.output], [r.motor]),
-        dt_s: input.dt_s,
-    };
+    let bank_input = one_joint(input);
     let o = run(model, &mut state.bank, &bank_input, trace);
     if o.flags[0].contains(StepFlags::COVARIANCE_RESET) {
         return Err(Error::NotPositiveDefinite("ripple covariance"));
