@@ -81,7 +81,8 @@ pub(super) fn load_steps<T: Real, const M: usize, const J: usize>(
 }
 
 /// Whether joint `l`'s state is usable after an update with innovation variance
-/// `s_var`: one sum catches any NaN/∞, one minimum any negative variance.
+/// `s_var`: one sum catches any NaN/∞, one minimum any negative variance. Every path
+/// checks with this one function, so their decisions agree.
 #[inline(always)]
 pub(super) fn healthy<T: Real, const M: usize, const J: usize>(
     bias: bool,
@@ -89,18 +90,24 @@ pub(super) fn healthy<T: Real, const M: usize, const J: usize>(
     l: usize,
     s_var: T,
 ) -> bool {
-    let mut sum = s_var + bank.b[l];
-    let mut least = s_var;
-    if bias {
-        sum += bank.pbb[l];
-        least = least.min(bank.pbb[l]);
-    }
+    // The two entries of each pair apart, then together: two independent chains, which
+    // a one-joint step keeps in one vector register (fewer shuffles, a shorter chain).
+    let mut sum = [T::ZERO; 2];
+    let mut least = [s_var; 2];
     for i in 0..M {
         let d = &bank.p[i][i];
-        sum += d[0][0][l] + d[1][1][l] + bank.z[i][0][l] + bank.z[i][1][l];
-        least = least.min(d[0][0][l]).min(d[1][1][l]);
+        for r in 0..2 {
+            sum[r] = sum_from(i == 0, sum[r], d[r][r][l] + bank.z[i][r][l]);
+            least[r] = least[r].min(d[r][r][l]);
+        }
     }
-    finite(sum) & (least >= T::ZERO) & (s_var > T::ZERO)
+    let mut total = (sum[0] + sum[1]) + (s_var + bank.b[l]);
+    let mut low = least[0].min(least[1]);
+    if bias {
+        total += bank.pbb[l];
+        low = low.min(bank.pbb[l]);
+    }
+    finite(total) & (low >= T::ZERO) & (s_var > T::ZERO)
 }
 
 /// The model's numbers that one joint's update reads.
@@ -341,4 +348,43 @@ pub(super) fn finite<T: Real>(x: T) -> bool {
 pub(super) fn common_interval<T: Real, const M: usize>(model: &RippleModel<T, M>, dt_s: Option<T>) -> Option<T> {
     let dt = dt_s.unwrap_or(model.dt_s);
     (finite(dt) && dt > T::ZERO && dt <= model.max_gap_s).then_some(dt)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::bank::RippleBank;
+    use super::super::model::RippleModel;
+    use super::healthy;
+
+    /// Each corruption of joint 0 is caught, and joint 1 (untouched) stays healthy.
+    #[test]
+    fn health_check_catches_each_bad_entry() {
+        let model = RippleModel::<f64, 3>::product(1000.0, 0.05).unwrap();
+        let fresh = RippleBank::<f64, 3, 2>::new(&model);
+        assert!(healthy(true, &fresh, 0, 1.0) && healthy(true, &fresh, 1, 1.0));
+        let corruptions: [fn(&mut RippleBank<f64, 3, 2>); 8] = [
+            |b| b.p[2][2][1][1][0] = f64::NAN,
+            |b| b.p[1][1][0][0][0] = f64::INFINITY,
+            |b| b.p[0][0][1][1][0] = -1e-9,
+            |b| b.z[2][0][0] = f64::NAN,
+            |b| b.z[0][1][0] = f64::NEG_INFINITY,
+            |b| b.b[0] = f64::NAN,
+            |b| b.pbb[0] = -1.0,
+            |b| b.pbb[0] = f64::INFINITY,
+        ];
+        for (k, corrupt) in corruptions.iter().enumerate() {
+            let mut bank = fresh;
+            corrupt(&mut bank);
+            assert!(!healthy(true, &bank, 0, 1.0), "corruption {k} passed");
+            assert!(healthy(true, &bank, 1, 1.0), "corruption {k} reached joint 1");
+        }
+        // The innovation variance: positive and finite.
+        for s_var in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            assert!(!healthy(true, &fresh, 0, s_var), "S = {s_var}");
+        }
+        // Without the bias state its entries are not read.
+        let mut bank = fresh;
+        bank.pbb[0] = -1.0;
+        assert!(healthy(false, &bank, 0, 1.0));
+    }
 }

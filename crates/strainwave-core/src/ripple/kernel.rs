@@ -50,7 +50,7 @@
 use super::bank::{BankInput, BankOutput, RippleBank};
 use super::filter::StepTrace;
 use super::io::StepFlags;
-use super::joint::{load_steps, sum_from};
+use super::joint::{healthy, load_steps, sum_from};
 use super::model::RippleModel;
 use super::plan::{plan, Plan};
 use super::trig::phasors;
@@ -432,30 +432,11 @@ pub(crate) fn finish<T: Real, const M: usize, const J: usize>(
 ) -> BankOutput<T, J> {
     let has_bias = model.bias_q_nm2.is_some();
     let (e, s_var) = (n.e, n.s_var);
-    // One sum catches any NaN/∞, one minimum any negative variance. Joint index
-    // innermost and `&` instead of `&&`: no branch per lane, so the loops vectorize.
-    let mut sum = [T::ZERO; J];
-    let mut least = s_var;
-    for l in 0..J {
-        sum[l] = s_var[l] + bank.b[l];
-    }
-    if has_bias {
-        for l in 0..J {
-            sum[l] += bank.pbb[l];
-            least[l] = least[l].min(bank.pbb[l]);
-        }
-    }
-    for i in 0..M {
-        let d = &bank.p[i][i];
-        for l in 0..J {
-            sum[l] += d[0][0][l] + d[1][1][l] + bank.z[i][0][l] + bank.z[i][1][l];
-            least[l] = least[l].min(d[0][0][l]).min(d[1][1][l]);
-        }
-    }
+    // Joint index outermost here: `healthy` inlines to selects, so the loop vectorizes.
     let mut bad = [false; J];
     let mut any_bad = false;
     for l in 0..J {
-        bad[l] = !(sum[l].is_finite() & (least[l] >= T::ZERO) & (s_var[l] > T::ZERO));
+        bad[l] = !healthy(has_bias, bank, l, s_var[l]);
         any_bad |= bad[l];
     }
     if any_bad {

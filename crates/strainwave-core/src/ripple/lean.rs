@@ -12,7 +12,7 @@
 
 use super::bank::RippleBank;
 use super::io::{OrderStatus, RippleInput, RippleOutput, StepFlags};
-use super::joint::{array, block_times, common_interval, finite, load_steps, sum_from};
+use super::joint::{array, block_times, common_interval, finite, healthy, load_steps, sum_from};
 use super::model::{PhaseSource, RippleModel};
 use super::plan::HOLD_AVERAGE;
 use super::trig::{phasor_power, sin_cos_small, wrap_angle};
@@ -231,18 +231,7 @@ pub(crate) fn step<T: Real, const M: usize>(
     }
 
     // Health check and outputs.
-    let mut sum = s_var + bank.b[0];
-    let mut least = s_var;
-    if has_bias {
-        sum += bank.pbb[0];
-        least = least.min(bank.pbb[0]);
-    }
-    for i in 0..M {
-        let d = &bank.p[i][i];
-        sum += d[0][0][0] + d[1][1][0] + bank.z[i][0][0] + bank.z[i][1][0];
-        least = least.min(d[0][0][0]).min(d[1][1][0]);
-    }
-    if !(finite(sum) & (least >= T::ZERO) & (s_var > T::ZERO)) {
+    if !healthy(has_bias, bank, 0, s_var) {
         bank.reset_lane(model, 0);
         flags.insert(StepFlags::COVARIANCE_RESET);
     }
