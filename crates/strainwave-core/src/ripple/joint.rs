@@ -54,7 +54,9 @@ pub(super) fn settle<T: Real, const M: usize, const J: usize, const BIAS: bool>(
 /// The load-step limit for the joints `steps`, after their (void, gain 0) update: the
 /// bias takes the innovation `e` and forgets its cross-covariance, and
 /// `Var(b) = R + h P_zz hᵀ`, `Cov(z, b) = −P_zz hᵀ` (see `kernel::innovation`).
-#[inline(never)]
+/// Inlined although rare: a call in the one-joint step costs registers saved and
+/// spilled on every sample (6-state f64, 34.0 → 32.6 ns in a plain timing loop).
+#[inline(always)]
 pub(super) fn load_steps<T: Real, const M: usize, const J: usize>(
     r_nm2: T,
     bank: &mut RippleBank<T, M, J>,
