@@ -9,9 +9,9 @@ use anyhow::{Context, Result};
 use strainwave_analysis::spectrum::amplitude_spectrum;
 use strainwave_analysis::stats::{max_abs, mean, rms};
 
-use crate::joint_config::JointConfig;
 use crate::report::html::{esc, table, Report, Section};
 use crate::report::plot::{LinePlot, Marker, Series};
+use strainwave_joint::JointConfig;
 
 /// Arguments of `report`.
 #[derive(clap::Args, Debug)]

@@ -1,4 +1,4 @@
-//! `strainwave filter --smooth`: the offline zero-phase smoother (forward filter plus
+//! The offline zero-phase smoother (forward filter plus
 //! Rauch–Tung–Striebel pass) over a whole recording, in constant memory.
 //!
 //! Three passes: the forward filter reads the recording once, keeping its state every
@@ -6,7 +6,7 @@
 //! takes the blocks from the last to the first (each filtered again from its state) and
 //! writes the smoothed values to another scratch file; the last pass writes the rows
 //! with their smoothed values in order. The scratch files go beside the output (or in
-//! the system's temporary folder for standard output). On Unix they are unlinked as
+//! the system's temporary folder when there is no output folder). On Unix they are unlinked as
 //! soon as they are open, so nothing is left behind even if the run is killed;
 //! elsewhere they are removed at the end, also on an error.
 
@@ -17,9 +17,9 @@ use std::path::{Path, PathBuf};
 use anyhow::{anyhow, bail, Context, Result};
 use strainwave_analysis::smoother::{CheckpointStore, CheckpointedSmoother, SmootherError};
 use strainwave_core::ripple::{ReferenceValues, RippleInput, RippleModel, RippleState};
-use strainwave_io::{RecordingReader, RecordingWriter};
 
-use crate::filter_rows::RowCheck;
+use crate::row_check::RowCheck;
+use crate::run::{FilterOptions, FilterSummary, RowSink, RowSource};
 
 /// Rows per block of the backward pass. Memory: one block of the smoother's records
 /// (about 2.3 kB per row for the full model, so about 10 MB), whatever the length; the
@@ -131,33 +131,27 @@ fn decode(v: &[f64]) -> RippleInput<f64> {
 }
 
 /// Runs the smoother over the whole recording and writes the smoothed columns.
-pub fn smooth<const M: usize>(
-    a: &crate::cmd_filter::Args,
+pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
+    opts: &FilterOptions,
     model: &RippleModel<f64, M>,
-    r: &mut RecordingReader,
-    columns: &[&str],
+    r: &mut S,
+    mut w: W,
     check: &mut RowCheck,
     input_and_time: impl Fn(&[f64]) -> (RippleInput<f64>, f64),
-) -> Result<()> {
-    let dir = match a.out.parent() {
-        _ if a.out.as_os_str() == "-" => std::env::temp_dir(),
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
+) -> Result<FilterSummary> {
+    let dir = opts.scratch_dir.clone().unwrap_or_else(std::env::temp_dir);
+    let input = opts.input_name.as_str();
     let width = r.columns().len();
     // Samples count from 0, data rows from 1.
     let smoother_error = |e: SmootherError| match e {
         SmootherError::Filter { index, source } => {
-            anyhow!("{}: data row {}: filter: {source}", a.input.display(), index + 1)
+            anyhow!("{}: data row {}: filter: {source}", input, index + 1)
         }
         SmootherError::NotPositiveDefinite { index } => {
-            anyhow!("{}: data row {}: smoother: prior covariance not positive definite", a.input.display(), index + 1)
+            anyhow!("{}: data row {}: smoother: prior covariance not positive definite", input, index + 1)
         }
-        e => anyhow!("{}: smoother: {e}", a.input.display()),
+        e => anyhow!("{}: smoother: {e}", input),
     };
-    // The output first, so that a bad output path fails before the passes (it appears
-    // under its name only when finished).
-    let mut w = RecordingWriter::create(&a.out, columns)?;
 
     // Forward: filter, keep a state per block and the rows (both on disk).
     let mut rows = Scratch::create(&dir, "rows", width + INPUT)?;
@@ -168,23 +162,23 @@ pub fn smooth<const M: usize>(
     let mut row = Vec::new();
     let (mut first_t, mut last_t): (Option<f64>, Option<f64>) = (None, None);
     while r.read_row(&mut row)? {
-        check.row(&row, r.rows_read(), 0).with_context(|| a.input.display().to_string())?;
-        let (mut input, t) = input_and_time(&row);
+        check.row(&row, r.rows_read(), 0).with_context(|| input.to_string())?;
+        let (mut sample, t) = input_and_time(&row);
         if let Some(t0) = last_t.filter(|t0| t.is_finite() && t > *t0) {
-            input = input.with_dt(t - t0);
+            sample = sample.with_dt(t - t0);
         }
         if t.is_finite() {
             first_t.get_or_insert(t);
             last_t = Some(t);
         }
-        let o = sm.push(&input).map_err(smoother_error)?;
+        let o = sm.push(&sample).map_err(smoother_error)?;
         check.flags(o.flags, r.rows_read());
-        put(&mut spool, &row).and_then(|()| put(&mut spool, &encode(&input))).with_context(|| rows.context())?;
+        put(&mut spool, &row).and_then(|()| put(&mut spool, &encode(&sample))).with_context(|| rows.context())?;
     }
     spool.flush().with_context(|| rows.context())?;
     drop(spool);
     if sm.is_empty() {
-        bail!("{}: no data rows", a.input.display());
+        bail!("{input}: no data rows");
     }
 
     // Backward, block by block from the last.
@@ -219,13 +213,7 @@ pub fn smooth<const M: usize>(
         w.write_row(&line)?;
         line.resize(width + INPUT, 0.0);
     }
-    let n = w.finish()?;
-    if !a.quiet {
-        eprintln!("smoothed {n} rows of {} -> {} (zero phase, offline)", a.input.display(), a.out.display());
-        let span = first_t.zip(last_t).map(|(t0, t1)| t1 - t0);
-        for w in check.warnings(&a.input.display().to_string(), n, span) {
-            eprintln!("warning: {w}");
-        }
-    }
-    Ok(())
+    let rows = w.finish()?;
+    let span = first_t.zip(last_t).map(|(t0, t1)| t1 - t0);
+    Ok(FilterSummary { rows, notes: Vec::new(), extrapolated: 0, warnings: check.warnings(input, rows, span) })
 }

@@ -1,5 +1,5 @@
-//! The joint configuration read by `filter` (TOML): the gear, the channel mapping,
-//! the calibration and the canceller settings. See the README for a complete example.
+//! The joint configuration (TOML): the gear, the channel mapping, the calibration and the
+//! canceller settings. `examples/joint-taghirad.toml` is a complete example.
 
 use std::path::{Path, PathBuf};
 
@@ -25,6 +25,9 @@ pub struct JointConfig {
     pub calibration: Option<CalibrationConfig>,
     /// Canceller settings.
     pub filter: FilterConfig,
+    /// The file it was read from, for messages (empty when built in code).
+    #[serde(skip)]
+    pub path: PathBuf,
 }
 
 /// `[gear]`.
@@ -129,6 +132,7 @@ impl JointConfig {
             });
             anyhow::anyhow!("{}: {at}{}", path.display(), e.message().trim().replace('\n', "; "))
         })?;
+        c.path = path.to_path_buf();
         if let Some(cal) = c.calibration.as_mut() {
             if let Some(f) = cal.file.as_mut() {
                 if f.is_relative() {

@@ -1,0 +1,17 @@
+//! A strain wave gear joint as the tools see it: the joint config file (gear, channels,
+//! calibration, canceller settings), the learned-coefficients file, and the canceller run
+//! over a whole recording (streaming, or the offline smoother).
+//!
+//! The command line, the Python package and the C model export all go through this crate,
+//! so that they read the same files the same way and give the same numbers. Its errors are
+//! the one-line, user-facing messages the command line prints (file, row, key).
+
+pub mod config;
+pub mod learned;
+pub mod row_check;
+pub mod run;
+pub mod smooth;
+
+pub use config::{JointConfig, MAX_TABLE_LEN};
+pub use learned::LearnedFile;
+pub use run::{filter_recording, FilterOptions, FilterSummary, OUTPUT_COLUMNS};

@@ -1,0 +1,383 @@
+//! The canceller over a whole recording: the joint config's model (with its learned
+//! coefficients), each row's channels through the calibration into the canceller, and the
+//! canceller's outputs appended to the row. Streaming in constant memory; `smooth` runs the
+//! offline smoother instead (see [`crate::smooth`]).
+//!
+//! The rows come from a [`RowSource`] and go to a [`RowSink`], so that a file, standard
+//! input/output or a caller's arrays (Python) all give the same numbers.
+
+use std::path::PathBuf;
+
+use anyhow::{anyhow, bail, Context, Result};
+use strainwave_core::ripple::{
+    step, Order, PhaseSource, Reference, ReferenceValues, RippleInput, RippleModel, RippleOutput, RippleState,
+};
+use strainwave_io::{BoundChannel, IoError, RecordingReader, RecordingWriter};
+
+use crate::config::{JointConfig, MAX_TABLE_LEN};
+use crate::learned::LearnedFile;
+use crate::row_check::RowCheck;
+
+/// Columns the filter adds.
+pub const OUTPUT_COLUMNS: &[&str] = &["torque", "ripple", "misalignment", "innovation", "nis", "filter_flags"];
+
+/// Rows in: a recording's columns and its rows one at a time.
+pub trait RowSource {
+    /// Column names, in row order.
+    fn columns(&self) -> &[String];
+    /// Reads the next row into `row`; `false` at the end.
+    fn read_row(&mut self, row: &mut Vec<f64>) -> Result<bool, IoError>;
+    /// Data rows read so far.
+    fn rows_read(&self) -> u64;
+}
+
+/// Rows out.
+pub trait RowSink {
+    /// Appends one row.
+    fn write_row(&mut self, row: &[f64]) -> Result<(), IoError>;
+    /// Pushes buffered rows out (standard output, so that a reader sees them early).
+    fn flush(&mut self) -> Result<(), IoError>;
+    /// Completes the output; the number of rows written.
+    fn finish(self) -> Result<u64, IoError>;
+}
+
+impl RowSource for RecordingReader {
+    fn columns(&self) -> &[String] {
+        RecordingReader::columns(self)
+    }
+    fn read_row(&mut self, row: &mut Vec<f64>) -> Result<bool, IoError> {
+        RecordingReader::read_row(self, row)
+    }
+    fn rows_read(&self) -> u64 {
+        RecordingReader::rows_read(self)
+    }
+}
+
+impl RowSink for RecordingWriter {
+    fn write_row(&mut self, row: &[f64]) -> Result<(), IoError> {
+        RecordingWriter::write_row(self, row)
+    }
+    fn flush(&mut self) -> Result<(), IoError> {
+        RecordingWriter::flush(self)
+    }
+    fn finish(self) -> Result<u64, IoError> {
+        RecordingWriter::finish(self)
+    }
+}
+
+/// How to run the canceller over a recording.
+#[derive(Debug, Clone, Default)]
+pub struct FilterOptions {
+    /// The input's name in messages (a path as the user wrote it, or `-`).
+    pub input_name: String,
+    /// Offline smoother (forward filter plus Rauch–Tung–Striebel pass) instead of the
+    /// real-time filter.
+    pub smooth: bool,
+    /// Learn the coefficients over this run and write them to this file.
+    pub learn: Option<PathBuf>,
+    /// Prefix of the added columns.
+    pub prefix: String,
+    /// Go on over bad rows (skipped by the canceller with a flag) instead of stopping.
+    pub lenient: bool,
+    /// The output is a stream seen as it is written (standard output): flushed by chunks,
+    /// and errors say how much was already written.
+    pub streaming_output: bool,
+    /// Folder for the smoother's scratch files (beside the output); `None`: the system's
+    /// temporary folder.
+    pub scratch_dir: Option<PathBuf>,
+}
+
+/// What a run did, for the caller to print.
+#[derive(Debug, Clone, Default)]
+pub struct FilterSummary {
+    /// Data rows written.
+    pub rows: u64,
+    /// Remarks before the run (how the model starts).
+    pub notes: Vec<String>,
+    /// Samples that used the calibration outside its speed range.
+    pub extrapolated: u64,
+    /// Warnings: skipped samples, time axis, sample rate.
+    pub warnings: Vec<String>,
+}
+
+/// Runs the canceller of `cfg` over `source`, writing each row with the added columns to
+/// the sink that `create` makes from the output column names. `progress` is called with
+/// the rows read every chunk.
+pub fn filter_recording<S: RowSource, W: RowSink>(
+    cfg: &JointConfig,
+    source: &mut S,
+    create: impl FnOnce(&[&str]) -> Result<W>,
+    opts: &FilterOptions,
+    progress: &mut dyn FnMut(u64),
+) -> Result<FilterSummary> {
+    let fs = cfg.filter.sample_rate_hz;
+    let config = cfg.path.display().to_string();
+    let phase = match cfg.filter.phase.as_str() {
+        "angle" => PhaseSource::Angle,
+        "velocity" => PhaseSource::Velocity,
+        other => bail!("{config}: `filter.phase` must be `angle` or `velocity`, got `{other}`"),
+    };
+    let core = |e: strainwave_core::Error| anyhow!("{config}: filter: {e}");
+    let noise = |model: &str| {
+        cfg.filter.noise_nm.with_context(|| format!("{config}: `filter.noise_nm` is needed by the {model} model"))
+    };
+    let mut notes = Vec::new();
+    let run = Run { cfg, opts };
+    let mut summary = match cfg.filter.model.as_str() {
+        "full" => {
+            let noise = noise("full")?;
+            // Learning (commissioning, or no learned file yet) or operating from learned priors.
+            let m = match (&opts.learn, &cfg.filter.learned) {
+                (None, Some(_)) => RippleModel::<f64, 5>::full(fs, noise),
+                _ => RippleModel::<f64, 5>::full_commissioning(fs, noise),
+            }
+            .map_err(core)?
+            .with_phase_source(phase);
+            if opts.learn.is_none() && cfg.filter.learned.is_none() {
+                notes.push(format!(
+                    "{config}: no `filter.learned` file, so the full model learns from zero in this run; \
+                     the misalignment needs several output revolutions (see `filter --learn`)"
+                ));
+            }
+            run.stream(&m, source, create, progress)?
+        }
+        "product" => {
+            let m = RippleModel::<f64, 3>::product(fs, noise("product")?).map_err(core)?.with_phase_source(phase);
+            run.stream(&m, source, create, progress)?
+        }
+        "seed-4th-order" => {
+            let m = RippleModel::<f64, 2>::seed_4th_order(fs).map_err(core)?.with_phase_source(phase);
+            run.stream(&m, source, create, progress)?
+        }
+        "seed-6th-order" => {
+            let m = RippleModel::<f64, 3>::seed_6th_order(fs).map_err(core)?.with_phase_source(phase);
+            run.stream(&m, source, create, progress)?
+        }
+        "orders" => {
+            let orders: Vec<Order<f64>> = cfg
+                .filter
+                .orders
+                .iter()
+                .map(|o| -> Result<Order<f64>> {
+                    let reference = reference(&o.reference).with_context(|| format!("config {config}"))?;
+                    Order::new(reference, o.multiple)
+                        .and_then(|x| x.with_noise(o.q_per_sample_nm2, o.q_per_rad_nm2))
+                        .map_err(core)
+                })
+                .collect::<Result<_>>()?;
+            let r =
+                cfg.filter.r_nm2.with_context(|| format!("{config}: `filter.r_nm2` is needed by the orders model"))?;
+            macro_rules! with_m {
+                ($($m:literal)*) => {
+                    match orders.len() {
+                        $($m => {
+                            let arr: [Order<f64>; $m] = orders.clone().try_into().map_err(|_| anyhow!("orders"))?;
+                            let mut model = RippleModel::new(arr, r, fs).map_err(core)?.with_phase_source(phase);
+                            if let Some(q) = cfg.filter.bias_q_nm2 {
+                                model = model.with_bias_state(q).map_err(core)?;
+                            }
+                            run.stream(&model, source, create, progress)?
+                        })*
+                        n => bail!("{config}: `filter.orders` needs 1 to 8 orders, got {n}"),
+                    }
+                };
+            }
+            with_m!(1 2 3 4 5 6 7 8)
+        }
+        other => bail!(
+            "{config}: `filter.model` must be full, product, seed-4th-order, seed-6th-order or orders, got `{other}`"
+        ),
+    };
+    notes.append(&mut summary.notes);
+    summary.notes = notes;
+    Ok(summary)
+}
+
+fn reference(name: &str) -> Result<Reference> {
+    Ok(match name {
+        "relative" => Reference::Relative,
+        "output" => Reference::Output,
+        "motor" => Reference::Motor,
+        other => bail!("`filter.orders.reference` must be relative, output or motor, got `{other}`"),
+    })
+}
+
+/// The channels bound to the input's columns.
+pub(crate) struct Bound {
+    pub(crate) time: BoundChannel,
+    torque: BoundChannel,
+    motor_angle: Option<BoundChannel>,
+    output_angle: Option<BoundChannel>,
+    motor_velocity: Option<BoundChannel>,
+    expected: Option<BoundChannel>,
+}
+
+fn bind(cfg: &JointConfig, columns: &[String], input: &str) -> Result<Bound> {
+    let b = |c: &strainwave_io::Channel, key: &str| -> Result<BoundChannel> {
+        let name = c.column_name();
+        let index = columns.iter().position(|x| x == name).ok_or_else(|| {
+            anyhow!("{input}: no column `{name}` (columns: {}) (channel `channels.{key}`)", columns.join(", "))
+        })?;
+        let (scale, offset) = c.scale_offset();
+        if !(scale.is_finite() && scale != 0.0 && offset.is_finite()) {
+            bail!("{}: `channels.{key}`: scale must be finite and non-zero, offset finite", cfg.path.display());
+        }
+        Ok(BoundChannel { index, scale, offset })
+    };
+    let opt = |c: &Option<strainwave_io::Channel>, key: &str| c.as_ref().map(|c| b(c, key)).transpose();
+    let ch = &cfg.channels;
+    Ok(Bound {
+        time: b(&ch.time, "time")?,
+        torque: b(&ch.torque, "torque")?,
+        motor_angle: opt(&ch.motor_angle, "motor_angle")?,
+        output_angle: opt(&ch.output_angle, "output_angle")?,
+        motor_velocity: opt(&ch.motor_velocity, "motor_velocity")?,
+        expected: opt(&ch.expected_torque, "expected_torque")?,
+    })
+}
+
+impl Bound {
+    /// The row check over every channel the canceller reads.
+    fn check(&self, cfg: &JointConfig, opts: &FilterOptions, columns: &[String]) -> RowCheck {
+        let channels = [
+            ("torque", Some(self.torque)),
+            ("motor_angle", self.motor_angle),
+            ("output_angle", self.output_angle),
+            ("motor_velocity", self.motor_velocity),
+            ("expected_torque", self.expected),
+        ];
+        RowCheck::new(&channels, self.time, columns, cfg.filter.sample_rate_hz, opts.lenient, opts.streaming_output)
+    }
+
+    /// The canceller's input for one row; `true` when the calibration extrapolated.
+    pub(crate) fn input(
+        &self,
+        gear: &strainwave_core::gear::Gear<f64>,
+        cal: &strainwave_core::calibration::Calibration<f64, MAX_TABLE_LEN>,
+        row: &[f64],
+        velocity: bool,
+    ) -> (RippleInput<f64>, bool) {
+        let speed = self.motor_velocity.map_or(0.0, |c| c.get(row));
+        let (torque, extrapolated) = match cal.apply_flagged(self.torque.get(row), speed) {
+            Ok(a) => (a.torque_nm, a.extrapolated),
+            // A non-finite sample or a speed the policy rejects: the filter skips it.
+            Err(_) => (f64::NAN, false),
+        };
+        let refs = if velocity {
+            let w = speed;
+            ReferenceValues::new(w * gear.relative_rate_rigid(1.0), gear.output_angle(w), w)
+        } else {
+            let (m, o) =
+                (self.motor_angle.map_or(f64::NAN, |c| c.get(row)), self.output_angle.map_or(f64::NAN, |c| c.get(row)));
+            ReferenceValues::from_gear(gear, m, o)
+        };
+        let mut input = RippleInput::new(torque, refs);
+        if let Some(e) = self.expected {
+            input = input.with_expected_torque(e.get(row));
+        }
+        (input, extrapolated)
+    }
+}
+
+/// One run's settings, shared by every model size.
+struct Run<'a> {
+    cfg: &'a JointConfig,
+    opts: &'a FilterOptions,
+}
+
+impl Run<'_> {
+    fn stream<const M: usize, S: RowSource, W: RowSink>(
+        &self,
+        model: &RippleModel<f64, M>,
+        r: &mut S,
+        create: impl FnOnce(&[&str]) -> Result<W>,
+        progress: &mut dyn FnMut(u64),
+    ) -> Result<FilterSummary> {
+        let (cfg, opts) = (self.cfg, self.opts);
+        let config = cfg.path.display().to_string();
+        let input = opts.input_name.as_str();
+        let learned_model;
+        let model = match (&cfg.filter.learned, &opts.learn) {
+            (Some(path), None) => {
+                let field = || format!("{config}: `filter.learned`");
+                learned_model = LearnedFile::load(path).with_context(field)?.apply(*model, path).with_context(field)?;
+                &learned_model
+            }
+            _ => model,
+        };
+        let gear = cfg.gear().with_context(|| config.clone())?;
+        let cal = cfg.calibration().with_context(|| config.clone())?;
+        let ch = bind(cfg, r.columns(), input)?;
+        let velocity = model.phase_source() == PhaseSource::Velocity;
+        if velocity && ch.motor_velocity.is_none() {
+            bail!("{config}: `filter.phase = \"velocity\"` needs `channels.motor_velocity`");
+        }
+        if !velocity && (ch.motor_angle.is_none() || ch.output_angle.is_none()) {
+            bail!("{config}: the angle phase needs `channels.motor_angle` and `channels.output_angle`");
+        }
+        let mut columns: Vec<String> = r.columns().to_vec();
+        for c in OUTPUT_COLUMNS {
+            let name = format!("{}{c}", opts.prefix);
+            if columns.contains(&name) {
+                bail!("{input}: already has a column `{name}`; choose --prefix");
+            }
+            columns.push(name);
+        }
+        let refs: Vec<&str> = columns.iter().map(String::as_str).collect();
+        let mut check = ch.check(cfg, opts, r.columns());
+        if opts.smooth {
+            let w = create(&refs)?;
+            return crate::smooth::smooth(opts, model, r, w, &mut check, |row| {
+                (ch.input(&gear, &cal, row, velocity).0, ch.time.get(row))
+            });
+        }
+        let mut w = create(&refs)?;
+        let mut state = RippleState::new(model);
+        let mut row = Vec::with_capacity(columns.len());
+        let mut last_t: Option<f64> = None;
+        let mut first_t: Option<f64> = None;
+        let mut extrapolated = 0u64;
+        while r.read_row(&mut row)? {
+            let n = r.rows_read();
+            check.row(&row, n, n - 1).with_context(|| input.to_string())?;
+            let t = ch.time.get(&row);
+            let (mut sample, extra) = ch.input(&gear, &cal, &row, velocity);
+            extrapolated += u64::from(extra);
+            if let Some(t0) = last_t.filter(|t0| t.is_finite() && t > *t0) {
+                sample = sample.with_dt(t - t0);
+            }
+            if t.is_finite() {
+                first_t.get_or_insert(t);
+                last_t = Some(t);
+            }
+            let o: RippleOutput<f64> =
+                step(model, &mut state, &sample).map_err(|e| anyhow!("{input}: data row {n}: filter: {e}"))?;
+            check.flags(o.flags, n);
+            row.extend_from_slice(&[
+                o.torque_nm,
+                o.ripple_nm,
+                o.misalignment_nm,
+                o.innovation_nm,
+                o.nis,
+                o.flags.bits() as f64,
+            ]);
+            w.write_row(&row)?;
+            if n % strainwave_io::DEFAULT_CHUNK_ROWS as u64 == 0 {
+                if opts.streaming_output {
+                    w.flush()?;
+                }
+                progress(n);
+            }
+        }
+        if r.rows_read() == 0 {
+            bail!("{input}: no data rows");
+        }
+        let rows = w.finish()?;
+        if let Some(path) = &opts.learn {
+            let file = LearnedFile::from_state(model, &state);
+            file.save(path, &format!("learned by strainwave filter from {input} ({rows} rows)"))?;
+        }
+        let span = first_t.zip(last_t).map(|(t0, t1)| t1 - t0);
+        Ok(FilterSummary { rows, notes: Vec::new(), extrapolated, warnings: check.warnings(input, rows, span) })
+    }
+}
