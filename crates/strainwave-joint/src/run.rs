@@ -362,7 +362,7 @@ impl Run<'_> {
                 o.flags.bits() as f64,
             ]);
             w.write_row(&row)?;
-            if n % strainwave_io::DEFAULT_CHUNK_ROWS as u64 == 0 {
+            if n.is_multiple_of(strainwave_io::DEFAULT_CHUNK_ROWS as u64) {
                 if opts.streaming_output {
                     w.flush()?;
                 }
