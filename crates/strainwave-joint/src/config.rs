@@ -36,8 +36,80 @@ pub struct JointConfig {
 pub struct GearConfig {
     /// Ratio `N`.
     pub ratio: f64,
-    /// `circular_spline` or `flexspline`.
-    pub fixed: String,
+    /// The fixed element.
+    pub fixed: Fixed,
+}
+
+/// `gear.fixed`: which element is fixed (the other one is the output).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Fixed {
+    /// Circular spline fixed, flexspline output (the usual robot joint).
+    #[serde(alias = "circular-spline")]
+    CircularSpline,
+    /// Flexspline fixed, circular spline output.
+    Flexspline,
+}
+
+impl From<Fixed> for FixedElement {
+    fn from(f: Fixed) -> Self {
+        match f {
+            Fixed::CircularSpline => FixedElement::CircularSpline,
+            Fixed::Flexspline => FixedElement::Flexspline,
+        }
+    }
+}
+
+/// `filter.model`: which canceller model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ModelChoice {
+    /// 2× and 4× relative, the same load-scaled, 1× output misalignment, torque random walk.
+    #[default]
+    Full,
+    /// 2× and 4× relative and 1× output with a torque random walk, no learned file.
+    Product,
+    /// The two ripple lines of Taghirad and Bélanger (1999).
+    #[serde(rename = "taghirad-4th-order", alias = "seed-4th-order")]
+    Taghirad4thOrder,
+    /// The two ripple lines plus the misalignment line of Taghirad and Bélanger (1999).
+    #[serde(rename = "taghirad-6th-order", alias = "seed-6th-order")]
+    Taghirad6thOrder,
+    /// Orders listed in `filter.orders`.
+    Orders,
+}
+
+/// `filter.phase`: where the oscillators' phase comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PhaseChoice {
+    /// Motor and output encoders.
+    #[default]
+    Angle,
+    /// The tachometer alone (the angles are integrated).
+    Velocity,
+}
+
+/// `filter.orders.reference`: the angle an order is a multiple of.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ReferenceChoice {
+    /// The relative wave generator–flexspline angle (meshing ripple).
+    Relative,
+    /// The output angle (misalignment).
+    Output,
+    /// The motor angle.
+    Motor,
+}
+
+impl From<ReferenceChoice> for strainwave_core::ripple::Reference {
+    fn from(r: ReferenceChoice) -> Self {
+        match r {
+            ReferenceChoice::Relative => Self::Relative,
+            ReferenceChoice::Output => Self::Output,
+            ReferenceChoice::Motor => Self::Motor,
+        }
+    }
 }
 
 /// `[channels]`.
@@ -72,20 +144,22 @@ pub struct CalibrationConfig {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FilterConfig {
-    /// `full` (default), `product`, `seed-4th-order`, `seed-6th-order` or `orders`.
-    #[serde(default = "default_model")]
-    pub model: String,
+    /// The canceller model.
+    #[serde(default)]
+    pub model: ModelChoice,
     /// Nominal sample rate, Hz.
     pub sample_rate_hz: f64,
-    /// Product model: white noise of the torque signal, N·m (1σ).
+    /// White noise of the calibrated torque signal, N·m (1σ): the measurement noise of
+    /// every model that has one.
     pub noise_nm: Option<f64>,
-    /// `angle` (encoders; default) or `velocity` (tachometer only).
-    #[serde(default = "default_phase")]
-    pub phase: String,
+    /// Where the phase comes from.
+    #[serde(default)]
+    pub phase: PhaseChoice,
     /// `orders` model: the oscillators.
     #[serde(default)]
     pub orders: Vec<OrderConfig>,
-    /// `orders` model: measurement noise variance, N·m².
+    /// `orders` model, older spelling of the measurement noise as a variance, N·m²
+    /// (`noise_nm` squared); `noise_nm` is the one to write.
     pub r_nm2: Option<f64>,
     /// `orders` model: torque/bias random-walk variance per sample, N·m² (absent: no bias state).
     pub bias_q_nm2: Option<f64>,
@@ -94,20 +168,12 @@ pub struct FilterConfig {
     pub learned: Option<PathBuf>,
 }
 
-fn default_model() -> String {
-    "full".into()
-}
-
-fn default_phase() -> String {
-    "angle".into()
-}
-
 /// One oscillator of an `orders` model.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct OrderConfig {
-    /// `relative`, `output` or `motor`.
-    pub reference: String,
+    /// The angle the order is a multiple of.
+    pub reference: ReferenceChoice,
     /// Multiple of the reference angle.
     pub multiple: f64,
     /// Process noise per sample, N·m².
@@ -122,16 +188,7 @@ impl JointConfig {
     /// Reads and checks a config file.
     pub fn load(path: &Path) -> Result<Self> {
         let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
-        let mut c: Self = toml::from_str(&text).map_err(|e| {
-            // Line and column of the offending text, on one line.
-            let at = e.span().map_or(String::new(), |s| {
-                let before = text.get(..s.start).unwrap_or(&text);
-                let line = before.matches('\n').count() + 1;
-                let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
-                format!("line {line}, column {column}: ")
-            });
-            anyhow::anyhow!("{}: {at}{}", path.display(), e.message().trim().replace('\n', "; "))
-        })?;
+        let mut c: Self = toml::from_str(&text).map_err(|e| crate::toml_error::one_line(path, &text, &e))?;
         c.path = path.to_path_buf();
         if let Some(cal) = c.calibration.as_mut() {
             if let Some(f) = cal.file.as_mut() {
@@ -154,13 +211,21 @@ impl JointConfig {
 
     /// The gear; errors name `gear.ratio` / `gear.fixed`.
     pub fn gear(&self) -> Result<Gear<f64>> {
-        let fixed = match self.gear.fixed.as_str() {
-            "circular_spline" => FixedElement::CircularSpline,
-            "flexspline" => FixedElement::Flexspline,
-            other => bail!("`gear.fixed` must be `circular_spline` or `flexspline`, got `{other}`"),
-        };
-        Gear::new(self.gear.ratio, fixed)
+        Gear::new(self.gear.ratio, self.gear.fixed.into())
             .map_err(|_| anyhow::anyhow!("`gear.ratio` must be positive, got {}", self.gear.ratio))
+    }
+
+    /// The measurement noise variance of the `orders` model, N·m²: `noise_nm` squared, or
+    /// the older `r_nm2`; errors name the key the user wrote.
+    pub fn orders_noise_variance_nm2(&self) -> Result<f64> {
+        match (self.filter.noise_nm, self.filter.r_nm2) {
+            (Some(_), Some(_)) => bail!("`filter.noise_nm` and `filter.r_nm2` say the same thing; keep `noise_nm`"),
+            (Some(n), None) if n.is_finite() && n > 0.0 => Ok(n * n),
+            (Some(n), None) => bail!("`filter.noise_nm` must be positive, got {n}"),
+            (None, Some(r)) if r.is_finite() && r > 0.0 => Ok(r),
+            (None, Some(r)) => bail!("`filter.r_nm2` must be positive, got {r}"),
+            (None, None) => bail!("`filter.noise_nm` is needed by the orders model"),
+        }
     }
 
     /// The calibration to apply to the torque channel (identity when absent).
@@ -174,5 +239,47 @@ impl JointConfig {
             }
             _ => bail!("`[calibration]` needs exactly one of `gain_nm_per_v` and `file`"),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const BASE: &str = "[gear]\nratio = 100.0\nfixed = \"circular_spline\"\n[channels]\ntime = \"time\"\n\
+        torque = \"t\"\n[filter]\nmodel = \"orders\"\nsample_rate_hz = 1000.0\nnoise_nm = 0.02\n";
+
+    fn load(text: &str) -> Result<JointConfig> {
+        let path = std::env::temp_dir().join(format!("sw-joint-config-{}-{}.toml", std::process::id(), text.len()));
+        std::fs::write(&path, text)?;
+        let c = JointConfig::load(&path);
+        std::fs::remove_file(&path)?;
+        c
+    }
+
+    #[test]
+    fn unknown_choice_lists_the_accepted_ones() {
+        let err = load(&BASE.replace("\"orders\"", "\"magic\"")).unwrap_err().to_string();
+        assert!(err.contains("`filter.model`") && err.contains("taghirad-6th-order"), "{err}");
+        let err = load(&BASE.replace("\"circular_spline\"", "\"ring\"")).unwrap_err().to_string();
+        assert!(err.contains("`gear.fixed`") && err.contains("flexspline"), "{err}");
+    }
+
+    #[test]
+    fn older_spellings_are_aliases() {
+        let c = load(&BASE.replace("\"circular_spline\"", "\"circular-spline\"")).unwrap();
+        assert_eq!(c.gear.fixed, Fixed::CircularSpline);
+        let c = load(&BASE.replace("\"orders\"", "\"seed-6th-order\"")).unwrap();
+        assert_eq!(c.filter.model, ModelChoice::Taghirad6thOrder);
+    }
+
+    #[test]
+    fn one_name_for_the_measurement_noise() {
+        let c = load(BASE).unwrap();
+        assert!((c.orders_noise_variance_nm2().unwrap() - 4e-4).abs() < 1e-18);
+        let c = load(&BASE.replace("noise_nm = 0.02", "r_nm2 = 4e-4")).unwrap();
+        assert_eq!(c.orders_noise_variance_nm2().unwrap(), 4e-4);
+        let c = load(&BASE.replace("noise_nm = 0.02", "noise_nm = 0.02\nr_nm2 = 4e-4")).unwrap();
+        assert!(c.orders_noise_variance_nm2().unwrap_err().to_string().contains("keep `noise_nm`"));
     }
 }

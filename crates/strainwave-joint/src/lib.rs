@@ -11,6 +11,7 @@ pub mod learned;
 pub mod row_check;
 pub mod run;
 pub mod smooth;
+pub mod toml_error;
 
 pub use config::{JointConfig, MAX_TABLE_LEN};
 pub use learned::LearnedFile;

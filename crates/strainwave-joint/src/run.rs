@@ -10,11 +10,11 @@ use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Context, Result};
 use strainwave_core::ripple::{
-    step, Order, PhaseSource, Reference, ReferenceValues, RippleInput, RippleModel, RippleOutput, RippleState,
+    step, Order, PhaseSource, ReferenceValues, RippleInput, RippleModel, RippleOutput, RippleState,
 };
 use strainwave_io::{BoundChannel, IoError, RecordingReader, RecordingWriter};
 
-use crate::config::{JointConfig, MAX_TABLE_LEN};
+use crate::config::{JointConfig, ModelChoice, PhaseChoice, MAX_TABLE_LEN};
 use crate::learned::LearnedFile;
 use crate::row_check::RowCheck;
 
@@ -112,10 +112,9 @@ pub fn filter_recording<S: RowSource, W: RowSink>(
 ) -> Result<FilterSummary> {
     let fs = cfg.filter.sample_rate_hz;
     let config = cfg.path.display().to_string();
-    let phase = match cfg.filter.phase.as_str() {
-        "angle" => PhaseSource::Angle,
-        "velocity" => PhaseSource::Velocity,
-        other => bail!("{config}: `filter.phase` must be `angle` or `velocity`, got `{other}`"),
+    let phase = match cfg.filter.phase {
+        PhaseChoice::Angle => PhaseSource::Angle,
+        PhaseChoice::Velocity => PhaseSource::Velocity,
     };
     let core = |e: strainwave_core::Error| anyhow!("{config}: filter: {e}");
     let noise = |model: &str| {
@@ -123,8 +122,8 @@ pub fn filter_recording<S: RowSource, W: RowSink>(
     };
     let mut notes = Vec::new();
     let run = Run { cfg, opts };
-    let mut summary = match cfg.filter.model.as_str() {
-        "full" => {
+    let mut summary = match cfg.filter.model {
+        ModelChoice::Full => {
             let noise = noise("full")?;
             // Learning (commissioning, or no learned file yet) or operating from learned priors.
             let m = match (&opts.learn, &cfg.filter.learned) {
@@ -141,26 +140,25 @@ pub fn filter_recording<S: RowSource, W: RowSink>(
             }
             run.stream(&m, source, create, progress)?
         }
-        "product" => {
+        ModelChoice::Product => {
             let m = RippleModel::<f64, 3>::product(fs, noise("product")?).map_err(core)?.with_phase_source(phase);
             run.stream(&m, source, create, progress)?
         }
-        "seed-4th-order" => {
+        ModelChoice::Taghirad4thOrder => {
             let m = RippleModel::<f64, 2>::seed_4th_order(fs).map_err(core)?.with_phase_source(phase);
             run.stream(&m, source, create, progress)?
         }
-        "seed-6th-order" => {
+        ModelChoice::Taghirad6thOrder => {
             let m = RippleModel::<f64, 3>::seed_6th_order(fs).map_err(core)?.with_phase_source(phase);
             run.stream(&m, source, create, progress)?
         }
-        "orders" => {
+        ModelChoice::Orders => {
             let orders: Vec<Order<f64>> = cfg
                 .filter
                 .orders
                 .iter()
                 .map(|o| -> Result<Order<f64>> {
-                    let reference = reference(&o.reference).with_context(|| format!("config {config}"))?;
-                    Order::new(reference, o.multiple)
+                    Order::new(o.reference.into(), o.multiple)
                         .and_then(|x| x.with_noise(o.q_per_sample_nm2, o.q_per_rad_nm2))
                         .map_err(core)
                 })
@@ -184,22 +182,10 @@ pub fn filter_recording<S: RowSource, W: RowSink>(
             }
             with_m!(1 2 3 4 5 6 7 8)
         }
-        other => bail!(
-            "{config}: `filter.model` must be full, product, seed-4th-order, seed-6th-order or orders, got `{other}`"
-        ),
     };
     notes.append(&mut summary.notes);
     summary.notes = notes;
     Ok(summary)
-}
-
-fn reference(name: &str) -> Result<Reference> {
-    Ok(match name {
-        "relative" => Reference::Relative,
-        "output" => Reference::Output,
-        "motor" => Reference::Motor,
-        other => bail!("`filter.orders.reference` must be relative, output or motor, got `{other}`"),
-    })
 }
 
 /// The channels bound to the input's columns.

@@ -1,0 +1,71 @@
+//! A TOML error on one line: the file, the line and column, the key as the user wrote it
+//! (`filter.model`), and the parser's message.
+
+use std::path::Path;
+
+/// `path: line L, column C: key `K`: message` for an error of `toml::from_str` over `text`.
+pub fn one_line(path: &Path, text: &str, e: &toml::de::Error) -> anyhow::Error {
+    let message = e.message().trim().replace('\n', "; ");
+    let Some(span) = e.span() else {
+        return anyhow::anyhow!("{}: {message}", path.display());
+    };
+    let before = text.get(..span.start).unwrap_or(text);
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    let key = key_at(before).map_or(String::new(), |k| format!("`{k}`: "));
+    anyhow::anyhow!("{}: line {line}, column {column}: {key}{message}", path.display())
+}
+
+/// The dotted key whose value starts at the end of `before`: the table header above it
+/// joined with the key on its own line, when the line is a plain `key = value`.
+fn key_at(before: &str) -> Option<String> {
+    let mut lines = before.rsplit('\n');
+    let current = lines.next()?;
+    let (key, _) = current.split_once('=')?;
+    let key = key.trim().trim_matches('"');
+    if key.is_empty() || key.contains(['[', '{', ',']) {
+        return None;
+    }
+    let table = lines
+        .map(str::trim)
+        .find(|l| l.starts_with('[') && !l.starts_with("[["))
+        .map(|l| l.trim_start_matches('[').split(']').next().unwrap_or("").trim().to_string());
+    Some(match table {
+        Some(t) if !t.is_empty() => format!("{t}.{key}"),
+        _ => key.to_string(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(Debug, serde::Deserialize)]
+    #[allow(dead_code)]
+    struct F {
+        filter: G,
+    }
+    #[derive(Debug, serde::Deserialize)]
+    #[allow(dead_code)]
+    struct G {
+        model: u32,
+    }
+
+    #[test]
+    fn names_file_line_and_key() {
+        let text = "# c\n[filter]\nmodel = \"x\"\n";
+        let e = toml::from_str::<F>(text).unwrap_err();
+        let msg = one_line(Path::new("j.toml"), text, &e).to_string();
+        assert!(msg.starts_with("j.toml: line 3, column 9: `filter.model`: "), "{msg}");
+        assert!(!msg.contains('\n'));
+    }
+
+    #[test]
+    fn no_key_for_a_table_error() {
+        let text = "[filter]\n";
+        let e = toml::from_str::<F>(text).unwrap_err();
+        let msg = one_line(Path::new("j.toml"), text, &e).to_string();
+        assert!(msg.starts_with("j.toml: "), "{msg}");
+        assert!(msg.contains("model"), "{msg}");
+    }
+}
