@@ -35,7 +35,9 @@ use crate::error::{finite, positive, Error};
 use crate::iir::{Biquad, BiquadState, Complex};
 use crate::Real;
 
+mod online;
 mod sensors;
+pub use online::{OnlineCorrectedFusion, OnlineCorrectionConfig, OnlineFusionState};
 pub use sensors::{kit, AccelerometerModel, AccelerometerModelFull, AccelerometerPair, TorsionShaftModel};
 
 /// Shape of the complementary pair.
