@@ -35,7 +35,7 @@ pub struct Args {
     #[arg(long)]
     pub out: PathBuf,
     /// online-corrected (streamed, each path corrected by its bench model; needs
-    /// `[model]`), complementary (streamed, the plain HOKA filter), spectral (seed's
+    /// `[model]`), complementary (streamed, the plain HOKA filter), spectral (the paper's
     /// offline combination) or corrected (offline, FIR-corrected paths; needs `[model]`).
     #[arg(
         long,

@@ -145,7 +145,7 @@ fn pole_radius<T: Real>(q: &Biquad<T>) -> f64 {
 }
 
 impl<T: Real> OnlineCorrectedFusion<T> {
-    /// Designs the fusion from the torsion-shaft model (`Γ` as in seed eq. 1, the shaft
+    /// Designs the fusion from the torsion-shaft model (`Γ` as in `G_TS`, the shaft
     /// sees `2Γ`), the housing model and `cfg`. Errors: `crossover_hz` not in
     /// `(0, 0.45 fs)` → `OutOfRange("crossover_hz")`; a negative `static_corner_hz`.
     ///
