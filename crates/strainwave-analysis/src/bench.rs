@@ -4,6 +4,9 @@
 //!
 //! - [`complementary`]: the online HOKA fusion of [`strainwave_core::fusion`] run over a
 //!   record (`T = LP(T_TS) + HP(T_acc)`, filter phase included).
+//! - [`online_corrected`]: the online model-corrected fusion of
+//!   [`strainwave_core::fusion::OnlineCorrectedFusion`] run over a record (each path times
+//!   the inverse of its bench model inside a fourth-order complementary pair).
 //! - [`spectral_combination`]: the seed's post-processing: one FFT of each whole record,
 //!   torsion bins below the crossover, accelerometer bins from it up, one inverse FFT.
 //! - [`CorrectedFusion`]: beyond the seed (its future work). Each path is corrected by the
@@ -23,7 +26,7 @@
 
 use realfft::num_complex::Complex;
 use realfft::RealFftPlanner;
-use strainwave_core::fusion::ComplementaryFusion;
+use strainwave_core::fusion::{ComplementaryFusion, OnlineCorrectedFusion};
 use strainwave_core::iir::Complex as CoreComplex;
 
 use crate::error::AnalysisError;
@@ -52,7 +55,7 @@ fn same_length(torsion: &[f64], accel: &[f64]) -> Result<(), AnalysisError> {
 ///
 /// ```
 /// use strainwave_analysis::bench::complementary;
-/// use strainwave_core::fusion::ComplementaryFusion;
+/// use strainwave_core::fusion::{ComplementaryFusion, OnlineCorrectedFusion};
 /// let f = ComplementaryFusion::kit(20_000.0).unwrap();
 /// let y = complementary(&[0.1; 100], &[0.0; 100], &f).unwrap();
 /// assert!(y.iter().all(|v| (v - 0.1).abs() < 1e-9));
@@ -61,6 +64,26 @@ pub fn complementary(
     torsion: &[f64],
     accel: &[f64],
     fusion: &ComplementaryFusion<f64>,
+) -> Result<Vec<f64>, AnalysisError> {
+    same_length(torsion, accel)?;
+    let mut st = fusion.settled_state(torsion[0], accel[0]);
+    Ok(torsion.iter().zip(accel).map(|(t, a)| fusion.step(&mut st, *t, *a)).collect())
+}
+
+/// The online model-corrected fusion over a record, started settled on the first samples.
+///
+/// ```
+/// use strainwave_analysis::bench::online_corrected;
+/// use strainwave_core::fusion::{AccelerometerModel, OnlineCorrectedFusion, OnlineCorrectionConfig, TorsionShaftModel};
+/// let f = OnlineCorrectedFusion::new(&TorsionShaftModel::kit(), &AccelerometerModel::kit(),
+///     &OnlineCorrectionConfig::kit(), 20_000.0).unwrap();
+/// let y = online_corrected(&[0.1; 100], &[0.0; 100], &f).unwrap();
+/// assert!(y.iter().all(|v| (v - 0.1).abs() < 1e-9));
+/// ```
+pub fn online_corrected(
+    torsion: &[f64],
+    accel: &[f64],
+    fusion: &OnlineCorrectedFusion<f64>,
 ) -> Result<Vec<f64>, AnalysisError> {
     same_length(torsion, accel)?;
     let mut st = fusion.settled_state(torsion[0], accel[0]);
@@ -283,25 +306,44 @@ pub fn path_response(frf: &Frf, lo_hz: f64, hi_hz: f64, min_coherence: f64) -> R
     SampledResponse::new(bins.iter().map(|&k| frf.freqs_hz[k]).collect(), bins.iter().map(|&k| frf.h1[k]).collect())
 }
 
-/// Worst deviation of a measured response from 1 (0 dB, 0°) over a band.
+/// Worst deviation of a measured response from 1 (0 dB, 0°) over a band, after removing
+/// a constant delay `τ`: the phase is that of `H(f) e^{j 2π f τ}`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ResponseError {
     /// Largest `|20 log10 |H||`, dB.
     pub max_gain_db: f64,
     /// Frequency of it, Hz.
     pub worst_gain_hz: f64,
-    /// Largest `|arg H|`, degrees.
+    /// Largest `|arg H e^{j2πfτ}|`, degrees.
     pub max_phase_deg: f64,
     /// Frequency of it, Hz.
     pub worst_phase_hz: f64,
     /// Bins checked.
     pub bins: usize,
+    /// The delay `τ` removed, s (0 for [`ResponseError::of`]).
+    pub delay_s: f64,
 }
 
+/// Steps of the coarse delay grid of [`ResponseError::with_best_delay`].
+const DELAY_GRID: usize = 400;
+/// Coarse grid points refined, and steps of each refinement.
+const DELAY_REFINE: (usize, usize) = (3, 80);
+
 impl ResponseError {
-    /// Over the bins of `frf` in `lo_hz ≤ f ≤ hi_hz` with coherence ≥ `min_coherence`;
-    /// `TooShort` when none qualifies.
+    /// Over the bins of `frf` in `lo_hz ≤ f ≤ hi_hz` with coherence ≥ `min_coherence`, no
+    /// delay removed; `TooShort` when none qualifies.
     pub fn of(frf: &Frf, lo_hz: f64, hi_hz: f64, min_coherence: f64) -> Result<Self, AnalysisError> {
+        Self::with_delay(frf, lo_hz, hi_hz, min_coherence, 0.0)
+    }
+
+    /// As [`ResponseError::of`] with the delay `delay_s` removed.
+    pub fn with_delay(
+        frf: &Frf,
+        lo_hz: f64,
+        hi_hz: f64,
+        min_coherence: f64,
+        delay_s: f64,
+    ) -> Result<Self, AnalysisError> {
         let bins = frf.bins_in(lo_hz, hi_hz, min_coherence);
         if bins.is_empty() {
             return Err(AnalysisError::TooShort { what: "coherent bins in the band", needed: 1, got: 0 });
@@ -312,21 +354,87 @@ impl ResponseError {
             max_phase_deg: 0.0,
             worst_phase_hz: f64::NAN,
             bins: bins.len(),
+            delay_s,
         };
         for k in bins {
-            let (g, p) = (frf.magnitude_db(k).abs(), frf.phase_deg(k).abs());
+            let f = frf.freqs_hz[k];
+            let g = frf.magnitude_db(k).abs();
+            let p = delayed_phase_deg(frf.h1[k], f, delay_s).abs();
             // A NaN (a bin with no input power) counts as the worst.
             if g.is_nan() || g > e.max_gain_db {
                 e.max_gain_db = g;
-                e.worst_gain_hz = frf.freqs_hz[k];
+                e.worst_gain_hz = f;
             }
             if p.is_nan() || p > e.max_phase_deg {
                 e.max_phase_deg = p;
-                e.worst_phase_hz = frf.freqs_hz[k];
+                e.worst_phase_hz = f;
             }
         }
         Ok(e)
     }
+
+    /// As [`ResponseError::of`] after removing the constant delay `0 ≤ τ ≤ max_delay_s`
+    /// that minimizes the worst phase error over the band (a grid of 400 delays, the
+    /// best three refined 80-fold).
+    ///
+    /// ```
+    /// use realfft::num_complex::Complex;
+    /// use strainwave_analysis::bench::ResponseError;
+    /// use strainwave_analysis::frf::Frf;
+    /// // A pure delay of 0.3 ms, gain 1: nothing left once it is removed.
+    /// let freqs_hz: Vec<f64> = (0..400).map(|k| k as f64 * 10.0).collect();
+    /// let h1: Vec<Complex<f64>> = freqs_hz.iter().map(|f| Complex::from_polar(1.0, -std::f64::consts::TAU * f * 3e-4)).collect();
+    /// let n = freqs_hz.len();
+    /// let frf = Frf { freqs_hz, h1, coherence: vec![1.0; n], pxx: vec![1.0; n], pyy: vec![1.0; n], pxy: vec![Complex::new(0.0, 0.0); n], segments: 1 };
+    /// let e = ResponseError::with_best_delay(&frf, 1.0, 3000.0, 0.5, 1e-3).unwrap();
+    /// assert!((e.delay_s - 3e-4).abs() < 1e-8 && e.max_phase_deg < 0.01);
+    /// assert!(ResponseError::of(&frf, 1.0, 3000.0, 0.5).unwrap().max_phase_deg > 170.0);
+    /// ```
+    pub fn with_best_delay(
+        frf: &Frf,
+        lo_hz: f64,
+        hi_hz: f64,
+        min_coherence: f64,
+        max_delay_s: f64,
+    ) -> Result<Self, AnalysisError> {
+        if !(max_delay_s.is_finite() && max_delay_s >= 0.0) {
+            return Err(invalid("max_delay_s", format!("must be finite and ≥ 0, got {max_delay_s}")));
+        }
+        let bins: Vec<(f64, Complex<f64>)> =
+            frf.bins_in(lo_hz, hi_hz, min_coherence).into_iter().map(|k| (frf.freqs_hz[k], frf.h1[k])).collect();
+        if bins.is_empty() {
+            return Err(AnalysisError::TooShort { what: "coherent bins in the band", needed: 1, got: 0 });
+        }
+        let worst = |tau: f64| {
+            bins.iter().map(|(f, h)| delayed_phase_deg(*h, *f, tau).abs()).fold(0.0, |a: f64, p| {
+                if p.is_nan() {
+                    f64::INFINITY
+                } else {
+                    a.max(p)
+                }
+            })
+        };
+        let step = max_delay_s / DELAY_GRID as f64;
+        let mut coarse: Vec<(f64, f64)> = (0..=DELAY_GRID).map(|i| (worst(i as f64 * step), i as f64 * step)).collect();
+        coarse.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut best = coarse[0];
+        for &(_, centre) in coarse.iter().take(DELAY_REFINE.0) {
+            let n = DELAY_REFINE.1;
+            for j in 0..=n {
+                let tau = (centre - step + 2.0 * step * j as f64 / n as f64).clamp(0.0, max_delay_s);
+                let w = worst(tau);
+                if w < best.0 {
+                    best = (w, tau);
+                }
+            }
+        }
+        Self::with_delay(frf, lo_hz, hi_hz, min_coherence, best.1)
+    }
+}
+
+/// `arg(h e^{j 2π f τ})` in degrees, `(−180, 180]`.
+fn delayed_phase_deg(h: Complex<f64>, freq_hz: f64, delay_s: f64) -> f64 {
+    (h * Complex::from_polar(1.0, std::f64::consts::TAU * freq_hz * delay_s)).arg().to_degrees()
 }
 
 /// H1 from `reference` (the true torque) to `measured` and its [`ResponseError`] over

@@ -1,6 +1,8 @@
-//! `strainwave fuse`: hybrid torque from a torsion shaft and two accelerometers (spec §6).
+//! `strainwave fuse`: hybrid torque from a torsion shaft and two accelerometers.
 //!
-//! `complementary` streams one sample at a time (constant memory, the HOKA online filter);
+//! `online-corrected` (the default) and `complementary` stream one sample at a time
+//! (constant memory): the first corrects each path with the inverse of its bench model
+//! inside a fourth-order complementary pair, the second is the plain HOKA filter.
 //! `spectral` (the seed's post-processing) and `corrected` (each path corrected by an
 //! FIR inverse of its modelled response) read the whole recording.
 
@@ -12,9 +14,13 @@ use strainwave_analysis::bench::{
     complementary, spectral_combination, to_complex, CorrectedFusion, CorrectionConfig, CrossoverBand,
 };
 use strainwave_core::fusion::{
-    AccelerometerModel, AccelerometerPair, ComplementaryFusion, CrossoverOrder, TorsionShaftModel,
+    AccelerometerModel, AccelerometerPair, ComplementaryFusion, CrossoverOrder, FusionState, OnlineCorrectedFusion,
+    OnlineCorrectionConfig, OnlineFusionState, TorsionShaftModel,
 };
 use strainwave_io::{RecordingReader, RecordingWriter};
+
+mod check;
+use check::{design_summary, Check};
 
 /// Arguments of `fuse`.
 #[derive(clap::Args, Debug)]
@@ -28,10 +34,20 @@ pub struct Args {
     /// Output recording: the input columns plus `fused_torque`.
     #[arg(long)]
     pub out: PathBuf,
-    /// complementary (online, streamed), spectral (seed's offline combination) or
-    /// corrected (offline, FIR-corrected paths).
-    #[arg(long, default_value = "complementary", value_parser = ["complementary", "spectral", "corrected"])]
+    /// online-corrected (streamed, each path corrected by its bench model; needs
+    /// `[model]`), complementary (streamed, the plain HOKA filter), spectral (the paper's
+    /// offline combination) or corrected (offline, FIR-corrected paths; needs `[model]`).
+    #[arg(
+        long,
+        default_value = "online-corrected",
+        value_parser = ["online-corrected", "complementary", "spectral", "corrected"]
+    )]
     pub method: String,
+    /// A reference torque column (e.g. the twin's `true_dut_torque`): prints the fused
+    /// torque's worst gain and phase error against it (H1, first 2²¹ rows) over
+    /// 1 Hz–2 kHz and 1 Hz–4 kHz, after its best constant delay of at most 1 ms.
+    #[arg(long)]
+    pub reference: Option<String>,
 }
 
 /// Column names in the recording.
@@ -55,7 +71,7 @@ fn default_time() -> String {
     "time".into()
 }
 
-/// Mechanics used by the `corrected` method (Table I by default).
+/// Mechanics used by the `online-corrected` and `corrected` methods.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Model {
@@ -74,10 +90,61 @@ pub struct Model {
     /// Taps of each correction FIR (odd).
     #[serde(default = "default_taps")]
     pub fir_taps: usize,
+    /// Crossover of `online-corrected` (`|LP| = |HP|`), Hz.
+    #[serde(default = "default_online_crossover")]
+    pub online_crossover_hz: f64,
+    /// Below this the `online-corrected` torsion gain returns from `(J_B + J_R)/J_B` to 1
+    /// (a steady torque is carried by the brake), Hz; 0: never.
+    #[serde(default = "default_static_corner")]
+    pub static_corner_hz: f64,
 }
 
 fn default_taps() -> usize {
     8191
+}
+
+fn default_online_crossover() -> f64 {
+    OnlineCorrectionConfig::<f64>::kit().crossover_hz
+}
+
+fn default_static_corner() -> f64 {
+    OnlineCorrectionConfig::<f64>::kit().static_corner_hz
+}
+
+impl Model {
+    /// The torsion-shaft and housing models (`J_S` from the top level).
+    fn paths(
+        &self,
+        stator_inertia_kg_m2: f64,
+        config: &Path,
+    ) -> Result<(TorsionShaftModel<f64>, AccelerometerModel<f64>)> {
+        let bad = |e: strainwave_core::Error| anyhow::anyhow!("{}: [model]: {e}", config.display());
+        let ts = TorsionShaftModel::new(
+            self.rotor_inertia_kg_m2,
+            self.brake_inertia_kg_m2,
+            self.shaft_stiffness_nm_per_rad,
+            self.bearing_damping_nm_s_per_rad,
+        )
+        .map_err(bad)?;
+        let acc = AccelerometerModel::new(
+            stator_inertia_kg_m2,
+            self.coupling_stiffness_nm_per_rad,
+            self.stator_damping_nm_s_per_rad,
+        )
+        .map_err(bad)?;
+        Ok((ts, acc))
+    }
+
+    /// The online corrected fusion at `fs`.
+    fn online(&self, stator_inertia_kg_m2: f64, fs: f64, config: &Path) -> Result<OnlineCorrectedFusion<f64>> {
+        let (ts, acc) = self.paths(stator_inertia_kg_m2, config)?;
+        let cfg =
+            OnlineCorrectionConfig { crossover_hz: self.online_crossover_hz, static_corner_hz: self.static_corner_hz };
+        OnlineCorrectedFusion::new(&ts, &acc, &cfg, fs).map_err(|e| {
+            let e = e.to_string().replace("`crossover_hz`", "`online_crossover_hz`");
+            anyhow::anyhow!("{}: [model]: {e} (at {fs} Hz sampling)", config.display())
+        })
+    }
 }
 
 /// A bench configuration file.
@@ -139,6 +206,13 @@ impl BenchConfig {
         }
     }
 
+    /// The `[model]` section, required by `method`.
+    fn model(&self, method: &str, config: &Path) -> Result<&Model> {
+        self.model
+            .as_ref()
+            .with_context(|| format!("{}: the `{method}` method needs a `[model]` section", config.display()))
+    }
+
     /// Checks the crossover against the sample rate.
     fn check_crossover(&self, fs: f64) -> Result<()> {
         if self.crossover_hz >= fs / 2.0 {
@@ -165,10 +239,46 @@ pub fn run(a: &Args) -> Result<()> {
     let cfg = BenchConfig::load(&a.config)?;
     let pair = AccelerometerPair::new(cfg.radius_m, cfg.stator_inertia_kg_m2)
         .map_err(|e| anyhow::anyhow!("{}: {e}", a.config.display()))?;
-    if a.method == "complementary" {
+    if matches!(a.method.as_str(), "complementary" | "online-corrected") {
+        if a.method == "online-corrected" {
+            cfg.model(&a.method, &a.config)?;
+        }
         stream(a, &cfg, &pair)
     } else {
         offline(a, &cfg, &pair)
+    }
+}
+
+/// A streaming fusion and its state (one per run: the size difference does not matter).
+#[allow(clippy::large_enum_variant)]
+enum Online {
+    Complementary(ComplementaryFusion<f64>, FusionState<f64>),
+    Corrected(OnlineCorrectedFusion<f64>, OnlineFusionState<f64>),
+}
+
+impl Online {
+    fn settle(&mut self, torsion_nm: f64, accel_nm: f64) {
+        match self {
+            Online::Complementary(f, s) => *s = f.settled_state(torsion_nm, accel_nm),
+            Online::Corrected(f, s) => *s = f.settled_state(torsion_nm, accel_nm),
+        }
+    }
+
+    fn step(&mut self, torsion_nm: f64, accel_nm: f64) -> f64 {
+        match self {
+            Online::Complementary(f, s) => f.step(s, torsion_nm, accel_nm),
+            Online::Corrected(f, s) => f.step(s, torsion_nm, accel_nm),
+        }
+    }
+}
+
+/// Writes `text` to standard output, or to standard error when the recording goes there.
+fn say(a: &Args, text: &str) -> Result<()> {
+    if a.out == Path::new("-") {
+        eprint!("{text}");
+        Ok(())
+    } else {
+        crate::stdout::print(text)
     }
 }
 
@@ -211,6 +321,7 @@ fn stream(a: &Args, cfg: &BenchConfig, pair: &AccelerometerPair<f64>) -> Result<
     let mut rdr = RecordingReader::open(&a.input)?;
     let cols = rdr.columns().to_vec();
     let idx = Idx::new(cfg, &cols, &a.input)?;
+    let reference = a.reference.as_deref().map(|r| column(&cols, r, &a.input)).transpose()?;
     // The first two rows give the sample rate; they are held back and written first.
     let mut first = Vec::new();
     let mut second = Vec::new();
@@ -219,20 +330,40 @@ fn stream(a: &Args, cfg: &BenchConfig, pair: &AccelerometerPair<f64>) -> Result<
     }
     let fs = match cfg.sample_rate_hz {
         Some(fs) => fs,
-        None => rate_from_time(first[idx.time], second[idx.time])?,
+        None => rate_from_time(first[idx.time], second[idx.time])
+            .map_err(|e| anyhow::anyhow!("{}: rows 1–2: {e}", a.input.display()))?,
     };
-    cfg.check_crossover(fs)?;
-    let fusion = ComplementaryFusion::new(cfg.crossover_hz, fs, cfg.crossover_order())
-        .map_err(|e| anyhow::anyhow!("{}: {e}", a.config.display()))?;
+    let mut fusion = if a.method == "online-corrected" {
+        let f = cfg.model(&a.method, &a.config)?.online(cfg.stator_inertia_kg_m2, fs, &a.config)?;
+        say(a, &design_summary(&f, cfg.model(&a.method, &a.config)?.paths(cfg.stator_inertia_kg_m2, &a.config)?)?)?;
+        Online::Corrected(f, OnlineFusionState::default())
+    } else {
+        cfg.check_crossover(fs)?;
+        let f = ComplementaryFusion::new(cfg.crossover_hz, fs, cfg.crossover_order())
+            .map_err(|e| anyhow::anyhow!("{}: {e}", a.config.display()))?;
+        Online::Complementary(f, FusionState::default())
+    };
     let mut wtr = RecordingWriter::create(&a.out, &output_columns(&cols)?)?;
-    let mut state = fusion.settled_state(first[idx.torsion], idx.accel_torque(pair, &first));
+    let mut check = reference.map(|_| Check::new(fs));
     let mut out_row = Vec::with_capacity(cols.len() + 1);
+    let mut row_no = 0_u64;
     let mut emit = |row: &[f64], wtr: &mut RecordingWriter| -> Result<()> {
+        row_no += 1;
         let (t, acc) = (row[idx.torsion], idx.accel_torque(pair, row));
         if !(t.is_finite() && acc.is_finite()) {
-            bail!("{}: row {}: torsion or accelerometer sample is not finite", a.input.display(), rdr_row_hint(row));
+            bail!(
+                "{}: data row {row_no}: `{}` or the accelerometer torque is not finite",
+                a.input.display(),
+                cfg.columns.torsion
+            );
         }
-        let y = fusion.step(&mut state, t, acc);
+        if row_no == 1 {
+            fusion.settle(t, acc);
+        }
+        let y = fusion.step(t, acc);
+        if let (Some(c), Some(r)) = (check.as_mut(), reference) {
+            c.push(row[r], y);
+        }
         out_row.clear();
         out_row.extend_from_slice(row);
         out_row.push(y);
@@ -246,24 +377,24 @@ fn stream(a: &Args, cfg: &BenchConfig, pair: &AccelerometerPair<f64>) -> Result<
         emit(&row, &mut wtr)?;
     }
     wtr.finish()?;
+    if let (Some(c), Some(r)) = (check, a.reference.as_deref()) {
+        say(a, &c.summary(&a.method, r))?;
+    }
     Ok(())
-}
-
-/// The time stamp of a row, for messages.
-fn rdr_row_hint(row: &[f64]) -> String {
-    row.first().map_or_else(String::new, |t| format!("at t = {t}"))
 }
 
 fn offline(a: &Args, cfg: &BenchConfig, pair: &AccelerometerPair<f64>) -> Result<()> {
     let table = strainwave_io::read_all(&a.input)?;
     let idx = Idx::new(cfg, &table.columns, &a.input)?;
+    let reference = a.reference.as_deref().map(|r| column(&table.columns, r, &a.input)).transpose()?;
     let n = table.rows();
     if n < 2 {
         bail!("{}: needs at least 2 samples", a.input.display());
     }
     let fs = match cfg.sample_rate_hz {
         Some(fs) => fs,
-        None => rate_from_time(table.data[idx.time][0], table.data[idx.time][1])?,
+        None => rate_from_time(table.data[idx.time][0], table.data[idx.time][1])
+            .map_err(|e| anyhow::anyhow!("{}: rows 1–2: {e}", a.input.display()))?,
     };
     cfg.check_crossover(fs)?;
     let torsion = &table.data[idx.torsion];
@@ -276,24 +407,8 @@ fn offline(a: &Args, cfg: &BenchConfig, pair: &AccelerometerPair<f64>) -> Result
     let fused = match a.method.as_str() {
         "spectral" => spectral_combination(torsion, &accel, fs, cfg.crossover_hz)?,
         "corrected" => {
-            let m = cfg
-                .model
-                .as_ref()
-                .with_context(|| format!("{}: the `corrected` method needs a `[model]` section", a.config.display()))?;
-            let bad = |e: strainwave_core::Error| anyhow::anyhow!("{}: [model]: {e}", a.config.display());
-            let ts = TorsionShaftModel::new(
-                m.rotor_inertia_kg_m2,
-                m.brake_inertia_kg_m2,
-                m.shaft_stiffness_nm_per_rad,
-                m.bearing_damping_nm_s_per_rad,
-            )
-            .map_err(bad)?;
-            let acc = AccelerometerModel::new(
-                cfg.stator_inertia_kg_m2,
-                m.coupling_stiffness_nm_per_rad,
-                m.stator_damping_nm_s_per_rad,
-            )
-            .map_err(bad)?;
+            let m = cfg.model(&a.method, &a.config)?;
+            let (ts, acc) = m.paths(cfg.stator_inertia_kg_m2, &a.config)?;
             let mut cc = CorrectionConfig::new(m.fir_taps | 1);
             cc.band = CrossoverBand::new(0.8 * cfg.crossover_hz, 1.2 * cfg.crossover_hz)?;
             if cc.band.hi_hz >= fs / 2.0 {
@@ -323,5 +438,12 @@ fn offline(a: &Args, cfg: &BenchConfig, pair: &AccelerometerPair<f64>) -> Result
         wtr.write_row(&row)?;
     }
     wtr.finish()?;
+    if let (Some(r), Some(name)) = (reference, a.reference.as_deref()) {
+        let mut c = Check::new(fs);
+        for (x, y) in table.data[r].iter().zip(&fused) {
+            c.push(*x, *y);
+        }
+        say(a, &c.summary(&a.method, name))?;
+    }
     Ok(())
 }

@@ -70,7 +70,7 @@ fn simulate_fuse_and_analyse() {
         assert!(h.iter().any(|x| x == c), "{c}");
     }
 
-    for method in ["complementary", "spectral", "corrected"] {
+    for method in ["online-corrected", "complementary", "spectral", "corrected"] {
         let out = d.join(format!("fused-{method}.csv"));
         let o = run(&["fuse", "--config", &config(), "--in", s(&sim), "--out", s(&out), "--method", method]);
         assert!(o.status.success(), "{method}: {}", stderr(&o));
@@ -153,6 +153,34 @@ fn bad_inputs_give_one_line_errors() {
         let o = run(&["fuse", "--config", s(&cfg), "--in", s(&sim), "--out", s(&d.join("x.csv")), "--method", method]);
         assert_user_error(&o, "crossover_hz");
     }
+    // The online corrected fusion has its own crossover, in [model].
+    let text = std::fs::read_to_string(config())
+        .unwrap()
+        .replace("online_crossover_hz = 150.0", "online_crossover_hz = 9500.0");
+    std::fs::write(&cfg, text).unwrap();
+    let o = run(&["fuse", "--config", s(&cfg), "--in", s(&sim), "--out", s(&d.join("x.csv"))]);
+    assert_user_error(&o, "online_crossover_hz");
+    // No [model]: the default method says what it needs.
+    let text = std::fs::read_to_string(config()).unwrap();
+    let cut = text.find("\n[model]\n").unwrap();
+    std::fs::write(&cfg, &text[..cut]).unwrap();
+    let o = run(&["fuse", "--config", s(&cfg), "--in", s(&sim), "--out", s(&d.join("x.csv"))]);
+    assert_user_error(&o, "[model]");
+    // A missing reference column, and a non-finite torsion sample named by its data row.
+    let o = run(&["fuse", "--config", &config(), "--in", s(&sim), "--out", s(&d.join("x.csv")), "--reference", "nope"]);
+    assert_user_error(&o, "nope");
+    let nan = d.join("nan.csv");
+    let (h, data) = read(&sim);
+    let ti = h.iter().position(|c| c == "torsion_torque").unwrap();
+    let mut text = h.join(",") + "\n";
+    for (k, r) in data.iter().take(100).enumerate() {
+        let cells: Vec<String> =
+            r.iter().enumerate().map(|(c, v)| if c == ti && k == 41 { "NaN".into() } else { v.to_string() }).collect();
+        text += &(cells.join(",") + "\n");
+    }
+    std::fs::write(&nan, text).unwrap();
+    let o = run(&["fuse", "--config", &config(), "--in", s(&nan), "--out", s(&d.join("x.csv"))]);
+    assert_user_error(&o, "data row 42");
 
     // Negative speed channel.
     let neg = d.join("neg.csv");
@@ -205,4 +233,40 @@ fn bad_inputs_give_one_line_errors() {
     // Missing column.
     let o = run(&["spectrogram", "--in", s(&sim), "--signal", "nope", "--out", s(&d.join("s.svg"))]);
     assert_user_error(&o, "nope");
+}
+
+/// The target, end to end: `fuse` with its defaults on the `kit-bench-sweep`
+/// preset is flat against the true air-gap torque within ±1 dB and ±5° over 1 Hz–2 kHz
+/// (and 4 kHz) after a constant delay of at most 1 ms, and prints those figures.
+#[test]
+fn default_fuse_is_flat_on_the_sweep() {
+    use strainwave_sim::bench::{preset, simulate_bench};
+    let d = tmp("sweep");
+    let cols = ["time", "torsion_torque", "accel_1", "accel_2", "true_dut_torque"];
+    let rec = simulate_bench(&preset("kit-bench-sweep").unwrap(), Some(&cols)).unwrap();
+    let input = d.join("sweep.csv");
+    let mut text = cols.join(",") + "\n";
+    for k in 0..rec.data[0].len() {
+        let row: Vec<String> = rec.data.iter().map(|c| format!("{:e}", c[k])).collect();
+        text += &(row.join(",") + "\n");
+    }
+    std::fs::write(&input, text).unwrap();
+    let out = d.join("fused.csv");
+    let o =
+        run(&["fuse", "--config", &config(), "--in", s(&input), "--out", s(&out), "--reference", "true_dut_torque"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
+    println!("{stdout}");
+    // Two blocks: on its own model, then against the reference; check the second.
+    let measured = &stdout[stdout.find("against `true_dut_torque`").expect("reference block")..];
+    for band in ["1–2000 Hz", "1–4000 Hz"] {
+        let line = measured.lines().find(|l| l.trim_start().starts_with(band)).unwrap_or_else(|| panic!("{band}"));
+        let num = |after: &str| -> f64 {
+            let rest = &line[line.find(after).unwrap() + after.len()..];
+            rest.split(|c: char| !(c.is_ascii_digit() || c == '.')).next().unwrap().parse().unwrap()
+        };
+        let (db, deg, delay_ms) = (num("worst "), num(") / "), num("delay of "));
+        assert!(db < 1.0 && deg < 5.0 && delay_ms <= 1.0, "{line}");
+    }
+    std::fs::remove_dir_all(&d).ok();
 }

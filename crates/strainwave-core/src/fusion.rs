@@ -30,12 +30,17 @@
 //!
 //! Fusion (HOKA principle): `T = LP(T_TS) + HP(T_acc)` with `LP + HP = 1` exactly. It is
 //! computed as `T = T_acc + LP(T_TS − T_acc)`: one filter, complementary for any two inputs.
+//! It leaves the shaft resonance in the fused torque (`LP` still passes part of it);
+//! [`OnlineCorrectedFusion`] first multiplies each path by the inverse of its model, so
+//! the fused response is flat through the resonance, still per sample.
 
 use crate::error::{finite, positive, Error};
 use crate::iir::{Biquad, BiquadState, Complex};
 use crate::Real;
 
+mod online;
 mod sensors;
+pub use online::{OnlineCorrectedFusion, OnlineCorrectionConfig, OnlineFusionState};
 pub use sensors::{kit, AccelerometerModel, AccelerometerModelFull, AccelerometerPair, TorsionShaftModel};
 
 /// Shape of the complementary pair.

@@ -1,9 +1,14 @@
 //! The check of fused torques against a reference torque: each method's error figures
 //! over a bench record.
 
-use strainwave_core::fusion::ComplementaryFusion;
+use strainwave_core::fusion::{
+    AccelerometerModel, ComplementaryFusion, OnlineCorrectedFusion, OnlineCorrectionConfig, TorsionShaftModel,
+};
 
-use super::{complementary, path_response, spectral_combination, CorrectedFusion, CorrectionConfig, ResponseError};
+use super::{
+    complementary, online_corrected, path_response, spectral_combination, CorrectedFusion, CorrectionConfig,
+    ResponseError,
+};
 use crate::error::AnalysisError;
 use crate::frf::{h1, Frf};
 use crate::psd::{invalid, SpectralConfig};
@@ -27,13 +32,19 @@ pub struct AccuracyConfig {
     pub report_bands_hz: Vec<(f64, f64)>,
     /// Validation bins below this coherence are not counted.
     pub validation_min_coherence: f64,
+    /// Largest constant delay removed before the phase error is taken (each method and
+    /// band its best), s.
+    pub max_delay_s: f64,
+    /// The bench model of the online corrected fusion: torsion shaft, housing, design.
+    pub online_model: (TorsionShaftModel<f64>, AccelerometerModel<f64>, OnlineCorrectionConfig<f64>),
 }
 
 impl AccuracyConfig {
     /// For the KIT bench at `sample_rate_hz`: 2¹⁶-sample Hann segments (50 % overlap),
     /// 250 Hz crossover, 32767-tap correction FIRs, calibration of the torsion path from
     /// 0.3 to 600 Hz and of the accelerometers from 100 Hz to 0.45 fs (coherence ≥ 0.9),
-    /// report bands 1–20–200–300–1000–4000 Hz and the whole 1 Hz–4 kHz.
+    /// report bands 1–20–200–300–1000–4000 Hz, 1 Hz–2 kHz and the whole 1 Hz–4 kHz, delays
+    /// up to 1 ms removed, Table I models for the online corrected fusion.
     ///
     /// ```
     /// let c = strainwave_analysis::bench::AccuracyConfig::kit(20_000.0);
@@ -53,9 +64,12 @@ impl AccuracyConfig {
                 (200.0, 300.0),
                 (300.0, 1000.0),
                 (1000.0, 4000.0),
+                (1.0, 2000.0),
                 (1.0, 4000.0),
             ],
             validation_min_coherence: 0.5,
+            max_delay_s: 1e-3,
+            online_model: (TorsionShaftModel::kit(), AccelerometerModel::kit(), OnlineCorrectionConfig::kit()),
         }
     }
 }
@@ -102,7 +116,8 @@ impl AccuracyReport {
         self.rows.iter().find(|r| r.method == method)
     }
 
-    /// A plain-text table: per method and band, worst `|gain| dB / |phase| °`.
+    /// A plain-text table: per method and band, worst `|gain| dB / |phase| °` (each after
+    /// its best delay up to [`AccuracyConfig::max_delay_s`]).
     pub fn table(&self) -> String {
         let mut s = format!("{:<30}", "method / band (Hz)");
         for (lo, hi) in &self.bands_hz {
@@ -121,13 +136,14 @@ impl AccuracyReport {
 }
 
 /// Method names of [`accuracy_report`], in order.
-pub const METHODS: [&str; 6] = [
+pub const METHODS: [&str; 7] = [
     "torsion shaft alone",
     "accelerometers alone",
     "complementary, 1st order",
     "complementary, 2nd order",
     "spectral combination (seed)",
     "corrected fusion (FIR)",
+    "online corrected (IIR)",
 ];
 
 /// Calibrates the corrected fusion on `calibration` (H1 of each path against its
@@ -151,14 +167,18 @@ pub fn accuracy_report(
     let first = ComplementaryFusion::new(cfg.crossover_hz, sample_rate_hz, CrossoverOrder::First).map_err(core_err)?;
     let second =
         ComplementaryFusion::new(cfg.crossover_hz, sample_rate_hz, CrossoverOrder::Second).map_err(core_err)?;
+    let (m_ts, m_acc, m_cfg) = &cfg.online_model;
+    let online = OnlineCorrectedFusion::new(m_ts, m_acc, m_cfg, sample_rate_hz)
+        .map_err(|e| invalid("online model", e.to_string()))?;
     let (ts, acc) = (validation.torsion, validation.accel);
-    let outputs: [Vec<f64>; 6] = [
+    let outputs: [Vec<f64>; 7] = [
         ts.to_vec(),
         acc.to_vec(),
         complementary(ts, acc, &first)?,
         complementary(ts, acc, &second)?,
         spectral_combination(ts, acc, sample_rate_hz, cfg.crossover_hz)?,
         fusion.apply(ts, acc)?,
+        online_corrected(ts, acc, &online)?,
     ];
     let mut rows = Vec::with_capacity(METHODS.len());
     for (method, y) in METHODS.iter().zip(&outputs) {
@@ -166,7 +186,9 @@ pub fn accuracy_report(
         let bands = cfg
             .report_bands_hz
             .iter()
-            .map(|&(lo, hi)| ResponseError::of(&frf, lo, hi, cfg.validation_min_coherence))
+            .map(|&(lo, hi)| {
+                ResponseError::with_best_delay(&frf, lo, hi, cfg.validation_min_coherence, cfg.max_delay_s)
+            })
             .collect::<Result<Vec<_>, _>>()?;
         rows.push(MethodAccuracy { method, bands });
     }
