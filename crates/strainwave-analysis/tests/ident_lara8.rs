@@ -1,4 +1,4 @@
-//! Real data: joint 3 of the LARA8 arm (`shared/data/lara8/validate.csv`, 250 Hz, motor and
+//! Real data: joint 3 of the LARA8 arm (`data/lara8/validate.csv`, 250 Hz, motor and
 //! link encoders of 2^24 counts per revolution, ratio 101, CHA-25A gear).
 //!
 //! A model is identified on one half of the run and the link torque estimated from the
@@ -37,13 +37,11 @@ struct Log {
 }
 
 fn load() -> Option<Log> {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/lara8/validate.csv");
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/lara8/validate.csv");
     let text = match std::fs::read_to_string(&path) {
         Ok(t) => t,
-        Err(e) => {
-            println!("skipped: {} not readable ({e})", path.display());
-            return None;
-        }
+        // The log ships with the repository: a missing file is a failure, not a skip.
+        Err(e) => panic!("{} not readable ({e})", path.display()),
     };
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().expect("header").split(',').collect();
