@@ -36,6 +36,12 @@ impl JointAngles<'_> {
         self.motor_angle_rad.iter().zip(self.link_angle_rad).map(|(m, l)| l - m / n_s).collect()
     }
 
+    /// The motor angle referred to the link, `θ_m / n_s`, rad.
+    pub fn link_side_motor_angle_rad(&self, gear: &Gear<f64>) -> Vec<f64> {
+        let n_s = gear.signed_ratio();
+        self.motor_angle_rad.iter().map(|m| m / n_s).collect()
+    }
+
     pub(super) fn angles(&self, gear: &Gear<f64>, k: usize) -> GearAngles<f64> {
         GearAngles::from_f64(gear, self.motor_angle_rad[k], self.link_angle_rad[k])
     }
