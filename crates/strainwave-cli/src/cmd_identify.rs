@@ -18,12 +18,12 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
 use strainwave_analysis::ident::{
-    blocked_holdout, fit_compliance, fit_kinematic_error_on, select_kinematic_basis, training_rows, ComplianceFit,
-    ComplianceFitOptions, ComplianceForm, ComplianceParams, FitMetrics, FittedHysteresis, FrictionFitOptions,
-    FrictionParams, HysteresisForm, JointAngles, KinematicBasis, KinematicFit, KinematicFitOptions,
+    blocked_holdout, fit_compliance, fit_kinematic_error_on, lstsq_qr, select_kinematic_basis, training_rows,
+    ComplianceFit, ComplianceFitOptions, ComplianceForm, ComplianceParams, FitMetrics, FittedHysteresis,
+    FrictionFitOptions, FrictionParams, HysteresisForm, JointAngles, KinematicBasis, KinematicFit, KinematicFitOptions,
 };
 use strainwave_core::gear::Gear;
-use strainwave_core::torsion::{MeshAngle, NoKinematicError};
+use strainwave_core::torsion::MeshAngle;
 
 mod config;
 mod load;
@@ -408,13 +408,6 @@ fn compliance_options(cfg: &ArmConfig, windup_offset: bool) -> Result<Compliance
     Ok(opts)
 }
 
-/// The plain alternative on the same data: `τ = K w + τ0` by least squares on the torsion.
-fn plain_options(cfg: &ArmConfig) -> ComplianceFitOptions {
-    let mut o = ComplianceFitOptions::new(ComplianceForm::Linear, cfg.gear.rated_torque_nm);
-    o.windup_offset = true;
-    o
-}
-
 /// Explains a negative stiffness with the settings that fix it.
 fn stiffness_hint(e: anyhow::Error) -> anyhow::Error {
     if format!("{e:#}").contains("negative stiffness") {
@@ -462,7 +455,7 @@ pub fn run(a: &Args) -> Result<()> {
         .context("compliance fit")?;
     let holdout = match a.holdout {
         None => None,
-        Some(k) => Some(holdout_scores(k, &cfg, &gear, &plan, &ld_angles, &reference, &opts)?),
+        Some(k) => Some(holdout_scores(k, &gear, &plan, &ld_angles, &reference, &opts)?),
     };
     let peak = reference.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let model = ModelFile {
@@ -536,7 +529,6 @@ pub struct Holdout {
 
 fn holdout_scores(
     blocks: usize,
-    cfg: &ArmConfig,
     gear: &Gear<f64>,
     plan: &KinematicPlan,
     angles: &JointAngles,
@@ -559,10 +551,14 @@ fn holdout_scores(
         Ok(fit.predict_reference(gear, kin, angles)?[block.clone()].to_vec())
     })
     .context("holdout of the model")?;
+    // Plain: ordinary least squares of the reference on the torsion and a constant.
+    let torsion = angles.torsion_rad(gear);
     let plain = blocked_holdout(reference, blocks, |_, block| {
-        let o = ComplianceFitOptions { train_rows: Some(training_rows(n, block)), ..plain_options(cfg) };
-        let fit = fit_compliance(gear, &NoKinematicError, angles, reference, &o)?;
-        Ok(fit.predict(gear, NoKinematicError, angles)?[block.clone()].to_vec())
+        let rows = training_rows(n, block);
+        let cols = [rows.iter().map(|&k| torsion[k]).collect(), vec![1.0; rows.len()]];
+        let b: Vec<f64> = rows.iter().map(|&k| reference[k]).collect();
+        let c = lstsq_qr(&cols, &b)?;
+        Ok(block.clone().map(|k| c[0] * torsion[k] + c[1]).collect())
     })
     .context("holdout of the plain linear fit")?;
     Ok(Holdout { blocks, model, plain, unconverged })

@@ -265,6 +265,20 @@ pub fn fit_compliance<K: KinematicError<f64> + Clone>(
     check_finite("reference_torque_nm", reference_torque_nm)?;
     let rows = train_rows(opts, n)?;
     let (v, a) = motion_rates(&angles.link_side_motor_angle_rad(gear), angles.sample_rate_hz, fopts.rate_span)?;
+    // Friction is only identifiable where the joint moves.
+    let moving = rows.iter().filter(|&&k| v[k].abs() > 5.0 * fopts.smoothing_speed_rad_s).count();
+    if moving * 10 < rows.len() {
+        let vmax = rows.iter().map(|&k| v[k].abs()).fold(0.0, f64::max);
+        return Err(invalid(
+            "friction",
+            format!(
+                "not identifiable: the joint moves faster than {:.3} rad/s in {moving} of {} rows (max {vmax:.3} \
+                 rad/s); fit the link torque alone",
+                5.0 * fopts.smoothing_speed_rad_s,
+                rows.len()
+            ),
+        ));
+    }
     let (fcols, _) = friction_columns(&fopts, &v, &a);
     let spring_opts = ComplianceFitOptions { friction: None, ..opts.clone() };
     // Joint solve: the spring's linear least squares with the friction columns alongside.
@@ -412,7 +426,7 @@ fn fit_spring<K: KinematicError<f64> + Clone>(
             "reference_torque_nm",
             format!(
                 "gives a negative stiffness {k_lin:.3e} N·m/rad against the wind-up: the torsion has the \
-                 opposite sign to the reference torque (reverse one encoder's direction, or the reference's sign)"
+                 opposite sign to the reference torque (reverse both encoders' directions, or the reference's sign)"
             ),
         ));
     }
