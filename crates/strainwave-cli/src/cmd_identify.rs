@@ -393,6 +393,7 @@ fn compliance_options(cfg: &ArmConfig, windup_offset: bool) -> Result<Compliance
     };
     opts.damping = c.damping;
     opts.decimation = c.decimation.unwrap_or(5).max(1);
+    opts.max_iterations = c.max_iterations.unwrap_or(40).max(1);
     opts.windup_offset = windup_offset;
     opts.friction = match &cfg.friction {
         None => None,

@@ -163,6 +163,9 @@ pub struct ComplianceConfig {
     /// Fit on every n-th sample (Levenberg–Marquardt fits only; default 5).
     #[serde(default)]
     pub decimation: Option<usize>,
+    /// Levenberg–Marquardt iteration cap (default 40).
+    #[serde(default)]
+    pub max_iterations: Option<usize>,
 }
 
 /// The reference torque is the motor-current torque: friction and rotor inertia
@@ -247,6 +250,9 @@ impl ArmConfig {
         }
         if self.linear_fit() && c.decimation.is_some() {
             unused("compliance.decimation", "with a linear spring and no hysteresis (one least-squares solve)")?;
+        }
+        if self.linear_fit() && c.max_iterations.is_some() {
+            unused("compliance.max_iterations", "with a linear spring and no hysteresis (one least-squares solve)")?;
         }
         if c.hysteresis != "plays" && self.encoders.as_ref().is_some_and(|e| e.noise_counts.is_some()) {
             unused("encoders.noise_counts", "without hysteresis = \"plays\" (it sets the narrowest play)")?;
