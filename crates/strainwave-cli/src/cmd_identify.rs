@@ -395,17 +395,14 @@ fn compliance_options(cfg: &ArmConfig, windup_offset: bool) -> Result<Compliance
     opts.decimation = c.decimation.unwrap_or(5).max(1);
     opts.max_iterations = c.max_iterations.unwrap_or(40).max(1);
     opts.windup_offset = windup_offset;
-    opts.friction = match &cfg.friction {
-        None => None,
-        Some(f) => Some(FrictionFitOptions {
-            coulomb: f.coulomb,
-            viscous: f.viscous,
-            stribeck_speed_rad_s: f.stribeck_speed_rad_s,
-            inertia: f.rotor_inertia,
-            smoothing_speed_rad_s: f.smoothing_speed_rad_s,
-            rate_span: f.rate_span,
-        }),
-    };
+    opts.friction = cfg.friction.as_ref().map(|f| FrictionFitOptions {
+        coulomb: f.coulomb,
+        viscous: f.viscous,
+        stribeck_speed_rad_s: f.stribeck_speed_rad_s,
+        inertia: f.rotor_inertia,
+        smoothing_speed_rad_s: f.smoothing_speed_rad_s,
+        rate_span: f.rate_span,
+    });
     Ok(opts)
 }
 
