@@ -228,3 +228,23 @@ fn an_unconverged_fit_exits_1_unless_allowed() {
     let (o, model, _) = identify(&d, &cfg, &log("validate"), &["--quiet", "--allow-unconverged"]);
     assert!(o.status.success() && model.exists(), "{}", stderr(&o));
 }
+
+/// A no-load run in which the link turns less than a revolution: the output harmonics
+/// are reported as not identifiable and the mesh harmonics of the motor angle are fitted.
+#[test]
+fn a_no_load_run_under_one_revolution_fits_mesh_harmonics_only() {
+    let d = dir("short-no-load");
+    let cfg = config_with(&d, 1, &[("order = 0", "order = 2")]);
+    let mut c = bin();
+    c.args(["identify", "--quiet", "--config"]).arg(&cfg).arg("--no-load").arg(log("jogging_final"));
+    c.arg("--loaded").arg(log("jogging_final")).arg("--out").arg(d.join("m.toml"));
+    c.arg("--summary-json").arg(d.join("s.json"));
+    let o = c.output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let s = json(&d.join("s.json"));
+    let notes = s["kinematic"]["notes"].to_string();
+    assert!(notes.contains("output harmonics not identifiable: the link turns 0.14 rad"), "{notes}");
+    assert!(s["kinematic"]["basis"].as_str().unwrap().starts_with("Fourier, 0 output + 4 mesh"), "{s}");
+    let model = std::fs::read_to_string(d.join("m.toml")).unwrap();
+    assert!(model.contains("mesh_angle = \"motor\""), "{model}");
+}
