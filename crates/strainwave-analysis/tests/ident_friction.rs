@@ -38,7 +38,7 @@ fn swing(spring: &impl Compliance<f64>, friction: &FrictionParams) -> (Vec<f64>,
     let (v, a) =
         motion_rates(&motor.iter().map(|m| m / g.signed_ratio()).collect::<Vec<_>>(), FS_HZ, friction.rate_span)
             .unwrap();
-    let current = torque.iter().zip(v.iter().zip(&a)).map(|(t, (v, a))| t + friction.torque_nm(*v, *a)).collect();
+    let current = torque.iter().zip(v.iter().zip(&a)).map(|(t, (v, a))| t + friction.torque_nm(*t, *v, *a)).collect();
     (motor, link, torque, current)
 }
 
@@ -49,6 +49,7 @@ fn truth() -> FrictionParams {
         stribeck_nm: 0.0,
         stribeck_speed_rad_s: 0.0,
         inertia_kg_m2: 2.5,
+        load_coefficient: 0.05,
         smoothing_speed_rad_s: 0.01,
         rate_span: 4,
     }
@@ -61,16 +62,16 @@ fn linear_spring_and_friction_in_one_solve() {
     let (m, l, link_torque, current) = swing(&spring, &f);
     let a = JointAngles { motor_angle_rad: &m, link_angle_rad: &l, sample_rate_hz: FS_HZ };
     let mut o = ComplianceFitOptions::new(ComplianceForm::Linear, 100.0);
-    o.friction = Some(FrictionFitOptions::default());
+    o.friction = Some(FrictionFitOptions { load_dependent: true, ..Default::default() });
     let fit = fit_compliance(&gear(), &NoKinematicError, &a, &current, &o).unwrap();
     let got = fit.friction.unwrap();
     println!("{:?}\n{:?}", fit.params, got);
     let ComplianceParams::Linear { k_nm_per_rad } = fit.params else { panic!("{:?}", fit.params) };
     assert!((k_nm_per_rad / 30e3 - 1.0).abs() < 1e-6, "{k_nm_per_rad}");
     assert!((got.coulomb_nm - 6.0).abs() < 1e-4 && (got.viscous_nm_s_per_rad - 20.0).abs() < 1e-4, "{got:?}");
-    assert!((got.inertia_kg_m2 - 2.5).abs() < 1e-4, "{got:?}");
+    assert!((got.inertia_kg_m2 - 2.5).abs() < 1e-4 && (got.load_coefficient - 0.05).abs() < 1e-6, "{got:?}");
     assert!(fit.converged() && fit.termination.is_none() && fit.metrics.r_squared > 1.0 - 1e-9);
-    assert_eq!(fit.parameters.len(), 4);
+    assert_eq!(fit.parameters.len(), 5);
     // The link torque alone is recovered from the torsion, the friction kept apart.
     let link = fit.predict(&gear(), NoKinematicError, &a).unwrap();
     let err = link.iter().zip(&link_torque).map(|(p, t)| (p - t).abs()).fold(0.0, f64::max);
@@ -94,7 +95,7 @@ fn three_slope_spring_and_friction_alternately_with_holdout() {
     let (m, l, _, current) = swing(&spring, &f);
     let a = JointAngles { motor_angle_rad: &m, link_angle_rad: &l, sample_rate_hz: FS_HZ };
     let mut o = ComplianceFitOptions::new(ComplianceForm::ThreeSlope { t1_nm: 14.0, t2_nm: 48.0 }, 100.0);
-    o.friction = Some(FrictionFitOptions::default());
+    o.friction = Some(FrictionFitOptions { load_dependent: true, ..Default::default() });
     let fit = fit_compliance(&gear(), &NoKinematicError, &a, &current, &o).unwrap();
     let got = fit.friction.unwrap();
     println!("{:?}\n{:?}\n{:?}", fit.params, got, fit.termination);
@@ -106,6 +107,7 @@ fn three_slope_spring_and_friction_alternately_with_holdout() {
         assert!((got / want - 1.0).abs() < 0.02, "{got} vs {want}");
     }
     assert!((got.coulomb_nm - 6.0).abs() < 0.1 && (got.inertia_kg_m2 - 2.5).abs() < 0.1, "{got:?}");
+    assert!((got.load_coefficient - 0.05).abs() < 0.005, "{got:?}");
     assert!(fit.parameters.iter().all(|p| p.std_error.is_finite()), "{:?}", fit.parameters);
     // Blocked holdout: each fifth predicted from the other four.
     let n = current.len();
@@ -128,7 +130,7 @@ fn friction_on_a_still_joint_is_refused() {
     let q: Vec<f64> = l.iter().map(|l| 3e4 * l).collect();
     let a = JointAngles { motor_angle_rad: &m, link_angle_rad: &l, sample_rate_hz: FS_HZ };
     let mut o = ComplianceFitOptions::new(ComplianceForm::Linear, 100.0);
-    o.friction = Some(FrictionFitOptions::default());
+    o.friction = Some(FrictionFitOptions { load_dependent: true, ..Default::default() });
     let e = fit_compliance(&gear(), &NoKinematicError, &a, &q, &o).unwrap_err();
     assert!(e.to_string().contains("not identifiable"), "{e}");
 }

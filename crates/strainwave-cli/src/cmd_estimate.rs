@@ -151,7 +151,7 @@ pub fn run(a: &Args) -> Result<()> {
         if let Some((f, tracker)) = &mut rates {
             // The motor angle referred to the link: output angle less the torsion.
             let (v, acc) = tracker.step(e.output_angle_rad - e.torsion_rad);
-            row.push(e.link_torque_nm + f.torque_nm(v, acc));
+            row.push(e.link_torque_nm + f.torque_nm(e.link_torque_nm, v, acc));
         }
         w.write_row(&row)?;
     }

@@ -399,6 +399,7 @@ fn compliance_options(cfg: &ArmConfig, windup_offset: bool) -> Result<Compliance
         coulomb: f.coulomb,
         viscous: f.viscous,
         stribeck_speed_rad_s: f.stribeck_speed_rad_s,
+        load_dependent: f.load_dependent,
         inertia: f.rotor_inertia,
         smoothing_speed_rad_s: f.smoothing_speed_rad_s,
         rate_span: f.rate_span,

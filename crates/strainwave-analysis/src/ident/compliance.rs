@@ -368,7 +368,7 @@ impl ComplianceFit {
         if let Some(f) = &self.friction {
             let (v, a) = motion_rates(&angles.link_side_motor_angle_rad(gear), angles.sample_rate_hz, f.rate_span)?;
             for ((t, v), a) in link.iter_mut().zip(&v).zip(&a) {
-                *t += f.torque_nm(*v, *a);
+                *t += f.torque_nm(*t, *v, *a);
             }
         }
         Ok(link)

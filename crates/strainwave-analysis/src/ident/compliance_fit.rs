@@ -279,27 +279,38 @@ pub fn fit_compliance<K: KinematicError<f64> + Clone>(
             ),
         ));
     }
-    let (fcols, _) = friction_columns(&fopts, &v, &a);
     let spring_opts = ComplianceFitOptions { friction: None, ..opts.clone() };
+    // The load-dependent term needs the link torque: the reference stands in for it at
+    // first, then the model's own (where the solver gives none, the reference again).
+    let mut link = reference_torque_nm.to_vec();
+    let relink = |fit: &ComplianceFit| -> Result<Vec<f64>, AnalysisError> {
+        let p = fit.predict(gear, kinematic.clone(), angles)?;
+        Ok(p.iter().zip(reference_torque_nm).map(|(p, q)| if p.is_finite() { *p } else { *q }).collect())
+    };
     // Joint solve: the spring's linear least squares with the friction columns alongside.
-    let joint = fit_spring(gear, kinematic, angles, reference_torque_nm, &spring_opts, Some((&fcols, fopts)))?;
+    let (fcols, _) = friction_columns(&fopts, &v, &a, &link);
+    let mut joint = fit_spring(gear, kinematic, angles, reference_torque_nm, &spring_opts, Some((&fcols, fopts)))?;
     if joint.iterations == 0 && joint.termination.is_none() && joint.friction.is_some() {
-        // Linear in every parameter: that solve is the answer.
+        // Linear in every parameter: that solve is the answer (re-solved with the model's
+        // link torque when friction depends on the load).
+        if fopts.load_dependent {
+            for _ in 0..4 {
+                link = relink(&joint)?;
+                let (fcols, _) = friction_columns(&fopts, &v, &a, &link);
+                joint = fit_spring(gear, kinematic, angles, reference_torque_nm, &spring_opts, Some((&fcols, fopts)))?;
+            }
+        }
         return finish_with_friction(gear, kinematic, angles, reference_torque_nm, &rows, joint);
     }
     let mut friction = joint.friction.ok_or_else(|| invalid("friction", "the joint solve gave no friction"))?;
     let mut fit = joint;
     for _ in 0..4 {
-        let shifted: Vec<f64> = reference_torque_nm
-            .iter()
-            .zip(v.iter().zip(&a))
-            .map(|(q, (v, a))| q - friction.torque_nm(*v, *a))
-            .collect();
+        let shifted: Vec<f64> =
+            (0..n).map(|k| reference_torque_nm[k] - friction.torque_nm(link[k], v[k], a[k])).collect();
         fit = fit_spring(gear, kinematic, angles, &shifted, &spring_opts, None)?;
-        let link = fit.predict(gear, kinematic.clone(), angles)?;
+        link = relink(&fit)?;
         let rest: Vec<f64> = reference_torque_nm.iter().zip(&link).map(|(q, t)| q - t).collect();
-        let usable: Vec<usize> = rows.iter().copied().filter(|&k| rest[k].is_finite()).collect();
-        let (f, est) = fit_friction(&fopts, &v, &a, &rest, &usable)?;
+        let (f, est) = fit_friction(&fopts, &v, &a, &link, &rest, &rows)?;
         friction = f;
         fit.parameters.retain(|p| !est.iter().any(|e| e.name == p.name));
         fit.parameters.extend(est);
@@ -475,7 +486,7 @@ fn fit_spring<K: KinematicError<f64> + Clone>(
             .collect();
         if let Some((_, fopts)) = extra {
             let coef = &lin[i_extra..];
-            let (_, fnames) = friction_columns(&fopts, &[], &[]);
+            let (_, fnames) = friction_columns(&fopts, &[], &[], &[]);
             fit.friction = Some(friction_params(&fopts, coef));
             for (j, name) in fnames.iter().enumerate() {
                 fit.parameters.push(ParamEstimate::new(name, coef[j], lin_se[i_extra + j]));

@@ -5,14 +5,16 @@
 //! to the link it is
 //!
 //! ```text
-//! τ_current = τ_link + (F_c + F_s e^{−(v/v_s)²}) tanh(v/ε) + F_v v + J a
+//! τ_current = τ_link + (F_c + μ |τ_link| + F_s e^{−(v/v_s)²}) tanh(v/ε) + F_v v + J a
 //! ```
 //!
 //! with `v`, `a` the link-side speed and acceleration of the motor (`θ_m / n_s`),
-//! Coulomb `F_c`, optional Stribeck excess `F_s` (decay speed `v_s` fixed), viscous
-//! `F_v`, rotor inertia referred to the link `J`, and `ε` a small smoothing speed. All
-//! are linear in the parameters once `v_s` and `ε` are fixed, so they are identified by
-//! least squares, jointly with a linear spring or alternately with a nonlinear one
+//! Coulomb `F_c`, optional load-dependent friction `μ` (a strain wave gear's mesh
+//! friction grows with the torque it carries), optional Stribeck excess `F_s` (decay
+//! speed `v_s` fixed), viscous `F_v`, rotor inertia referred to the link `J`, and `ε` a
+//! small smoothing speed. All are linear in the parameters once `v_s`, `ε` and the link
+//! torque are fixed, so they are identified by least squares, jointly with the spring
+//! (re-solved with the updated link torque) or alternately with a nonlinear one
 //! ([`fit_compliance`]).
 //!
 //! Rates are causal differences over `span` samples (the same in identification and in
@@ -80,6 +82,8 @@ pub struct FrictionFitOptions {
     pub viscous: bool,
     /// Stribeck excess with this decay speed `v_s`, rad/s (`None`: no Stribeck term).
     pub stribeck_speed_rad_s: Option<f64>,
+    /// Load-dependent friction `μ |τ_link|`.
+    pub load_dependent: bool,
     /// Rotor inertia `J`.
     pub inertia: bool,
     /// Smoothing speed `ε` of the sign, rad/s.
@@ -94,6 +98,7 @@ impl Default for FrictionFitOptions {
             coulomb: true,
             viscous: true,
             stribeck_speed_rad_s: None,
+            load_dependent: false,
             inertia: true,
             smoothing_speed_rad_s: 0.01,
             rate_span: 4,
@@ -115,6 +120,9 @@ pub struct FrictionParams {
     pub stribeck_speed_rad_s: f64,
     /// `J`, kg·m².
     pub inertia_kg_m2: f64,
+    /// `μ`, load-dependent friction per N·m of link torque (0 without it).
+    #[serde(default)]
+    pub load_coefficient: f64,
     /// `ε`, rad/s.
     pub smoothing_speed_rad_s: f64,
     /// Difference span of the rates, samples.
@@ -122,15 +130,17 @@ pub struct FrictionParams {
 }
 
 impl FrictionParams {
-    /// Friction plus inertial torque at speed `v` and acceleration `a`, N·m.
-    pub fn torque_nm(&self, v: f64, a: f64) -> f64 {
+    /// Friction plus inertial torque at link torque `τ_link`, speed `v` and acceleration `a`, N·m.
+    pub fn torque_nm(&self, link_torque_nm: f64, v: f64, a: f64) -> f64 {
         let s = (v / self.smoothing_speed_rad_s).tanh();
         let strib = if self.stribeck_speed_rad_s > 0.0 {
             self.stribeck_nm * (-(v / self.stribeck_speed_rad_s).powi(2)).exp()
         } else {
             0.0
         };
-        (self.coulomb_nm + strib) * s + self.viscous_nm_s_per_rad * v + self.inertia_kg_m2 * a
+        (self.coulomb_nm + self.load_coefficient * link_torque_nm.abs() + strib) * s
+            + self.viscous_nm_s_per_rad * v
+            + self.inertia_kg_m2 * a
     }
 
     /// Checks the values a model file may carry.
@@ -142,6 +152,7 @@ impl FrictionParams {
             self.stribeck_speed_rad_s,
             self.inertia_kg_m2,
             self.smoothing_speed_rad_s,
+            self.load_coefficient,
         ];
         if all.iter().any(|v| !v.is_finite()) {
             return Err(invalid("friction", "every value must be finite"));
@@ -153,8 +164,14 @@ impl FrictionParams {
     }
 }
 
-/// Regressor columns of the friction terms, in the order coulomb, viscous, stribeck, inertia.
-pub(super) fn friction_columns(opts: &FrictionFitOptions, v: &[f64], a: &[f64]) -> (Vec<Vec<f64>>, Vec<&'static str>) {
+/// Regressor columns of the friction terms, in the order coulomb, viscous, stribeck,
+/// inertia, load (the last from the link torque `link`).
+pub(super) fn friction_columns(
+    opts: &FrictionFitOptions,
+    v: &[f64],
+    a: &[f64],
+    link: &[f64],
+) -> (Vec<Vec<f64>>, Vec<&'static str>) {
     let eps = opts.smoothing_speed_rad_s;
     let mut cols = Vec::new();
     let mut names = Vec::new();
@@ -174,6 +191,10 @@ pub(super) fn friction_columns(opts: &FrictionFitOptions, v: &[f64], a: &[f64]) 
         cols.push(a.to_vec());
         names.push("inertia_kg_m2");
     }
+    if opts.load_dependent {
+        cols.push(v.iter().zip(link).map(|(v, t)| (v / eps).tanh() * t.abs()).collect());
+        names.push("load_coefficient");
+    }
     (cols, names)
 }
 
@@ -186,6 +207,7 @@ pub(super) fn friction_params(opts: &FrictionFitOptions, coef: &[f64]) -> Fricti
         viscous_nm_s_per_rad: take(opts.viscous),
         stribeck_nm: take(opts.stribeck_speed_rad_s.is_some()),
         inertia_kg_m2: take(opts.inertia),
+        load_coefficient: take(opts.load_dependent),
         stribeck_speed_rad_s: opts.stribeck_speed_rad_s.unwrap_or(0.0),
         smoothing_speed_rad_s: opts.smoothing_speed_rad_s,
         rate_span: opts.rate_span,
@@ -194,7 +216,7 @@ pub(super) fn friction_params(opts: &FrictionFitOptions, coef: &[f64]) -> Fricti
 
 /// Checks the options.
 pub(super) fn check_friction_options(opts: &FrictionFitOptions) -> Result<(), AnalysisError> {
-    if !(opts.coulomb || opts.viscous || opts.stribeck_speed_rad_s.is_some() || opts.inertia) {
+    if !(opts.coulomb || opts.viscous || opts.stribeck_speed_rad_s.is_some() || opts.inertia || opts.load_dependent) {
         return Err(invalid("friction", "no term to identify"));
     }
     if !(opts.smoothing_speed_rad_s.is_finite() && opts.smoothing_speed_rad_s > 0.0) {
@@ -208,17 +230,18 @@ pub(super) fn check_friction_options(opts: &FrictionFitOptions) -> Result<(), An
     RateTracker::new(opts.rate_span, 1.0).map(|_| ())
 }
 
-/// Fits the friction terms to `torque_nm` (the reference minus the link torque) on
-/// `rows`; returns the parameters and their standard errors (named).
+/// Fits the friction terms to `torque_nm` (the reference minus the link torque `link`)
+/// on `rows`; returns the parameters and their standard errors (named).
 pub fn fit_friction(
     opts: &FrictionFitOptions,
     v: &[f64],
     a: &[f64],
+    link: &[f64],
     torque_nm: &[f64],
     rows: &[usize],
 ) -> Result<(FrictionParams, Vec<ParamEstimate>), AnalysisError> {
     check_friction_options(opts)?;
-    let (cols, names) = friction_columns(opts, v, a);
+    let (cols, names) = friction_columns(opts, v, a, link);
     let p = cols.len();
     let design: Vec<f64> = rows.iter().flat_map(|&k| cols.iter().map(move |c| c[k])).collect();
     let b: Vec<f64> = rows.iter().map(|&k| torque_nm[k]).collect();
@@ -278,17 +301,18 @@ mod tests {
             stribeck_nm: 0.0,
             stribeck_speed_rad_s: 0.0,
             inertia_kg_m2: 0.8,
+            load_coefficient: 0.0,
             smoothing_speed_rad_s: 0.01,
             rate_span: 4,
         };
-        let tq: Vec<f64> = v.iter().zip(&a).map(|(v, a)| truth.torque_nm(*v, *a)).collect();
+        let tq: Vec<f64> = v.iter().zip(&a).map(|(v, a)| truth.torque_nm(0.0, *v, *a)).collect();
         let rows: Vec<usize> = (10..n).collect();
-        let (p, se) = fit_friction(&FrictionFitOptions::default(), &v, &a, &tq, &rows).unwrap();
+        let (p, se) = fit_friction(&FrictionFitOptions::default(), &v, &a, &tq, &tq, &rows).unwrap();
         assert!((p.coulomb_nm - 4.0).abs() < 1e-9 && (p.viscous_nm_s_per_rad - 9.0).abs() < 1e-9, "{p:?}");
         assert!((p.inertia_kg_m2 - 0.8).abs() < 1e-9, "{p:?}");
         assert_eq!(se.len(), 3);
         // A still joint does not excite friction: an error, not a made-up value.
         let still = vec![0.0; n];
-        assert!(fit_friction(&FrictionFitOptions::default(), &still, &still, &tq, &rows).is_err());
+        assert!(fit_friction(&FrictionFitOptions::default(), &still, &still, &tq, &tq, &rows).is_err());
     }
 }

@@ -183,6 +183,9 @@ pub struct FrictionConfig {
     /// Stribeck excess with this decay speed, rad/s (absent: none).
     #[serde(default)]
     pub stribeck_speed_rad_s: Option<f64>,
+    /// Friction growing with the link torque, `μ |τ_link|` (strain wave gears' mesh friction).
+    #[serde(default)]
+    pub load_dependent: bool,
     /// Rotor inertia times acceleration.
     #[serde(default = "yes")]
     pub rotor_inertia: bool,
