@@ -11,7 +11,7 @@ for path in sys.argv[1:]:
         s = json.load(f)
     h = s["holdout"]
     m, p = h["model"], h["plain_linear"]
-    joint = path.rsplit("/", 1)[-1].split("-")[0]
+    joint = path.rsplit("/", 1)[-1].rsplit("-summary", 1)[0]
     log = s["loaded"].rsplit("/", 1)[-1]
     print(
         f"| {joint} | {log} | current ({h['blocks']}-block holdout) | {m['r_squared']:.3f} | {m['rms']:.2f} | "
