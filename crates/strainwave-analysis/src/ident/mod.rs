@@ -1,4 +1,4 @@
-//! Identification of the kinematic error and the compliance from recorded runs (SPEC §5).
+//! Identification of the kinematic error and the compliance from recorded runs.
 //!
 //! Two steps, as in seed 002:
 //!
