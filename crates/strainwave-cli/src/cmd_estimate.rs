@@ -1,13 +1,16 @@
-//! `strainwave estimate`: link torque from the motor and link encoders (SPEC §5) with a
-//! model written by `identify`, streamed row by row.
+//! `strainwave estimate`: link torque from the motor and link encoders with a model
+//! written by `identify`, streamed row by row. When the model holds friction and rotor
+//! inertia (identified against a motor-current torque), a `current_torque` column gives
+//! the motor-current torque the model predicts, to check against a log that has only current.
 
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
+use strainwave_analysis::ident::RateTracker;
 use strainwave_core::torsion::{Estimate, EstimatorState};
 use strainwave_io::{RecordingReader, RecordingWriter};
 
-use crate::cmd_identify::ModelFile;
+use crate::cmd_identify::{refuse_count_scaling, ModelFile};
 
 /// Arguments of `estimate`.
 #[derive(clap::Args, Debug)]
@@ -18,7 +21,8 @@ pub struct Args {
     /// Input recording.
     #[arg(long = "in")]
     pub input: PathBuf,
-    /// Output recording: the input columns plus torque, torsion, kinematic_error, estimate_flags.
+    /// Output recording: the input columns plus torque, torsion, kinematic_error,
+    /// estimate_flags (and current_torque when the model has friction).
     #[arg(long)]
     pub out: PathBuf,
     /// No summary on stderr.
@@ -56,6 +60,8 @@ pub fn run(a: &Args) -> Result<()> {
     let fs = model.sample_rate_hz;
     let est = match &model.encoders {
         Some(enc) => {
+            refuse_count_scaling(&model.channels.motor, "motor").with_context(|| format!("{}", a.config.display()))?;
+            refuse_count_scaling(&model.channels.link, "link").with_context(|| format!("{}", a.config.display()))?;
             let (m, l) = enc.configs()?;
             fit.estimator_for_counts(gear, m, l, kin, fs)?
         }
@@ -76,12 +82,23 @@ pub fn run(a: &Args) -> Result<()> {
     let li = index("link", &model.channels.link, &reader)?;
     let (ms, mo) = model.channels.motor.scale_offset();
     let (ls, lo) = model.channels.link.scale_offset();
-    const ADDED: [&str; 4] = ["torque", "torsion", "kinematic_error", "estimate_flags"];
+    let mut rates = match &model.friction {
+        Some(f) => {
+            f.validate().with_context(|| format!("{}: friction", a.config.display()))?;
+            Some((*f, RateTracker::new(f.rate_span, fs)?))
+        }
+        None => None,
+    };
+    let added: &[&str] = if rates.is_some() {
+        &["torque", "torsion", "kinematic_error", "estimate_flags", "current_torque"]
+    } else {
+        &["torque", "torsion", "kinematic_error", "estimate_flags"]
+    };
     let mut columns: Vec<&str> = reader.columns().iter().map(String::as_str).collect();
-    if let Some(c) = columns.iter().find(|c| ADDED.contains(c)) {
+    if let Some(c) = columns.iter().find(|c| added.contains(c)) {
         bail!("{}: already has a column `{c}`", a.input.display());
     }
-    columns.extend(ADDED);
+    columns.extend(added);
     let columns: Vec<String> = columns.iter().map(|s| s.to_string()).collect();
     let names: Vec<&str> = columns.iter().map(String::as_str).collect();
     let mut w = RecordingWriter::create(&a.out, &names)?;
@@ -100,7 +117,12 @@ pub fn run(a: &Args) -> Result<()> {
                 }
                 est.step_counts(&mut st, m as i64, l as i64)
             }
-            None => est.step_angles(&mut st, m * ms + mo, l * ls + lo),
+            None => {
+                if !(m.is_finite() && l.is_finite()) {
+                    bail!("{}: data row {k}: encoder angles {m}, {l} are not finite", a.input.display());
+                }
+                est.step_angles(&mut st, m * ms + mo, l * ls + lo)
+            }
         };
         let e = r.map_err(|e| {
             anyhow::anyhow!(
@@ -126,6 +148,11 @@ pub fn run(a: &Args) -> Result<()> {
             jumps += 1;
         }
         row.extend_from_slice(&[e.link_torque_nm, e.torsion_rad, e.kinematic_error_rad, bits as f64]);
+        if let Some((f, tracker)) = &mut rates {
+            // The motor angle referred to the link: output angle less the torsion.
+            let (v, acc) = tracker.step(e.output_angle_rad - e.torsion_rad);
+            row.push(e.link_torque_nm + f.torque_nm(e.link_torque_nm, v, acc));
+        }
         w.write_row(&row)?;
     }
     let rows = w.finish()?;

@@ -1,26 +1,36 @@
-//! `strainwave identify`: fit the kinematic error (no-load run) and the compliance (loaded
-//! run against a reference torque) of an encoder-based torque estimator (SPEC §5), and
-//! write the model `estimate` reads.
+//! `strainwave identify`: fit the kinematic error and the compliance of an
+//! encoder-based torque estimator from recorded runs, and write the model `estimate`
+//! reads.
 //!
-//! The configuration (`--config ARM.toml`, see `examples/arm-hda.toml`) only maps the
-//! recordings and the model choices onto `strainwave_analysis::ident`.
+//! A loaded run with a reference torque is enough. A no-load run, when there is one,
+//! gives the kinematic error; otherwise its mesh harmonics (of the motor angle) are
+//! fitted from the loaded run with a slow trend taking up the load, and the output-angle
+//! harmonics are reported as not identifiable (as they are when the link turns less than
+//! a revolution). With a `[friction]` table the reference is a motor-current torque and
+//! friction and rotor inertia are identified with the compliance.
+//!
+//! The configuration (`--config ARM.toml`, see `examples/arm-hda.toml` and
+//! `examples/lara8-joint3.toml`) only maps the recordings and the model choices onto
+//! `strainwave_analysis::ident`.
 
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
 use strainwave_analysis::ident::{
-    fit_compliance, fit_kinematic_error, select_kinematic_basis, ComplianceFit, ComplianceFitOptions, ComplianceForm,
-    ComplianceParams, FitMetrics, FittedHysteresis, HysteresisForm, JointAngles, KinematicBasis, KinematicFit,
-    KinematicFitOptions,
+    blocked_holdout, fit_compliance, fit_kinematic_error_on, lstsq_qr, select_kinematic_basis, training_rows,
+    ComplianceFit, ComplianceFitOptions, ComplianceForm, ComplianceParams, FitMetrics, FittedHysteresis,
+    FrictionFitOptions, FrictionParams, HysteresisForm, JointAngles, KinematicBasis, KinematicFit, KinematicFitOptions,
 };
-use strainwave_core::compliance::ThreeSlopeStiffness;
 use strainwave_core::gear::Gear;
-use strainwave_core::torsion::{EstimatorState, MeshAngle, NoKinematicError, TorqueSolver, TorsionEstimator};
-use strainwave_io::Channel;
+use strainwave_core::torsion::MeshAngle;
 
 mod config;
-pub use config::{ArmConfig, Channels, EncodersConfig, GearConfig, KinematicConfig, Order};
+mod load;
+mod report;
+pub use config::{ArmConfig, Channels, EncodersConfig, GearConfig, Order};
+pub use load::refuse_count_scaling;
+use load::{load_run, sample_rate};
 
 /// Arguments of `identify`.
 #[derive(clap::Args, Debug)]
@@ -29,14 +39,29 @@ pub struct Args {
     #[arg(long)]
     pub config: PathBuf,
     /// No-load recording (the joint turns slowly, no load): fits the kinematic error.
+    /// Without it the kinematic error's mesh harmonics come from the loaded run.
     #[arg(long)]
-    pub no_load: PathBuf,
+    pub no_load: Option<PathBuf>,
     /// Loaded recording with a reference torque: fits the compliance.
     #[arg(long)]
     pub loaded: PathBuf,
     /// Output model TOML (read by `estimate --config`).
     #[arg(long)]
     pub out: PathBuf,
+    /// Also score the model out of sample: the loaded run cut into K contiguous blocks,
+    /// each predicted by a model identified on the others, beside the plain linear fit.
+    #[arg(long, value_name = "K")]
+    pub holdout: Option<usize>,
+    /// Write the model even when the Levenberg–Marquardt fit did not converge (else exit 1).
+    #[arg(long)]
+    pub allow_unconverged: bool,
+    /// Skip rows with a non-finite value in a used column (counted in the summary)
+    /// instead of stopping at the first.
+    #[arg(long)]
+    pub lenient: bool,
+    /// Write a JSON summary (fits, parameters with standard errors, holdout) here.
+    #[arg(long, value_name = "PATH")]
+    pub summary_json: Option<PathBuf>,
     /// No metrics table on stdout.
     #[arg(long, short)]
     pub quiet: bool,
@@ -56,8 +81,11 @@ pub struct KinematicModel {
     pub basis: String,
     /// Output harmonics or polynomial order.
     pub order: usize,
-    /// Mesh harmonics (relative angle), Fourier only.
+    /// Mesh harmonics, Fourier only.
     pub mesh_harmonics: usize,
+    /// The mesh angle of the harmonics: `relative` (WG relative to the output) or `motor`.
+    #[serde(default = "relative")]
+    pub mesh_angle: String,
     /// Coefficients in the basis order, rad.
     pub coefficients: Vec<f64>,
 }
@@ -97,6 +125,14 @@ pub struct ModelFile {
     pub kinematic: KinematicModel,
     /// Compliance.
     pub compliance: ComplianceModel,
+    /// Friction and rotor inertia referred to the link (when identified against a
+    /// motor-current torque): `estimate` then also outputs `current_torque`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction: Option<FrictionParams>,
+}
+
+fn relative() -> String {
+    "relative".into()
 }
 
 impl ModelFile {
@@ -113,7 +149,11 @@ impl ModelFile {
             "fourier" => KinematicBasis::Fourier {
                 output_harmonics: k.order,
                 mesh_harmonics: k.mesh_harmonics,
-                mesh_angle: MeshAngle::Relative,
+                mesh_angle: match k.mesh_angle.as_str() {
+                    "relative" => MeshAngle::Relative,
+                    "motor" => MeshAngle::Motor,
+                    other => bail!("kinematic.mesh_angle: `{other}` is neither relative nor motor"),
+                },
             },
             "polynomial" => KinematicBasis::Polynomial { order: k.order },
             other => bail!("kinematic.basis: `{other}` is neither fourier nor polynomial"),
@@ -140,165 +180,189 @@ impl ModelFile {
             rated_torque_nm: c.rated_torque_nm,
             metrics: FitMetrics::of(&[], &[]),
             iterations: 0,
+            termination: None,
+            friction: self.friction,
+            parameters: Vec::new(),
         }
     }
 }
 
-/// Motor and link angles (gear convention, unwrapped) of a recording.
-struct Run {
-    motor: Vec<f64>,
-    link: Vec<f64>,
-    table: strainwave_io::Table,
+/// Slow-trend degree when the mesh harmonics come from a loaded run.
+const SLOW_TREND_DEGREE: usize = 15;
+/// Mesh harmonics fitted from a loaded run when the config does not say.
+const DEFAULT_LOADED_MESH_HARMONICS: usize = 4;
+
+fn span(x: &[f64]) -> f64 {
+    let (lo, hi) = x.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
+    hi - lo
 }
 
-fn column<'a>(t: &'a strainwave_io::Table, ch: &Channel, key: &str, path: &Path) -> Result<&'a [f64]> {
-    t.column(ch.column_name()).with_context(|| {
-        format!(
-            "{}: no column `{}` (channel `{key}`); columns: {}",
-            path.display(),
-            ch.column_name(),
-            t.columns.join(", ")
-        )
-    })
+/// How the kinematic error is fitted.
+enum KinematicPlan {
+    /// From the no-load run (fitted once).
+    NoLoad(KinematicFit),
+    /// From the loaded run's training rows with a slow trend.
+    Loaded(KinematicBasis),
+    /// No model (the motor turns less than a revolution).
+    None,
 }
 
-fn scaled(t: &strainwave_io::Table, ch: &Channel, key: &str, path: &Path) -> Result<Vec<f64>> {
-    let (s, o) = ch.scale_offset();
-    Ok(column(t, ch, key, path)?.iter().map(|v| v * s + o).collect())
+fn no_model() -> KinematicFit {
+    KinematicFit {
+        basis: KinematicBasis::Fourier { output_harmonics: 0, mesh_harmonics: 0, mesh_angle: MeshAngle::Motor },
+        coefficients: vec![0.0],
+        direction_offset_rad: 0.0,
+        metrics: FitMetrics::of(&[], &[]),
+    }
 }
 
-/// Unwraps raw counts into angles through the core's estimator (identity spring, no
-/// kinematic error): the encoder handling is the one `estimate` uses.
-fn angles_from_counts(
-    gear: Gear<f64>,
-    enc: &EncodersConfig,
-    motor: &[f64],
-    link: &[f64],
-    path: &Path,
-) -> Result<(Vec<f64>, Vec<f64>)> {
-    let (m, l) = enc.configs()?;
-    let spring = ThreeSlopeStiffness::linear(1.0e4).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let solver = TorqueSolver::for_rated_torque(1.0e9).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let est = TorsionEstimator::new(gear, m, l, NoKinematicError, spring, solver);
-    let mut st = EstimatorState::new();
-    let n_s = gear.signed_ratio();
-    let (mut ma, mut la) = (Vec::with_capacity(motor.len()), Vec::with_capacity(motor.len()));
-    for (k, (mc, lc)) in motor.iter().zip(link).enumerate() {
-        let e = est
-            .step_counts(&mut st, *mc as i64, *lc as i64)
-            .map_err(|e| anyhow::anyhow!("{}: data row {}: {e}", path.display(), k + 1))?;
-        if e.flags.any_jump() {
-            bail!(
-                "{}: data row {}: encoder count jumped (wrapping counter? check encoders.single_turn)",
-                path.display(),
-                k + 1
-            );
+impl KinematicPlan {
+    fn fit(&self, gear: &Gear<f64>, loaded: &JointAngles, rows: &[usize]) -> Result<KinematicFit> {
+        match self {
+            KinematicPlan::NoLoad(k) => Ok(k.clone()),
+            KinematicPlan::None => Ok(no_model()),
+            KinematicPlan::Loaded(basis) => {
+                let opts = KinematicFitOptions { slow_trend_degree: SLOW_TREND_DEGREE, ..Default::default() };
+                Ok(fit_kinematic_error_on(gear, loaded, *basis, &opts, rows)?)
+            }
         }
-        la.push(e.output_angle_rad);
-        ma.push((e.output_angle_rad - e.torsion_rad) * n_s);
     }
-    Ok((ma, la))
 }
 
-fn load_run(cfg: &ArmConfig, path: &Path) -> Result<Run> {
-    let table = strainwave_io::read_all(path).with_context(|| format!("{}", path.display()))?;
-    if table.rows() < 20 {
-        bail!("{}: {} rows, too short to identify from", path.display(), table.rows());
-    }
-    let gear = cfg.gear.gear()?;
-    let (motor, link) = match &cfg.encoders {
-        Some(enc) => {
-            let m = column(&table, &cfg.channels.motor, "motor", path)?;
-            let l = column(&table, &cfg.channels.link, "link", path)?;
-            angles_from_counts(gear, enc, m, l, path)?
-        }
-        None => {
-            (scaled(&table, &cfg.channels.motor, "motor", path)?, scaled(&table, &cfg.channels.link, "link", path)?)
-        }
-    };
-    Ok(Run { motor, link, table })
-}
-
-fn sample_rate(cfg: &ArmConfig, run: &Run, path: &Path) -> Result<f64> {
-    if let Some(fs) = cfg.sample_rate_hz {
-        return Ok(fs);
-    }
-    let Some(ch) = &cfg.channels.time else { bail!("give sample_rate_hz or channels.time") };
-    let t = scaled(&run.table, ch, "time", path)?;
-    let span = t[t.len() - 1] - t[0];
-    if !(span.is_finite() && span > 0.0) {
-        bail!("{}: time does not increase", path.display());
-    }
-    Ok((t.len() - 1) as f64 / span)
-}
-
-fn fit_kinematic(cfg: &KinematicConfig, gear: &Gear<f64>, angles: &JointAngles) -> Result<(KinematicFit, Option<f64>)> {
-    let opts = KinematicFitOptions::default();
-    let cv = match &cfg.order {
+/// Plans the kinematic fit and says what is not identifiable, and why.
+fn plan_kinematic(
+    cfg: &ArmConfig,
+    gear: &Gear<f64>,
+    no_load: Option<&JointAngles>,
+    loaded: &JointAngles,
+    notes: &mut Vec<String>,
+) -> Result<(KinematicPlan, Option<f64>)> {
+    let k = &cfg.kinematic;
+    let cv = match &k.order {
         Order::Named(s) if s == "cv" => true,
         Order::Named(s) => bail!("kinematic.order: `{s}` is neither a number nor \"cv\""),
         Order::Fixed(_) => false,
     };
-    let basis_of = |order: usize, mesh: usize| -> Result<KinematicBasis> {
-        Ok(match cfg.basis.as_str() {
-            "fourier" => KinematicBasis::Fourier {
-                output_harmonics: order,
-                mesh_harmonics: mesh,
-                mesh_angle: MeshAngle::Relative,
-            },
-            "polynomial" => KinematicBasis::Polynomial { order },
-            other => bail!("kinematic.basis: `{other}` is neither fourier nor polynomial"),
-        })
+    let order = match k.order {
+        Order::Fixed(o) => o,
+        Order::Named(_) => 0,
     };
-    if cv {
-        let mut candidates = Vec::new();
-        if cfg.basis == "polynomial" {
-            for o in 1..=7 {
-                candidates.push(basis_of(o, 0)?);
-            }
-        } else {
-            for ho in 1..=3 {
-                for hr in [0, 2, 4, 6] {
-                    candidates.push(basis_of(ho, hr)?);
+    if !matches!(k.basis.as_str(), "fourier" | "polynomial") {
+        bail!("kinematic.basis: `{}` is neither fourier nor polynomial", k.basis);
+    }
+    let run = no_load.unwrap_or(loaded);
+    let (link_span, motor_span) = (span(run.link_angle_rad), span(run.motor_angle_rad));
+    let which = if no_load.is_some() { "no-load run" } else { "loaded run" };
+    // The torsion cannot exceed a fraction of the link's motion unless one encoder is reversed.
+    let torsion_span = span(&run.torsion_rad(gear));
+    if link_span > 0.05 && torsion_span > 0.5 * link_span {
+        bail!(
+            "{which}: the torsion spans {torsion_span:.3} rad while the link turns {link_span:.3} rad: one encoder \
+             counts the other way; set encoders.motor_direction = -1 (or encoders.link_direction = -1)"
+        );
+    }
+    if motor_span < std::f64::consts::TAU {
+        notes.push(format!(
+            "kinematic error not identifiable: the motor turns {motor_span:.2} rad (< 1 rev) in the {which}; none used"
+        ));
+        return Ok((KinematicPlan::None, None));
+    }
+    let full_turn = link_span >= 0.95 * std::f64::consts::TAU;
+    if k.basis == "polynomial" {
+        let Some(nl) = no_load else {
+            bail!("kinematic.basis = \"polynomial\" (in the output angle) needs --no-load: from a loaded run it is confounded with the load");
+        };
+        let opts = KinematicFitOptions::default();
+        if cv {
+            let candidates: Vec<KinematicBasis> = (1..=7).map(|o| KinematicBasis::Polynomial { order: o }).collect();
+            let (fit, cvs) = select_kinematic_basis(gear, nl, &candidates, 5, &opts)?;
+            return Ok((KinematicPlan::NoLoad(fit), Some(cvs.iter().copied().fold(f64::INFINITY, f64::min))));
+        }
+        let rows: Vec<usize> = (0..nl.motor_angle_rad.len()).collect();
+        let fit = fit_kinematic_error_on(gear, nl, KinematicBasis::Polynomial { order }, &opts, &rows)?;
+        return Ok((KinematicPlan::NoLoad(fit), None));
+    }
+    match no_load {
+        Some(nl) if full_turn => {
+            let opts = KinematicFitOptions::default();
+            let basis_of = |ho: usize, hr: usize| KinematicBasis::Fourier {
+                output_harmonics: ho,
+                mesh_harmonics: hr,
+                mesh_angle: MeshAngle::Relative,
+            };
+            if cv {
+                let mut candidates = Vec::new();
+                for ho in 1..=3 {
+                    for hr in [0, 2, 4, 6] {
+                        candidates.push(basis_of(ho, hr));
+                    }
                 }
+                let (fit, cvs) = select_kinematic_basis(gear, nl, &candidates, 5, &opts)?;
+                Ok((KinematicPlan::NoLoad(fit), Some(cvs.iter().copied().fold(f64::INFINITY, f64::min))))
+            } else {
+                let rows: Vec<usize> = (0..nl.motor_angle_rad.len()).collect();
+                let basis = basis_of(order, k.mesh_harmonics.unwrap_or(0));
+                Ok((KinematicPlan::NoLoad(fit_kinematic_error_on(gear, nl, basis, &opts, &rows)?), None))
             }
         }
-        let (fit, cvs) = select_kinematic_basis(gear, angles, &candidates, 5, &opts)?;
-        let best = cvs.iter().cloned().fold(f64::INFINITY, f64::min);
-        Ok((fit, Some(best)))
-    } else {
-        let Order::Fixed(o) = cfg.order else { unreachable!() };
-        Ok((fit_kinematic_error(gear, angles, basis_of(o, cfg.mesh_harmonics)?, &opts)?, None))
+        Some(nl) => {
+            // Less than a revolution: mesh harmonics of the motor angle only.
+            notes.push(format!(
+                "output harmonics not identifiable: the link turns {link_span:.2} rad (< 1 rev) in the no-load run"
+            ));
+            let hr = k.mesh_harmonics.unwrap_or(DEFAULT_LOADED_MESH_HARMONICS);
+            let opts = KinematicFitOptions::default();
+            let basis =
+                KinematicBasis::Fourier { output_harmonics: 0, mesh_harmonics: hr, mesh_angle: MeshAngle::Motor };
+            let rows: Vec<usize> = (0..nl.motor_angle_rad.len()).collect();
+            Ok((KinematicPlan::NoLoad(fit_kinematic_error_on(gear, nl, basis, &opts, &rows)?), None))
+        }
+        None => {
+            notes.push(
+                "output harmonics not identifiable without a no-load run (confounded with the load); mesh harmonics \
+                 of the motor angle fitted from the loaded run with a slow trend"
+                    .into(),
+            );
+            if cv || order > 0 {
+                notes.push(format!("kinematic.order = {:?} not used: it needs --no-load", k.order));
+            }
+            let hr = k.mesh_harmonics.unwrap_or(DEFAULT_LOADED_MESH_HARMONICS);
+            if hr == 0 {
+                return Ok((KinematicPlan::None, None));
+            }
+            Ok((
+                KinematicPlan::Loaded(KinematicBasis::Fourier {
+                    output_harmonics: 0,
+                    mesh_harmonics: hr,
+                    mesh_angle: MeshAngle::Motor,
+                }),
+                None,
+            ))
+        }
     }
 }
 
 fn kinematic_model(fit: &KinematicFit) -> KinematicModel {
-    let (basis, order, mesh) = match fit.basis {
-        KinematicBasis::Polynomial { order } => ("polynomial", order, 0),
-        KinematicBasis::Fourier { output_harmonics, mesh_harmonics, .. } => {
-            ("fourier", output_harmonics, mesh_harmonics)
+    let (basis, order, mesh, angle) = match fit.basis {
+        KinematicBasis::Polynomial { order } => ("polynomial", order, 0, MeshAngle::Relative),
+        KinematicBasis::Fourier { output_harmonics, mesh_harmonics, mesh_angle } => {
+            ("fourier", output_harmonics, mesh_harmonics, mesh_angle)
         }
     };
-    KinematicModel { basis: basis.into(), order, mesh_harmonics: mesh, coefficients: fit.coefficients.clone() }
+    let mesh_angle = match angle {
+        MeshAngle::Relative => "relative",
+        MeshAngle::Motor => "motor",
+    };
+    KinematicModel {
+        basis: basis.into(),
+        order,
+        mesh_harmonics: mesh,
+        mesh_angle: mesh_angle.into(),
+        coefficients: fit.coefficients.clone(),
+    }
 }
 
-/// Runs `identify`.
-pub fn run(a: &Args) -> Result<()> {
-    let text = std::fs::read_to_string(&a.config).with_context(|| format!("{}", a.config.display()))?;
-    let cfg: ArmConfig = toml::from_str(&text).with_context(|| format!("config {}", a.config.display()))?;
-    let gear = cfg.gear.gear()?;
-    // Kinematic error from the no-load run.
-    let nl = load_run(&cfg, &a.no_load)?;
-    let fs = sample_rate(&cfg, &nl, &a.no_load)?;
-    let nl_angles = JointAngles { motor_angle_rad: &nl.motor, link_angle_rad: &nl.link, sample_rate_hz: fs };
-    let (kin, cv) = fit_kinematic(&cfg.kinematic, &gear, &nl_angles).context("kinematic-error fit")?;
-    // Compliance from the loaded run.
-    let ld = load_run(&cfg, &a.loaded)?;
-    let Some(ref_ch) = &cfg.channels.reference_torque else {
-        bail!("channels.reference_torque: needed for the loaded run")
-    };
-    let reference = scaled(&ld.table, ref_ch, "reference_torque", &a.loaded)?;
-    let ld_angles = JointAngles { motor_angle_rad: &ld.motor, link_angle_rad: &ld.link, sample_rate_hz: fs };
+fn compliance_options(cfg: &ArmConfig, windup_offset: bool) -> Result<ComplianceFitOptions> {
     let c = &cfg.compliance;
     let rated = cfg.gear.rated_torque_nm;
     let form = match c.spring.as_str() {
@@ -319,7 +383,7 @@ pub fn run(a: &Args) -> Result<()> {
                 Some(e) => {
                     let link = std::f64::consts::TAU / e.link_counts_per_rev as f64;
                     let motor = std::f64::consts::TAU / e.motor_counts_per_rev as f64 / cfg.gear.ratio;
-                    (1.0 + 4.0 * e.noise_counts) * (link + motor)
+                    (1.0 + 4.0 * e.noise()) * (link + motor)
                 }
                 None => 1.0e-5,
             };
@@ -328,8 +392,70 @@ pub fn run(a: &Args) -> Result<()> {
         other => bail!("compliance.hysteresis: `{other}` is neither plays nor none"),
     };
     opts.damping = c.damping;
-    opts.decimation = c.decimation.max(1);
-    let fit = fit_compliance(&gear, &kin, &ld_angles, &reference, &opts).context("compliance fit")?;
+    opts.decimation = c.decimation.unwrap_or(5).max(1);
+    opts.max_iterations = c.max_iterations.unwrap_or(40).max(1);
+    opts.windup_offset = windup_offset;
+    opts.friction = cfg.friction.as_ref().map(|f| FrictionFitOptions {
+        coulomb: f.coulomb,
+        viscous: f.viscous,
+        stribeck_speed_rad_s: f.stribeck_speed_rad_s,
+        load_dependent: f.load_dependent,
+        inertia: f.rotor_inertia,
+        smoothing_speed_rad_s: f.smoothing_speed_rad_s,
+        rate_span: f.rate_span,
+    });
+    Ok(opts)
+}
+
+/// Explains a negative stiffness with the settings that fix it.
+fn stiffness_hint(e: anyhow::Error) -> anyhow::Error {
+    if format!("{e:#}").contains("negative stiffness") {
+        e.context(
+            "the torsion and the reference torque have opposite signs: flip both encoders.motor_direction and \
+             encoders.link_direction, or give channels.reference_torque a scale = -1",
+        )
+    } else {
+        e
+    }
+}
+
+/// Runs `identify`.
+pub fn run(a: &Args) -> Result<()> {
+    let text = std::fs::read_to_string(&a.config).with_context(|| format!("{}", a.config.display()))?;
+    let cfg: ArmConfig = toml::from_str(&text).with_context(|| format!("config {}", a.config.display()))?;
+    cfg.refuse_unused(a.no_load.is_some()).with_context(|| format!("config {}", a.config.display()))?;
+    if let Some(k) = a.holdout {
+        if k < 2 {
+            bail!("--holdout: needs at least 2 blocks, got {k}");
+        }
+    }
+    let gear = cfg.gear.gear()?;
+    let ld = load_run(&cfg, &a.loaded, true, a.lenient)?;
+    let fs = sample_rate(&cfg, &ld, &a.loaded)?;
+    let nl = match &a.no_load {
+        Some(p) => Some(load_run(&cfg, p, false, a.lenient)?),
+        None => None,
+    };
+    let reference = ld.reference.clone().context("reference torque")?;
+    let ld_angles = JointAngles { motor_angle_rad: &ld.motor, link_angle_rad: &ld.link, sample_rate_hz: fs };
+    let nl_angles =
+        nl.as_ref().map(|r| JointAngles { motor_angle_rad: &r.motor, link_angle_rad: &r.link, sample_rate_hz: fs });
+    let mut notes = Vec::new();
+    let (plan, cv) =
+        plan_kinematic(&cfg, &gear, nl_angles.as_ref(), &ld_angles, &mut notes).context("kinematic-error fit")?;
+    let n = reference.len();
+    let all: Vec<usize> = (0..n).collect();
+    let kin = plan.fit(&gear, &ld_angles, &all).context("kinematic-error fit")?;
+    // Without a no-load run nothing fixes the zero of the wind-up: fit it.
+    let opts = compliance_options(&cfg, nl.is_none())?;
+    let fit = fit_compliance(&gear, &kin, &ld_angles, &reference, &opts)
+        .map_err(anyhow::Error::from)
+        .map_err(stiffness_hint)
+        .context("compliance fit")?;
+    let holdout = match a.holdout {
+        None => None,
+        Some(k) => Some(holdout_scores(k, &gear, &plan, &ld_angles, &reference, &opts)?),
+    };
     let peak = reference.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let model = ModelFile {
         sample_rate_hz: fs,
@@ -350,49 +476,89 @@ pub fn run(a: &Args) -> Result<()> {
             spring: fit.params,
             hysteresis: fit.hysteresis.clone(),
         },
+        friction: fit.friction,
     };
+    let summary = report::Summary {
+        args: a,
+        cfg: &cfg,
+        kin: &kin,
+        cv,
+        fit: &fit,
+        notes: &notes,
+        holdout: holdout.as_ref(),
+        skipped: ld.skipped + nl.as_ref().map_or(0, |r| r.skipped),
+        first_skipped: ld.first_skipped.or(nl.as_ref().and_then(|r| r.first_skipped)),
+        rows: n,
+        sample_rate_hz: fs,
+    };
+    if let Some(p) = &a.summary_json {
+        std::fs::write(p, summary.json()).with_context(|| format!("{}", p.display()))?;
+    }
+    if !fit.converged() && !a.allow_unconverged {
+        bail!(
+            "compliance fit: {} after {} iterations; no model written (--allow-unconverged writes it anyway)",
+            fit.termination.map_or("not converged", |t| t.describe()),
+            fit.iterations
+        );
+    }
     let text = toml::to_string(&model).context("serializing the model")?;
-    let header = format!("# strainwave identify: {} (no load), {} (loaded)\n", a.no_load.display(), a.loaded.display());
+    let header = format!(
+        "# strainwave identify: {} (no load), {} (loaded)\n",
+        a.no_load.as_deref().map_or("-".into(), |p| p.display().to_string()),
+        a.loaded.display()
+    );
     std::fs::write(&a.out, header + &text).with_context(|| format!("{}", a.out.display()))?;
     if !a.quiet {
-        let kb = match kin.basis {
-            KinematicBasis::Polynomial { order } => format!("polynomial, order {order}"),
-            KinematicBasis::Fourier { output_harmonics, mesh_harmonics, .. } => {
-                format!("Fourier, {output_harmonics} output + {mesh_harmonics} mesh harmonics")
-            }
-        };
-        let m = &kin.metrics;
-        let f = &fit.metrics;
-        let mut rows = vec![vec![
-            "kinematic error (no-load torsion)".to_string(),
-            kb,
-            format!("{:.4}", m.r_squared),
-            format!("{:.3e} rad", m.rms),
-            format!("{:.3e} rad", m.mean_abs),
-            format!("{:.3e} rad", m.max_abs),
-        ]];
-        if let Some(cv) = cv {
-            rows.push(vec![
-                "  5-fold cross-validation".into(),
-                "best candidate".into(),
-                "".into(),
-                format!("{cv:.3e} rad"),
-                "".into(),
-                "".into(),
-            ]);
-        }
-        rows.push(vec![
-            "compliance (loaded, vs reference)".to_string(),
-            format!("{}, {} hysteresis, {} LM iterations", c.spring, c.hysteresis, fit.iterations),
-            format!("{:.4}", f.r_squared),
-            format!("{:.3} N·m", f.rms),
-            format!("{:.3} N·m", f.mean_abs),
-            format!("{:.3} N·m", f.max_abs),
-        ]);
-        let header = ["fit", "model", "R²", "rms", "mean |e|", "max |e|"];
-        let mut out = crate::report::text::text_table(&header, &rows);
-        out.push_str(&format!("model -> {}\n", a.out.display()));
-        crate::stdout::print(&out)?;
+        crate::stdout::print(&summary.table())?;
     }
     Ok(())
+}
+
+/// Out-of-sample scores of the model and of the plain linear fit.
+pub struct Holdout {
+    /// Blocks.
+    pub blocks: usize,
+    /// The configured model (the reference it predicts: link or current torque).
+    pub model: FitMetrics,
+    /// The plain linear torsion fit on the same split.
+    pub plain: FitMetrics,
+    /// Blocks whose fit did not converge.
+    pub unconverged: usize,
+}
+
+fn holdout_scores(
+    blocks: usize,
+    gear: &Gear<f64>,
+    plan: &KinematicPlan,
+    angles: &JointAngles,
+    reference: &[f64],
+    opts: &ComplianceFitOptions,
+) -> Result<Holdout> {
+    let n = reference.len();
+    let mut unconverged = 0;
+    let model = blocked_holdout(reference, blocks, |b, block| {
+        let rows = training_rows(n, block);
+        let kin = plan.fit(gear, angles, &rows).map_err(|e| strainwave_analysis::AnalysisError::Invalid {
+            what: "holdout kinematic fit",
+            why: format!("block {}: {e:#}", b + 1),
+        })?;
+        let o = ComplianceFitOptions { train_rows: Some(rows), ..opts.clone() };
+        let fit = fit_compliance(gear, &kin, angles, reference, &o)?;
+        if !fit.converged() {
+            unconverged += 1;
+        }
+        Ok(fit.predict_reference(gear, kin, angles)?[block.clone()].to_vec())
+    })
+    .context("holdout of the model")?;
+    // Plain: ordinary least squares of the reference on the torsion and a constant.
+    let torsion = angles.torsion_rad(gear);
+    let plain = blocked_holdout(reference, blocks, |_, block| {
+        let rows = training_rows(n, block);
+        let cols = [rows.iter().map(|&k| torsion[k]).collect(), vec![1.0; rows.len()]];
+        let b: Vec<f64> = rows.iter().map(|&k| reference[k]).collect();
+        let c = lstsq_qr(&cols, &b)?;
+        Ok(block.clone().map(|k| c[0] * torsion[k] + c[1]).collect())
+    })
+    .context("holdout of the plain linear fit")?;
+    Ok(Holdout { blocks, model, plain, unconverged })
 }

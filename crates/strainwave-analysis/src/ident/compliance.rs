@@ -232,6 +232,14 @@ pub struct ComplianceFitOptions {
     /// computed at the full rate, so the fit stays that of the full-rate estimator; use it
     /// when the load changes slowly against the sample rate (a Dahl fit ignores it).
     pub decimation: usize,
+    /// The reference is a motor-current torque: identify friction and rotor inertia with
+    /// the compliance (see [`FrictionParams`]). `None`: the reference is the link torque.
+    pub friction: Option<FrictionFitOptions>,
+    /// Fit on these rows only (0-based, increasing; e.g. the training blocks of a blocked
+    /// holdout). States and rates still run over the whole run, which only uses angles.
+    pub train_rows: Option<Vec<usize>>,
+    /// Levenberg–Marquardt tolerances.
+    pub tolerances: LmTolerances,
 }
 
 impl ComplianceFitOptions {
@@ -245,6 +253,9 @@ impl ComplianceFitOptions {
             rated_torque_nm,
             max_iterations: 40,
             decimation: 1,
+            friction: None,
+            train_rows: None,
+            tolerances: LmTolerances::default(),
         }
     }
 }
@@ -266,6 +277,21 @@ pub struct ComplianceFit {
     pub metrics: FitMetrics,
     /// Levenberg–Marquardt iterations (0 for a linear least-squares fit).
     pub iterations: usize,
+    /// Why the Levenberg–Marquardt iteration stopped (`None`: a linear least-squares fit).
+    pub termination: Option<LmTermination>,
+    /// Friction and rotor inertia, when the reference is a motor-current torque.
+    pub friction: Option<FrictionParams>,
+    /// Fitted parameters with standard errors (from the final Jacobian, or the linear
+    /// least-squares covariance). Friction errors are conditional on the spring when
+    /// the two are fitted alternately.
+    pub parameters: Vec<ParamEstimate>,
+}
+
+impl ComplianceFit {
+    /// Whether the fit converged (a linear least-squares fit always does).
+    pub fn converged(&self) -> bool {
+        self.termination.is_none_or(LmTermination::converged)
+    }
 }
 
 /// An estimator built from fitted models, fed with angles.
@@ -328,5 +354,23 @@ impl ComplianceFit {
     ) -> Result<Vec<f64>, AnalysisError> {
         let est = self.estimator(*gear, kinematic, angles.sample_rate_hz)?;
         Ok(run_estimator(&est, angles))
+    }
+
+    /// The reference the model predicts along a run: the link torque, plus friction and
+    /// inertial torque when the fit has them (the motor-current torque), N·m.
+    pub fn predict_reference<K: KinematicError<f64>>(
+        &self,
+        gear: &Gear<f64>,
+        kinematic: K,
+        angles: &JointAngles,
+    ) -> Result<Vec<f64>, AnalysisError> {
+        let mut link = self.predict(gear, kinematic, angles)?;
+        if let Some(f) = &self.friction {
+            let (v, a) = motion_rates(&angles.link_side_motor_angle_rad(gear), angles.sample_rate_hz, f.rate_span)?;
+            for ((t, v), a) in link.iter_mut().zip(&v).zip(&a) {
+                *t += f.torque_nm(*t, *v, *a);
+            }
+        }
+        Ok(link)
     }
 }

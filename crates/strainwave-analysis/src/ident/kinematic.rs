@@ -36,6 +36,12 @@ impl JointAngles<'_> {
         self.motor_angle_rad.iter().zip(self.link_angle_rad).map(|(m, l)| l - m / n_s).collect()
     }
 
+    /// The motor angle referred to the link, `θ_m / n_s`, rad.
+    pub fn link_side_motor_angle_rad(&self, gear: &Gear<f64>) -> Vec<f64> {
+        let n_s = gear.signed_ratio();
+        self.motor_angle_rad.iter().map(|m| m / n_s).collect()
+    }
+
     pub(super) fn angles(&self, gear: &Gear<f64>, k: usize) -> GearAngles<f64> {
         GearAngles::from_f64(gear, self.motor_angle_rad[k], self.link_angle_rad[k])
     }
@@ -321,7 +327,23 @@ pub fn fit_kinematic_error(
     basis: KinematicBasis,
     opts: &KinematicFitOptions,
 ) -> Result<KinematicFit, AnalysisError> {
+    let rows: Vec<usize> = (0..angles.motor_angle_rad.len()).collect();
+    fit_kinematic_error_on(gear, angles, basis, opts, &rows)
+}
+
+/// [`fit_kinematic_error`] on some rows only (0-based, e.g. the training blocks of a
+/// blocked holdout); the regressors are computed over the whole run.
+pub fn fit_kinematic_error_on(
+    gear: &Gear<f64>,
+    angles: &JointAngles,
+    basis: KinematicBasis,
+    opts: &KinematicFitOptions,
+    rows: &[usize],
+) -> Result<KinematicFit, AnalysisError> {
     let n = angles.check(2 * (basis.n_terms() + opts.slow_trend_degree) + 2)?;
+    if rows.len() < 2 * (basis.n_terms() + opts.slow_trend_degree) + 2 || rows.iter().any(|&k| k >= n) {
+        return Err(invalid("rows", format!("need enough rows below {n}")));
+    }
     check_motion(&basis, angles)?;
     if opts.slow_trend_degree > 0
         && !matches!(basis, KinematicBasis::Fourier { output_harmonics: 0, mesh_harmonics: 1.., .. })
@@ -332,10 +354,10 @@ pub fn fit_kinematic_error(
         ));
     }
     let design = kinematic_design(&basis, gear, angles, opts);
-    let rows: Vec<usize> = (0..n).collect();
-    let (all, d) = solve_kinematic(basis, &design, &rows)?;
-    let fitted = predict_rows(&design, &all, &rows);
-    let metrics = FitMetrics::of(&fitted, &design.torsion);
+    let (all, d) = solve_kinematic(basis, &design, rows)?;
+    let fitted = predict_rows(&design, &all, rows);
+    let target: Vec<f64> = rows.iter().map(|&k| design.torsion[k]).collect();
+    let metrics = FitMetrics::of(&fitted, &target);
     let coefficients = all[..basis.n_terms()].to_vec();
     Ok(KinematicFit { basis, coefficients, direction_offset_rad: d, metrics })
 }

@@ -1,4 +1,4 @@
-//! Identification of the kinematic error and the compliance from recorded runs (SPEC §5).
+//! Identification of the kinematic error and the compliance from recorded runs.
 //!
 //! Two steps, as in seed 002:
 //!
@@ -117,7 +117,7 @@ impl FitMetrics {
 }
 
 // ---------------------------------------------------------------------------------------
-// Householder QR least squares and Levenberg–Marquardt
+// Householder QR least squares (Levenberg–Marquardt in `lm`)
 // ---------------------------------------------------------------------------------------
 
 /// Solves `min ‖A x − b‖` by Householder QR with column scaling (no normal equations).
@@ -158,118 +158,19 @@ pub fn lstsq_qr(columns: &[Vec<f64>], b: &[f64]) -> Result<Vec<f64>, AnalysisErr
     }
 }
 
-/// Result of [`levenberg_marquardt`].
-#[derive(Debug, Clone, PartialEq)]
-pub struct LmResult {
-    /// Parameters at the minimum.
-    pub params: Vec<f64>,
-    /// Final `½ Σ r²`.
-    pub cost: f64,
-    /// Iterations (Jacobian evaluations).
-    pub iterations: usize,
-}
-
-/// Damped Gauss–Newton (Levenberg–Marquardt, Marquardt's diagonal scaling) with a
-/// forward-difference Jacobian; each step solves the augmented least-squares problem
-/// `[J; √λ D] δ = [−r; 0]` by QR. `residual(p, r)` fills `r` (length `n_residuals`) and
-/// returns `false` where the model cannot be evaluated (the step is then rejected).
-pub fn levenberg_marquardt<F>(
-    p0: &[f64],
-    n_residuals: usize,
-    max_iterations: usize,
-    mut residual: F,
-) -> Result<LmResult, AnalysisError>
-where
-    F: FnMut(&[f64], &mut [f64]) -> bool,
-{
-    let np = p0.len();
-    if np == 0 {
-        return Err(invalid("parameters", "nothing to fit"));
-    }
-    if n_residuals < np {
-        return Err(AnalysisError::TooShort { what: "residuals", needed: np, got: n_residuals });
-    }
-    let mut p = p0.to_vec();
-    let mut r = vec![0.0; n_residuals];
-    if !residual(&p, &mut r) || r.iter().any(|v| !v.is_finite()) {
-        return Err(invalid("initial parameters", "the model cannot be evaluated at the starting point"));
-    }
-    let cost_of = |r: &[f64]| 0.5 * r.iter().map(|v| v * v).sum::<f64>();
-    let mut cost = cost_of(&r);
-    let mut lambda: f64 = 1e-3;
-    let mut r_trial = vec![0.0; n_residuals];
-    let mut iterations = 0;
-    for _ in 0..max_iterations {
-        iterations += 1;
-        // Jacobian by forward differences.
-        let mut jac: Vec<Vec<f64>> = Vec::with_capacity(np);
-        for j in 0..np {
-            let h = 1e-6 * (1.0 + p[j].abs());
-            let mut pj = p.clone();
-            pj[j] += h;
-            if !residual(&pj, &mut r_trial) {
-                pj[j] = p[j] - h;
-                if !residual(&pj, &mut r_trial) {
-                    return Err(invalid("parameters", "the model cannot be evaluated near the current point"));
-                }
-                jac.push(r_trial.iter().zip(&r).map(|(a, b)| (b - a) / h).collect());
-            } else {
-                jac.push(r_trial.iter().zip(&r).map(|(a, b)| (a - b) / h).collect());
-            }
-        }
-        let dscale: Vec<f64> = jac.iter().map(|c| c.iter().map(|v| v * v).sum::<f64>().sqrt().max(1e-300)).collect();
-        let mut rhs: Vec<f64> = r.iter().map(|v| -v).collect();
-        rhs.resize(n_residuals + np, 0.0);
-        let mut improved = false;
-        for _ in 0..12 {
-            let cols: Vec<Vec<f64>> = jac
-                .iter()
-                .enumerate()
-                .map(|(j, c)| {
-                    let mut col = c.clone();
-                    col.extend((0..np).map(|i| if i == j { lambda.sqrt() * dscale[j] } else { 0.0 }));
-                    col
-                })
-                .collect();
-            let delta = match lstsq_qr(&cols, &rhs) {
-                Ok(d) => d,
-                Err(_) => {
-                    lambda *= 10.0;
-                    continue;
-                }
-            };
-            let trial: Vec<f64> = p.iter().zip(&delta).map(|(a, d)| a + d).collect();
-            if residual(&trial, &mut r_trial) && r_trial.iter().all(|v| v.is_finite()) {
-                let c = cost_of(&r_trial);
-                if c < cost {
-                    let rel = (cost - c) / cost.max(1e-300);
-                    p = trial;
-                    std::mem::swap(&mut r, &mut r_trial);
-                    cost = c;
-                    lambda = (lambda / 3.0).max(1e-12);
-                    improved = true;
-                    if rel < 1e-9 {
-                        return Ok(LmResult { params: p, cost, iterations });
-                    }
-                    break;
-                }
-            }
-            lambda *= 4.0;
-        }
-        if !improved {
-            break;
-        }
-    }
-    Ok(LmResult { params: p, cost, iterations })
-}
-
 mod compliance;
 mod compliance_fit;
+mod friction;
+mod holdout;
 mod kinematic;
+mod lm;
 
 pub use compliance::*;
 pub use compliance_fit::*;
+pub use friction::*;
+pub use holdout::*;
 pub use kinematic::*;
+pub use lm::*;
 
 #[cfg(test)]
 mod tests {
@@ -286,19 +187,5 @@ mod tests {
         let dup = vec![x.clone(), x.iter().map(|v| 2.0 * v).collect()];
         assert!(lstsq_qr(&dup, &b).is_err());
         assert!(lstsq_qr(&[vec![0.0; n]], &b).is_err());
-    }
-
-    #[test]
-    fn lm_fits_an_exponential() {
-        let t: Vec<f64> = (0..40).map(|i| i as f64 * 0.1).collect();
-        let y: Vec<f64> = t.iter().map(|t| 3.0 * (-0.7 * t).exp()).collect();
-        let r = levenberg_marquardt(&[1.0, 0.0], t.len(), 100, |p, r| {
-            for ((ri, ti), yi) in r.iter_mut().zip(&t).zip(&y) {
-                *ri = p[0] * (p[1] * ti).exp() - yi;
-            }
-            true
-        })
-        .unwrap();
-        assert!((r.params[0] - 3.0).abs() < 1e-6 && (r.params[1] + 0.7).abs() < 1e-6, "{r:?}");
     }
 }

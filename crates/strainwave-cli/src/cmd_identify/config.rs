@@ -59,28 +59,46 @@ pub struct EncodersConfig {
     /// Raw link count at zero angle.
     #[serde(default)]
     pub link_offset_counts: i64,
-    /// Interpolation noise, counts rms (sets the narrowest hysteresis play).
-    #[serde(default = "default_noise")]
-    pub noise_counts: f64,
+    /// Interpolation noise, counts rms (sets the narrowest hysteresis play; default 0.2).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_counts: Option<f64>,
+    /// `1` when the motor encoder counts up as the wave generator turns forward, `-1`
+    /// when it counts the other way.
+    #[serde(default = "plus_one")]
+    pub motor_direction: i8,
+    /// `1` when the link encoder counts up as the output turns forward, `-1` otherwise.
+    #[serde(default = "plus_one")]
+    pub link_direction: i8,
 }
 
-fn default_noise() -> f64 {
-    0.2
+fn plus_one() -> i8 {
+    1
 }
 
 impl EncodersConfig {
     /// The core's encoder configurations `(motor, link)`.
     pub fn configs(&self) -> Result<(EncoderConfig, EncoderConfig)> {
-        let mk = |cpr: u64, off: i64, what: &str| -> Result<EncoderConfig> {
+        let mk = |cpr: u64, off: i64, dir: i8, what: &str| -> Result<EncoderConfig> {
             let e = if self.single_turn { EncoderConfig::single_turn(cpr) } else { EncoderConfig::multi_turn(cpr) };
-            Ok(e.map_err(|e| anyhow::anyhow!("encoders.{what}_counts_per_rev: {e}"))?
+            let e = e
+                .map_err(|e| anyhow::anyhow!("encoders.{what}_counts_per_rev: {e}"))?
                 .with_offset(off)
-                .with_max_step(cpr / 4))
+                .with_max_step(cpr / 4);
+            match dir {
+                1 => Ok(e),
+                -1 => Ok(e.reversed()),
+                d => anyhow::bail!("encoders.{what}_direction: must be 1 or -1, got {d}"),
+            }
         };
         Ok((
-            mk(self.motor_counts_per_rev, self.motor_offset_counts, "motor")?,
-            mk(self.link_counts_per_rev, self.link_offset_counts, "link")?,
+            mk(self.motor_counts_per_rev, self.motor_offset_counts, self.motor_direction, "motor")?,
+            mk(self.link_counts_per_rev, self.link_offset_counts, self.link_direction, "link")?,
         ))
+    }
+
+    /// The interpolation noise, counts rms.
+    pub fn noise(&self) -> f64 {
+        self.noise_counts.unwrap_or(0.2)
     }
 }
 
@@ -118,9 +136,10 @@ pub struct KinematicConfig {
     pub basis: String,
     /// Output harmonics (Fourier) or power (polynomial), or `"cv"`.
     pub order: Order,
-    /// Mesh (relative-angle) harmonics of a Fourier basis with a fixed order.
+    /// Mesh harmonics of a Fourier basis with a fixed order, or of a kinematic error
+    /// fitted from the loaded run (default 4 there).
     #[serde(default)]
-    pub mesh_harmonics: usize,
+    pub mesh_harmonics: Option<usize>,
 }
 
 /// Compliance model choice.
@@ -141,9 +160,48 @@ pub struct ComplianceConfig {
     /// Fit structural damping.
     #[serde(default = "yes")]
     pub damping: bool,
-    /// Fit on every n-th sample.
-    #[serde(default = "five")]
-    pub decimation: usize,
+    /// Fit on every n-th sample (Levenberg–Marquardt fits only; default 5).
+    #[serde(default)]
+    pub decimation: Option<usize>,
+    /// Levenberg–Marquardt iteration cap (default 40).
+    #[serde(default)]
+    pub max_iterations: Option<usize>,
+}
+
+/// The reference torque is the motor-current torque: friction and rotor inertia
+/// (referred to the link) are identified with the compliance, and `estimate` outputs
+/// the current torque the model predicts.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FrictionConfig {
+    /// Coulomb friction.
+    #[serde(default = "yes")]
+    pub coulomb: bool,
+    /// Viscous friction.
+    #[serde(default = "yes")]
+    pub viscous: bool,
+    /// Stribeck excess with this decay speed, rad/s (absent: none).
+    #[serde(default)]
+    pub stribeck_speed_rad_s: Option<f64>,
+    /// Friction growing with the link torque, `μ |τ_link|` (strain wave gears' mesh friction).
+    #[serde(default)]
+    pub load_dependent: bool,
+    /// Rotor inertia times acceleration.
+    #[serde(default = "yes")]
+    pub rotor_inertia: bool,
+    /// Smoothing speed of the friction's sign, rad/s.
+    #[serde(default = "smoothing")]
+    pub smoothing_speed_rad_s: f64,
+    /// Samples the speed and acceleration differences span.
+    #[serde(default = "span")]
+    pub rate_span: usize,
+}
+
+fn smoothing() -> f64 {
+    0.01
+}
+fn span() -> usize {
+    4
 }
 
 fn default_hysteresis() -> String {
@@ -151,9 +209,6 @@ fn default_hysteresis() -> String {
 }
 fn yes() -> bool {
     true
-}
-fn five() -> usize {
-    5
 }
 
 /// `identify --config` file.
@@ -174,4 +229,44 @@ pub struct ArmConfig {
     pub kinematic: KinematicConfig,
     /// Compliance model.
     pub compliance: ComplianceConfig,
+    /// Present when the reference torque comes from the motor current.
+    #[serde(default)]
+    pub friction: Option<FrictionConfig>,
+}
+
+impl ArmConfig {
+    /// Whether the compliance fit is one linear least-squares solve (no iteration).
+    pub fn linear_fit(&self) -> bool {
+        self.compliance.hysteresis == "none" && self.compliance.spring == "linear"
+    }
+
+    /// Refuses keys that the chosen models and runs would not use: a setting that is
+    /// silently ignored misleads more than an error.
+    pub fn refuse_unused(&self, has_no_load: bool) -> Result<()> {
+        let unused = |key: &str, why: &str| -> Result<()> { anyhow::bail!("{key}: unused {why}; remove it") };
+        if self.sample_rate_hz.is_some() && self.channels.time.is_some() {
+            unused("channels.time", "when sample_rate_hz is given (the rate comes from one of them)")?;
+        }
+        let c = &self.compliance;
+        if c.spring != "three-slope" && (c.t1_nm.is_some() || c.t2_nm.is_some()) {
+            unused("compliance.t1_nm / t2_nm", "unless spring = \"three-slope\"")?;
+        }
+        if self.linear_fit() && c.decimation.is_some() {
+            unused("compliance.decimation", "with a linear spring and no hysteresis (one least-squares solve)")?;
+        }
+        if self.linear_fit() && c.max_iterations.is_some() {
+            unused("compliance.max_iterations", "with a linear spring and no hysteresis (one least-squares solve)")?;
+        }
+        if c.hysteresis != "plays" && self.encoders.as_ref().is_some_and(|e| e.noise_counts.is_some()) {
+            unused("encoders.noise_counts", "without hysteresis = \"plays\" (it sets the narrowest play)")?;
+        }
+        let k = &self.kinematic;
+        if has_no_load && matches!(&k.order, Order::Named(s) if s == "cv") && k.mesh_harmonics.is_some() {
+            unused("kinematic.mesh_harmonics", "with order = \"cv\" (cross-validation chooses it)")?;
+        }
+        if k.basis == "polynomial" && k.mesh_harmonics.is_some() {
+            unused("kinematic.mesh_harmonics", "with basis = \"polynomial\"")?;
+        }
+        Ok(())
+    }
 }

@@ -1,0 +1,169 @@
+//! Reading a recording for `identify`: encoder counts or angles into gear-convention
+//! angles, the reference torque, non-finite values refused (or skipped with `--lenient`).
+
+use std::path::Path;
+
+use anyhow::{bail, Context, Result};
+use strainwave_core::compliance::ThreeSlopeStiffness;
+use strainwave_core::gear::Gear;
+use strainwave_core::torsion::{EstimatorState, NoKinematicError, TorqueSolver, TorsionEstimator};
+use strainwave_io::Channel;
+
+use super::config::{ArmConfig, EncodersConfig};
+
+/// Motor and link angles (gear convention, unwrapped) of a recording, with the rows kept.
+pub struct Run {
+    /// WG angle, rad.
+    pub motor: Vec<f64>,
+    /// Output angle, rad.
+    pub link: Vec<f64>,
+    /// Reference torque, N·m (when asked for).
+    pub reference: Option<Vec<f64>>,
+    /// Time, s (when the config names a time channel).
+    pub time: Option<Vec<f64>>,
+    /// Rows skipped for non-finite values (`--lenient`).
+    pub skipped: usize,
+    /// First skipped data row (1-based).
+    pub first_skipped: Option<usize>,
+}
+
+fn column<'a>(t: &'a strainwave_io::Table, ch: &Channel, key: &str, path: &Path) -> Result<&'a [f64]> {
+    t.column(ch.column_name()).with_context(|| {
+        format!(
+            "{}: no column `{}` (channels.{key}); columns: {}",
+            path.display(),
+            ch.column_name(),
+            t.columns.join(", ")
+        )
+    })
+}
+
+/// Refuses a scale or offset on a channel of raw counts: counts are integers that the
+/// `[encoders]` table turns into angles (zero, direction, counts per revolution).
+pub fn refuse_count_scaling(ch: &Channel, key: &str) -> Result<()> {
+    if let Channel::Mapped(t) = ch {
+        if t.scale != 1.0 || t.offset != 0.0 {
+            bail!(
+                "channels.{key}: scale/offset are not applied to encoder counts; give the zero as \
+                 encoders.{key}_offset_counts and the direction as encoders.{key}_direction = -1"
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Unwraps raw counts into angles through the core's estimator (identity spring, no
+/// kinematic error): the encoder handling is the one `estimate` uses.
+fn angles_from_counts(
+    gear: Gear<f64>,
+    enc: &EncodersConfig,
+    motor: &[f64],
+    link: &[f64],
+    rows: &[usize],
+    path: &Path,
+) -> Result<(Vec<f64>, Vec<f64>)> {
+    let (m, l) = enc.configs()?;
+    let spring = ThreeSlopeStiffness::linear(1.0e4).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let solver = TorqueSolver::for_rated_torque(1.0e9).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let est = TorsionEstimator::new(gear, m, l, NoKinematicError, spring, solver);
+    let mut st = EstimatorState::new();
+    let n_s = gear.signed_ratio();
+    let (mut ma, mut la) = (Vec::with_capacity(rows.len()), Vec::with_capacity(rows.len()));
+    for &k in rows {
+        let (mc, lc) = (motor[k], link[k]);
+        if mc.fract() != 0.0 || lc.fract() != 0.0 || mc.abs() > 9.0e15 || lc.abs() > 9.0e15 {
+            bail!("{}: data row {}: encoder counts {mc}, {lc} are not whole numbers", path.display(), k + 1);
+        }
+        let e = est
+            .step_counts(&mut st, mc as i64, lc as i64)
+            .map_err(|e| anyhow::anyhow!("{}: data row {}: {e}", path.display(), k + 1))?;
+        if e.flags.any_jump() {
+            bail!(
+                "{}: data row {}: encoder count jumped (wrapping counter? check encoders.single_turn)",
+                path.display(),
+                k + 1
+            );
+        }
+        la.push(e.output_angle_rad);
+        ma.push((e.output_angle_rad - e.torsion_rad) * n_s);
+    }
+    Ok((ma, la))
+}
+
+/// Reads a recording. `with_reference` asks for the reference torque. A non-finite
+/// value in a used column is an error naming the data row (1-based) and column, or with
+/// `lenient` the row is skipped and counted.
+pub fn load_run(cfg: &ArmConfig, path: &Path, with_reference: bool, lenient: bool) -> Result<Run> {
+    let table = strainwave_io::read_all(path).with_context(|| format!("{}", path.display()))?;
+    if table.rows() < 20 {
+        bail!("{}: {} rows, too short to identify from", path.display(), table.rows());
+    }
+    let gear = cfg.gear.gear()?;
+    let ch = &cfg.channels;
+    let mut used: Vec<(&str, &Channel)> = vec![("motor", &ch.motor), ("link", &ch.link)];
+    if with_reference {
+        let Some(r) = &ch.reference_torque else { bail!("channels.reference_torque: needed for the loaded run") };
+        used.push(("reference_torque", r));
+    }
+    if let Some(t) = &ch.time {
+        used.push(("time", t));
+    }
+    let cols: Vec<(&str, &Channel, &[f64])> =
+        used.iter().map(|(k, c)| Ok((*k, *c, column(&table, c, k, path)?))).collect::<Result<_>>()?;
+    let mut rows = Vec::with_capacity(table.rows());
+    let (mut skipped, mut first_skipped) = (0usize, None);
+    for k in 0..table.rows() {
+        if let Some((key, c, v)) = cols.iter().find(|(_, _, v)| !v[k].is_finite()) {
+            if !lenient {
+                bail!(
+                    "{}: data row {}: column `{}` (channels.{key}) is {} (use --lenient to skip such rows)",
+                    path.display(),
+                    k + 1,
+                    c.column_name(),
+                    v[k]
+                );
+            }
+            skipped += 1;
+            first_skipped.get_or_insert(k + 1);
+            continue;
+        }
+        rows.push(k);
+    }
+    if rows.len() < 20 {
+        bail!("{}: {} usable rows, too few to identify from", path.display(), rows.len());
+    }
+    let scaled = |c: &Channel, v: &[f64]| -> Vec<f64> {
+        let (s, o) = c.scale_offset();
+        rows.iter().map(|&k| v[k] * s + o).collect()
+    };
+    let get = |key: &str| cols.iter().find(|(k, _, _)| *k == key).map(|(_, c, v)| (*c, *v));
+    let (mc, mv) = get("motor").context("motor channel")?;
+    let (lc, lv) = get("link").context("link channel")?;
+    let (motor, link) = match &cfg.encoders {
+        Some(enc) => {
+            refuse_count_scaling(mc, "motor")?;
+            refuse_count_scaling(lc, "link")?;
+            angles_from_counts(gear, enc, mv, lv, &rows, path)?
+        }
+        None => (scaled(mc, mv), scaled(lc, lv)),
+    };
+    let reference = get("reference_torque").map(|(c, v)| scaled(c, v));
+    let time = get("time").map(|(c, v)| scaled(c, v));
+    Ok(Run { motor, link, reference, time, skipped, first_skipped })
+}
+
+/// The sample rate: given, or from the time channel.
+pub fn sample_rate(cfg: &ArmConfig, run: &Run, path: &Path) -> Result<f64> {
+    if let Some(fs) = cfg.sample_rate_hz {
+        if !(fs.is_finite() && fs > 0.0) {
+            bail!("sample_rate_hz: must be positive, got {fs}");
+        }
+        return Ok(fs);
+    }
+    let Some(t) = &run.time else { bail!("give sample_rate_hz or channels.time") };
+    let span = t[t.len() - 1] - t[0];
+    if !(span.is_finite() && span > 0.0) {
+        bail!("{}: time does not increase", path.display());
+    }
+    Ok((t.len() - 1) as f64 / span)
+}
