@@ -2,7 +2,8 @@
 //! `python/tests/test_bench_scipy.py`): writes `spectra.json` (a deterministic two-channel
 //! signal and this crate's Welch, CSD, H1, coherence, spectrogram and spectral combination
 //! of it for several settings) and `models.json` (the seed 003 models' coefficients and
-//! complex responses, the complementary filters' coefficients) into the directory given.
+//! complex responses, the complementary filters' and the online corrected fusion's
+//! coefficients) into the directory given.
 //!
 //! `cargo run -p strainwave-analysis --example spectra_golden -- /tmp/golden`
 
@@ -14,7 +15,8 @@ use strainwave_analysis::frf::h1;
 use strainwave_analysis::psd::{csd, welch, Detrend, Scaling, SpectralConfig, Window};
 use strainwave_analysis::stft::spectrogram;
 use strainwave_core::fusion::{
-    AccelerometerModel, AccelerometerModelFull, ComplementaryFusion, CrossoverOrder, TorsionShaftModel,
+    AccelerometerModel, AccelerometerModelFull, ComplementaryFusion, CrossoverOrder, OnlineCorrectedFusion,
+    OnlineCorrectionConfig, TorsionShaftModel,
 };
 
 const FS: f64 = 1000.0;
@@ -148,6 +150,21 @@ fn models_json() -> String {
         let lp = f.lowpass();
         fusion.push(format!("\"{name}\":{{\"b\":{},\"a\":[1.0,{:e},{:e}]}}", arr(&lp.b), lp.a[0], lp.a[1]));
     }
+    // The online corrected fusion from Table I: its sections, torsion path then accelerometers.
+    let cfg = OnlineCorrectionConfig::<f64>::kit();
+    let online = OnlineCorrectedFusion::new(&ts, &acc, &cfg, 20_000.0).expect("online fusion");
+    let sections = |qs: &[strainwave_core::iir::Biquad<f64>]| {
+        let v: Vec<String> =
+            qs.iter().map(|q| format!("{{\"b\":{},\"a\":[1.0,{:e},{:e}]}}", arr(&q.b), q.a[0], q.a[1])).collect();
+        format!("[{}]", v.join(","))
+    };
+    fusion.push(format!(
+        "\"online\":{{\"crossover_hz\":{:e},\"static_corner_hz\":{:e},\"torsion\":{},\"accel\":{}}}",
+        cfg.crossover_hz,
+        cfg.static_corner_hz,
+        sections(online.torsion_sections()),
+        sections(online.accel_sections())
+    ));
     format!(
         "{{\"table_i\":{{\"J_B\":{:e},\"J_R\":{:e},\"J_S\":{:e},\"Gamma_LP\":{:e},\"k_TS\":{:e},\"k_Acc\":{:e},\"k_S\":{:e},\
          \"Gamma_LS\":{:e}}},\"freqs\":{},\"g_ts\":{{\"b\":{},\"a\":{},\"h\":{}}},\"g_acc\":{{\"b\":{},\"a\":{},\"h\":{}}},\

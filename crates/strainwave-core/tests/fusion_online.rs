@@ -3,6 +3,7 @@
 //! corners of the box, for f32 and f64. It must stay stable (every pole inside the unit
 //! circle, bounded output on a long bounded input) and degrade gracefully (a bounded gain
 //! and phase error, far from the plain complementary filter's +20 dB at the resonance).
+//! A property test designs it for any positive model: poles inside the unit circle.
 
 use strainwave_core::fusion::{
     AccelerometerModel, ComplementaryFusion, OnlineCorrectedFusion, OnlineCorrectionConfig, TorsionShaftModel,
@@ -182,4 +183,36 @@ fn settled_state_starts_without_transient() {
     let mut st2 = st;
     assert!(f.try_step(&mut st2, f64::NAN, 0.0).is_err());
     assert_eq!(st, st2);
+}
+
+/// Any positive model and any crossover below 0.45 fs: the design either fails with an
+/// error or has every pole inside the unit circle and a finite output, f32 and f64.
+fn any_model<T: Real>(p: &[f64; 8], ratio: f64, xs: &[f64]) {
+    let [jr, jb, k, g, js, ks, gs, fs] = *p;
+    let ts = TorsionShaftModel::new(T::from_f64(jr), T::from_f64(jb), T::from_f64(k), T::from_f64(g));
+    let acc = AccelerometerModel::new(T::from_f64(js), T::from_f64(ks), T::from_f64(gs));
+    let (Ok(ts), Ok(acc)) = (ts, acc) else { return };
+    let cfg = OnlineCorrectionConfig { crossover_hz: T::from_f64(ratio * fs), static_corner_hz: T::from_f64(0.05) };
+    let Ok(f) = OnlineCorrectedFusion::new(&ts, &acc, &cfg, T::from_f64(fs)) else { return };
+    assert!(f.max_pole_radius() < 1.0, "{p:?} {ratio}: {}", f.max_pole_radius());
+    let mut st = f.settled_state(T::from_f64(xs[0]), T::from_f64(-xs[0]));
+    for &x in xs {
+        let y = f.step(&mut st, T::from_f64(x), T::from_f64(-0.5 * x));
+        assert!(y.is_finite(), "{p:?} {ratio}");
+    }
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+    #[test]
+    fn any_positive_model_is_stable(
+        jr in 1e-7f64..1e-1, jb in 1e-7f64..1e-1, k in 1.0f64..1e5, g in 0.0f64..1e-1,
+        js in 1e-6f64..1.0, ks in 0.1f64..1e4, gs in 0.0f64..1.0, fs in 1e3f64..1e5,
+        ratio in 1e-3f64..0.44,
+        xs in proptest::collection::vec(-1.0f64..1.0, 1..300),
+    ) {
+        let p = [jr, jb, k, g, js, ks, gs, fs];
+        any_model::<f64>(&p, ratio, &xs);
+        any_model::<f32>(&p, ratio, &xs);
+    }
 }
