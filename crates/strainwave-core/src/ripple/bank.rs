@@ -106,7 +106,7 @@ impl<T: Real, const M: usize, const J: usize> RippleBank<T, M, J> {
             return;
         }
         for i in 0..M {
-            let p0 = model.p0_order[i];
+            let p0 = model.plan.p0_nm2[i];
             for r in 0..2 {
                 self.z[i][r][l] = model.orders[i].prior_nm[r];
                 self.pb[i][r][l] = T::ZERO;

@@ -139,6 +139,11 @@ impl StepFlags {
     pub fn insert(&mut self, other: Self) {
         self.0 |= other.0;
     }
+    /// Sets the flags of `other` if `on` (without a branch).
+    #[inline(always)]
+    pub(crate) fn set(&mut self, other: Self, on: bool) {
+        self.0 |= other.0 * u16::from(on);
+    }
 }
 
 impl core::ops::BitOr for StepFlags {

@@ -46,21 +46,11 @@
 //! # Ok::<(), strainwave_core::Error>(())
 //! ```
 
-#[cfg(all(feature = "std", target_arch = "x86_64"))]
-mod avx2;
 mod bank;
-mod fast;
 mod filter;
-mod fused;
 mod io;
-mod joint;
 pub mod kernel;
-mod layout;
-mod lean;
 mod model;
-#[cfg(test)]
-mod path_check;
-mod plan;
 mod presets;
 mod snapshot;
 mod trig;
