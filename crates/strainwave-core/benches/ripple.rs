@@ -123,7 +123,7 @@ fn bench_alternating<T: Real, const M: usize>(c: &mut Criterion, name: &str, mod
     group.finish();
 }
 
-/// The textbook prediction-type filter (seed 000 eqs 12–14) with dense nalgebra algebra.
+/// The textbook prediction-type filter (Taghirad and Bélanger, 1999) with dense nalgebra algebra.
 struct Dense<T: RealField + Copy, const N: usize> {
     x: SVector<T, N>,
     p: SMatrix<T, N, N>,

@@ -33,13 +33,13 @@ impl<T: Real, const M: usize> RippleState<T, M> {
         self.bank.reset(model);
     }
 
-    /// Element `index` of the posterior `x̂(k|k)` in the seed's frame (`x_{i,0}` at `2i`,
+    /// Element `index` of the posterior `x̂(k|k)` in the fixed frame (`x_{i,0}` at `2i`,
     /// `x_{i,1}` at `2i+1`, bias at `2M`).
     pub fn estimate(&self, model: &RippleModel<T, M>, index: usize) -> Option<T> {
         self.bank.estimate(model, 0, index)
     }
 
-    /// Element `(row, col)` of the posterior covariance `P(k|k)` in the seed's frame.
+    /// Element `(row, col)` of the posterior covariance `P(k|k)` in the fixed frame.
     pub fn covariance(&self, model: &RippleModel<T, M>, row: usize, col: usize) -> Option<T> {
         self.bank.covariance(model, 0, row, col)
     }

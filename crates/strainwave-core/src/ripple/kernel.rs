@@ -2,17 +2,9 @@
 //! joint is `J = 1`): the decisions, the time update, the prediction that is output and
 //! the measurement update.
 //!
-//! Each oscillator is kept in its rotating frame `x_i = Φ(ψ_i) z_i`. The textbook
-//! recursion
-//!
-//! ```text
-//! K(k)   = Φ P Cᵀ / (R + C P Cᵀ)
-//! x̂(k+1) = Φ x̂ + K (y − C x̂)
-//! P(k+1) = Q + (Φ − K C) P Φᵀ
-//! ```
-//!
-//! becomes, with `h(k) = [cos ψ_1, sin ψ_1, …, 1]` and `Q = diag(q_i I₂, q_b)` (rotation
-//! invariant):
+//! Each oscillator is kept in its rotating frame `x_i = Φ(ψ_i) z_i`; with the update
+//! row `h(k) = [cos ψ_1, sin ψ_1, …, 1]` and `Q = diag(q_i I₂, q_b)` (rotation invariant)
+//! the filter of the [module documentation](super) becomes
 //!
 //! ```text
 //! time update     ψ_i += a_i,  ẑ(k|k−1) = ẑ(k−1|k−1),  P(k|k−1) = P(k−1|k−1) + Q(k)
@@ -23,20 +15,18 @@
 //! which is the same filter: identical `ŷ`, `x̂ = Φ(ψ) ẑ`, `P_x = Φ(ψ) P_z Φ(ψ)ᵀ`.
 //! `Φ` never multiplies `P`; a step costs one symmetric mat-vec and one rank-1 update.
 //!
-//! A step has two parts:
-//! - [`decide`]: per joint, what the sample means (skipped, first, gap, jump, each
-//!   order active, held or off) and the phase bookkeeping, as lane-wise selects;
-//! - [`advance`]: the arithmetic, with the decisions applied as selects. The common
-//!   sample (no order reset or decoupled in any joint) skips the reset block: that is
-//!   the only branch on the data.
+//! A step first decides, per joint, what the sample means (skipped, first, gap, jump;
+//! each order active, held or off) and does the phase bookkeeping, as lane-wise
+//! selects; then the arithmetic applies those decisions as selects. The common sample
+//! (no order reset or decoupled in any joint) skips the block of resets: the only
+//! branch on the data. Joints are the innermost index of every array (structure of
+//! arrays), so a bank's loops vectorize across joints and one joint's step is
+//! straight-line code.
 //!
-//! Joints are the innermost index of every array (structure of arrays), so a bank's
-//! loops vectorize across joints and one joint's step is straight-line code.
-//!
-//! The CPU-specific build is chosen in [`run`] alone: on x86-64 CPUs with AVX2 and FMA
-//! (std builds) the same generic step is compiled with its multiply–adds fused
-//! (`madd`), else the portable build runs. The decisions are the same in both; the
-//! numbers agree to rounding.
+//! The CPU-specific build is chosen in one place, `run`: on x86-64 CPUs with AVX2 and
+//! FMA (std builds) the same generic step is compiled with its multiply–adds fused,
+//! else the portable build runs. The decisions are the same in both; the numbers agree
+//! to rounding.
 
 // Lane loops index several arrays by the same joint index (structure of arrays), and
 // `!(x <= limit)` is deliberate: NaN must count as out of range.
@@ -45,8 +35,8 @@
 use super::bank::{BankInput, BankOutput, RippleBank};
 use super::filter::{RotatingGaussian, StepTrace};
 use super::io::{OrderStatus, StepFlags};
-use super::model::{Order, PhaseSource, RippleModel};
-use super::trig::{phasor_power_with, sin_cos_with, wrap_angle, wrap_near, Doubling};
+use super::model::{Limits, Order, PhaseSource, RippleModel};
+use super::trig::{phasor_power_with, sin_cos_with, wrap_angle as wrap, Doubling};
 use crate::Real;
 
 /// Weight of the newest increment in the running mean that decides holding (1/16).
@@ -80,22 +70,15 @@ pub(crate) struct Plan<T: Real, const M: usize> {
 }
 
 impl<T: Real, const M: usize> Plan<T, M> {
-    /// The plan of a model with these orders, rates and limits.
-    pub(crate) fn new(
-        orders: &[Order<T>; M],
-        sample_rate_hz: T,
-        max_gap_periods: T,
-        nyquist_fraction: T,
-        hold_below_hz: T,
-        p0_oscillator_nm2: T,
-    ) -> Self {
-        let off_above_rad = nyquist_fraction * T::TAU;
+    /// The plan of a model with these orders, sample rate, limits and initial variance.
+    pub(crate) fn new(orders: &[Order<T>; M], sample_rate_hz: T, lim: &Limits<T>, p0_oscillator_nm2: T) -> Self {
+        let off_above_rad = lim.nyquist_fraction * T::TAU;
         let mut plan = Self {
             dt_s: T::ONE / sample_rate_hz,
-            max_gap_s: max_gap_periods / sample_rate_hz,
+            max_gap_s: lim.max_gap_periods / sample_rate_hz,
             off_above_rad,
             on_below_rad: off_above_rad * T::from_f64(0.9),
-            hold_below_rad: hold_below_hz * T::TAU / sample_rate_hz,
+            hold_below_rad: lim.hold_below_hz * T::TAU / sample_rate_hz,
             uses: [false; 3],
             reference: [0; M],
             power: [0; M],
@@ -193,537 +176,397 @@ fn run_fma<T: Real, const M: usize, const J: usize, const TRACE: bool>(
     advance::<T, M, J, true, TRACE>(model, bank, input, out, trace);
 }
 
-/// Per-order, per-component, per-joint values `[i][r][joint]`.
-type Lanes2<T, const M: usize, const J: usize> = [[[T; J]; 2]; M];
-
-/// What a sample means for each joint and order; the state's phase bookkeeping is
-/// already done when these exist.
-struct Decisions<T: Real, const M: usize, const J: usize> {
-    /// `y = T_meas − T_exp`.
-    y: [T; J],
-    /// The measurement update runs (angles accepted and `y` finite).
-    meas_ok: [bool; J],
-    /// Covariance inflation `ρ` (0 at the first sample and for skipped samples).
-    infl: [T; J],
-    /// Process noise of the bias.
-    q_b: [T; J],
-    /// Time gap: the bias variance goes back up to its initial value.
-    reinflate: [bool; J],
-    /// Phase increment `a_i` of each order (0 when reset or off).
-    inc: [[T; J]; M],
-    /// Process noise of each order.
-    q: [[T; J]; M],
-    /// The order keeps its state (else it restarts from its prior).
-    keep: [[bool; J]; M],
-    /// The order keeps its covariance with the others (else decoupled).
-    couple: [[bool; J]; M],
-    /// The order enters the prediction.
-    pred: [[bool; J]; M],
-    /// The order is updated.
-    upd: [[bool; J]; M],
-    flags: [StepFlags; J],
-    /// Every order of every joint keeps its state and coupling, and no bias variance
-    /// is reinflated: the time update needs no resets.
-    plain: bool,
+/// The model's numbers one joint's step reads, copied out of the model so that the
+/// loop over the joints reads no memory the bank could share.
+#[derive(Clone, Copy)]
+struct Params<T: Real, const M: usize> {
+    plan: Plan<T, M>,
+    multiple: [T; M],
+    q_per_sample: [T; M],
+    q_per_rad: [T; M],
+    prior: [[T; 2]; M],
+    is_ripple: [bool; M],
+    load_scaled: [bool; M],
+    r_nm2: T,
+    inflation: T,
+    q_bias: T,
+    p0_bias: T,
+    load_step_nis: T,
+    max_angle_step: T,
+    max_step_change: T,
+    angle_input: bool,
+    /// This sample's interval, and whether it is usable (finite, positive).
+    dt: T,
+    dt_ok: bool,
 }
 
-/// Wraps each value into `[−π, π]`: as selects when all are within `±3π` (wrapped
-/// encoder angles and their differences), exactly otherwise.
-#[inline(always)]
-fn wrap_lanes<T: Real, const J: usize>(x: &mut [T; J]) {
-    let three_pi = T::from_f64(3.0) * T::PI;
-    let raw = *x;
-    let mut far = false;
-    for l in 0..J {
-        far |= !(raw[l].abs() <= three_pi);
-        x[l] = wrap_near(raw[l]);
-    }
-    if far {
-        for l in 0..J {
-            x[l] = wrap_angle(raw[l]);
-        }
-    }
-}
-
-/// The decisions of one sample, and the phase bookkeeping they imply: input validity,
-/// reference increments `Δθ = wrap_π(θ(k) − θ(k−1))` (or `(ω(k−1) + ω(k))/2 · dt`),
-/// encoder jumps and time gaps, each order's status, its phase increment `a_i = n_i Δθ`
-/// and process noise `q_i = q_s + q_rad |a_i|`.
-#[inline(always)]
-fn decide<T: Real, const M: usize, const J: usize, const F: bool>(
-    model: &RippleModel<T, M>,
-    bank: &mut RippleBank<T, M, J>,
-    input: &BankInput<T, J>,
-) -> Decisions<T, M, J> {
-    let plan = &model.plan;
-    let lim = &model.limits;
-    let refs = input.references.as_array();
-    let angle_input = model.phase_source == PhaseSource::Angle;
-    let dt = input.dt_s.unwrap_or(plan.dt_s);
-    let dt_ok = finite(dt) & (dt > T::ZERO);
-    let q_bias = model.bias_q_nm2.unwrap_or(T::ZERO);
-    let mut d = Decisions {
-        y: [T::ZERO; J],
-        meas_ok: [false; J],
-        infl: [T::ZERO; J],
-        q_b: [T::ZERO; J],
-        reinflate: [false; J],
-        inc: [[T::ZERO; J]; M],
-        q: [[T::ZERO; J]; M],
-        keep: [[true; J]; M],
-        couple: [[true; J]; M],
-        pred: [[true; J]; M],
-        upd: [[false; J]; M],
-        flags: [StepFlags::empty(); J],
-        plain: true,
-    };
-
-    // Per joint: whether the sample is skipped (a used reference or `dt` not finite:
-    // the state stays as it was, the next increment spans the gap), how many samples
-    // it spans, whether it is the first or follows a time gap.
-    let (mut skip, mut first, mut gap) = ([false; J], [false; J], [false; J]);
-    let (mut n_samples, mut n_noise, mut total_dt) = ([T::ONE; J], [T::ZERO; J], [dt; J]);
-    for l in 0..J {
-        let mut refs_ok = dt_ok;
-        for r in 0..3 {
-            refs_ok &= !plan.uses[r] | finite(refs[r][l]);
-        }
-        skip[l] = !refs_ok;
-        n_samples[l] = bank.pending_samples[l] + T::ONE;
-        total_dt[l] = bank.pending_dt[l] + dt;
-        first[l] = !bank.has_last[l];
-        gap[l] = !skip[l] & !first[l] & !(total_dt[l] <= plan.max_gap_s);
-        let y = input.torque_nm[l] - input.expected_torque_nm[l];
-        d.y[l] = y;
-        d.meas_ok[l] = !skip[l] & finite(y);
-        // The initial state is the prior of the first sample: no noise before it.
-        let counted = !skip[l] & !first[l];
-        n_noise[l] = if counted { n_samples[l] } else { T::ZERO };
-        d.infl[l] = if counted { lim.covariance_inflation } else { T::ZERO };
-        d.q_b[l] = q_bias * n_noise[l];
-        d.reinflate[l] = model.bias_q_nm2.is_some() & gap[l];
-    }
-
-    // Per reference: the increment, whether it jumped, the new phase.
-    let mut delta = [[T::ZERO; J]; 3];
-    let mut jump = [[false; J]; 3];
-    for r in 0..3 {
-        if !plan.uses[r] {
-            continue;
-        }
-        let v = &refs[r];
-        let mut dr = [T::ZERO; J];
-        if angle_input {
-            for l in 0..J {
-                dr[l] = v[l] - bank.last[r][l];
-            }
-            wrap_lanes(&mut dr);
-        } else {
-            for l in 0..J {
-                dr[l] = (v[l] + bank.last[r][l]) * T::HALF * total_dt[l];
-            }
-        }
-        for l in 0..J {
-            let moving = !skip[l] & !first[l];
-            // A glitch: an increment too large, or too different from the last one.
-            let expected = bank.last_delta[r][l] * n_samples[l];
-            let changed = bank.delta_known[l] & !((dr[l] - expected).abs() <= lim.max_step_change_rad);
-            let jumped = moving & (!(dr[l].abs() <= lim.max_angle_step_rad) | changed);
-            let accept = moving & !jumped;
-            let caught_up = bank.pending_samples[l] == T::ZERO;
-            let per_sample = if caught_up { dr[l] } else { dr[l] / n_samples[l] };
-            // Mean increment over ~16 samples: encoder jitter at standstill averages
-            // out of it, so it alone decides whether an order is held.
-            let m = bank.mean_delta[r][l];
-            let mean = madd::<T, F>(m, per_sample - m, T::from_f64(HOLD_AVERAGE));
-            bank.mean_delta[r][l] = if accept { mean } else { m };
-            bank.last_delta[r][l] = if accept { per_sample } else { bank.last_delta[r][l] };
-            jump[r][l] = jumped;
-            delta[r][l] = if moving { dr[l] } else { T::ZERO };
-        }
-        // The phase: the angle itself, or the accumulated increments.
-        let mut psi = [T::ZERO; J];
-        for l in 0..J {
-            psi[l] = if angle_input { v[l] } else { bank.psi[r][l] + delta[r][l] };
-        }
-        wrap_lanes(&mut psi);
-        for l in 0..J {
-            let hold_phase = skip[l] | (!angle_input & jump[r][l]);
-            bank.psi[r][l] = if hold_phase { bank.psi[r][l] } else { psi[l] };
-            bank.last[r][l] = if skip[l] { bank.last[r][l] } else { v[l] };
-        }
-    }
-
-    // Per joint: counters, flags.
-    for l in 0..J {
-        let any_jump = jump[0][l] | jump[1][l] | jump[2][l];
-        let s = skip[l];
-        bank.steps[l] = bank.steps[l].wrapping_add(1);
-        bank.has_last[l] |= !s;
-        // After a jump or a gap the next increment sets a new baseline.
-        bank.delta_known[l] = if s { bank.delta_known[l] } else { !first[l] & !gap[l] & !any_jump };
-        bank.pending_samples[l] = if s { bank.pending_samples[l] + T::ONE } else { T::ZERO };
-        let pending_dt = bank.pending_dt[l] + if dt_ok { dt } else { plan.dt_s };
-        bank.pending_dt[l] = if s { pending_dt } else { T::ZERO };
-        let mut f = StepFlags::empty();
-        f.set(StepFlags::ANGLE_SKIPPED, s);
-        f.set(StepFlags::MEASUREMENT_SKIPPED, !s & !d.meas_ok[l]);
-        f.set(StepFlags::GAP_RESET, gap[l]);
-        f.set(StepFlags::JUMP_RESET, !gap[l] & any_jump);
-        d.flags[l] = f;
-    }
-
-    // Per order: status (active, held, off) and the masks of the time update.
-    for i in 0..M {
-        let o = &model.orders[i];
-        let r = plan.reference[i];
-        for l in 0..J {
-            let reset = gap[l] | jump[r][l];
-            let a = if reset { T::ZERO } else { o.multiple * delta[r][l] };
-            let abs_a = a.abs();
-            let mean_a = (o.multiple * bank.mean_delta[r][l]).abs();
-            let prev = bank.status[i][l];
-            let was_off = prev == OrderStatus::Off;
-            let off = !reset & ((was_off & !(abs_a < plan.on_below_rad)) | (!was_off & (abs_a > plan.off_above_rad)));
-            let held = reset | (!off & (mean_a < plan.hold_below_rad));
-            let status = if off {
-                OrderStatus::Off
-            } else if held {
-                OrderStatus::Held
-            } else {
-                OrderStatus::Active
-            };
-            let status = if skip[l] { prev } else { status };
-            bank.status[i][l] = status;
-            let (off, active) = (status == OrderStatus::Off, status == OrderStatus::Active);
-            let zeroed = !skip[l] & (reset | off);
-            d.keep[i][l] = !zeroed;
-            d.couple[i][l] = skip[l] | active;
-            d.pred[i][l] = !off;
-            d.upd[i][l] = d.meas_ok[l] & active;
-            d.inc[i][l] = if zeroed { T::ZERO } else { a };
-            let q = madd::<T, F>(o.q_per_sample_nm2 * n_noise[l], o.q_per_rad_nm2, abs_a);
-            d.q[i][l] = if off | skip[l] { T::ZERO } else { q };
-            d.flags[l].set(StepFlags::ORDER_OFF, off);
-            d.flags[l].set(StepFlags::ORDER_HELD, status == OrderStatus::Held);
-            d.plain &= d.keep[i][l] & d.couple[i][l] & !d.reinflate[l];
-        }
-        if plan.power[i] == 0 {
-            for l in 0..J {
-                bank.order_psi[i][l] = wrap_angle(bank.order_psi[i][l] + d.inc[i][l]);
-            }
-        }
-    }
-    d
-}
-
-/// `(cos ψ_i, sin ψ_i)` of every order into `bank.phasor` (times the load for
-/// load-scaled orders): one sine/cosine per reference, whole multiples by doubling
-/// the reference's phasor, the others from their own phase.
-#[inline(always)]
-fn phasors<T: Real, const M: usize, const J: usize, const F: bool>(
-    model: &RippleModel<T, M>,
-    bank: &mut RippleBank<T, M, J>,
-    input: &BankInput<T, J>,
-) {
-    let plan = &model.plan;
-    let mut base = [[Doubling::new(T::ONE, T::ZERO); J]; 3];
-    for r in 0..3 {
-        if plan.uses[r] {
-            for l in 0..J {
-                base[r][l] = sin_cos_with::<T, F>(bank.psi[r][l]);
-            }
-        }
-    }
-    // The load regressor `|T_exp + b̂(k|k−1)|` (the time update leaves the bias as is).
-    let mut load = [T::ONE; J];
-    if plan.any_load_scaled {
-        for l in 0..J {
-            let v = (input.expected_torque_nm[l] + bank.b[l]).abs();
-            load[l] = if finite(v) { v } else { T::ZERO };
-        }
-    }
-    for i in 0..M {
-        let b = &base[plan.reference[i]];
-        let scaled = model.orders[i].load_scaled;
-        let n = plan.power[i];
-        for l in 0..J {
-            let p = match n {
-                0 => sin_cos_with::<T, F>(bank.order_psi[i][l]),
-                1 => b[l],
-                2 => b[l].doubled::<F>(),
-                4 => b[l].doubled::<F>().doubled::<F>(),
-                _ => {
-                    let (c, s) = phasor_power_with::<T, F>(b[l].c, b[l].s, n);
-                    Doubling::new(c, s)
-                }
-            };
-            let (c, s) = if scaled { (p.c * load[l], p.s * load[l]) } else { (p.c, p.s) };
-            bank.phasor[i][0][l] = c;
-            bank.phasor[i][1][l] = s;
+impl<T: Real, const M: usize> Params<T, M> {
+    #[inline(always)]
+    fn new(model: &RippleModel<T, M>, dt_s: Option<T>) -> Self {
+        let o = &model.orders;
+        let dt = dt_s.unwrap_or(model.plan.dt_s);
+        Self {
+            plan: model.plan,
+            multiple: core::array::from_fn(|i| o[i].multiple),
+            q_per_sample: core::array::from_fn(|i| o[i].q_per_sample_nm2),
+            q_per_rad: core::array::from_fn(|i| o[i].q_per_rad_nm2),
+            prior: core::array::from_fn(|i| o[i].prior_nm),
+            is_ripple: core::array::from_fn(|i| o[i].reference.is_ripple()),
+            load_scaled: core::array::from_fn(|i| o[i].load_scaled),
+            r_nm2: model.r_nm2,
+            inflation: model.limits.covariance_inflation,
+            q_bias: model.bias_q_nm2.unwrap_or(T::ZERO),
+            p0_bias: model.p0_bias_nm2,
+            load_step_nis: model.limits.load_step_nis,
+            max_angle_step: model.limits.max_angle_step_rad,
+            max_step_change: model.limits.max_step_change_rad,
+            angle_input: model.phase_source == PhaseSource::Angle,
+            dt,
+            dt_ok: finite(dt) & (dt > T::ZERO),
         }
     }
 }
 
-/// One step of every joint into `out`: [`decide`], the phasors, then the filter.
+/// Every joint's step: [`lane`] for each, then the reset of joints whose covariance
+/// went bad.
 #[inline(always)]
 fn advance<T: Real, const M: usize, const J: usize, const F: bool, const TRACE: bool>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
     out: &mut BankOutput<T, J>,
-    trace: Option<&mut StepTrace<T, M>>,
+    mut trace: Option<&mut StepTrace<T, M>>,
 ) {
-    let mut d = decide::<T, M, J, F>(model, bank, input);
-    phasors::<T, M, J, F>(model, bank, input);
+    let p = Params::new(model, input.dt_s);
     let has_bias = model.bias_q_nm2.is_some();
-    let r_nm2 = model.r_nm2;
+    let mut bad = [false; J];
+    for l in 0..J {
+        let tr = if TRACE && l == 0 { trace.as_deref_mut() } else { None };
+        bad[l] = if has_bias {
+            lane::<T, M, J, F, true, TRACE>(&p, bank, input, l, out, tr)
+        } else {
+            lane::<T, M, J, F, false, TRACE>(&p, bank, input, l, out, tr)
+        };
+    }
+    if bad.iter().any(|&b| b) {
+        for l in 0..J {
+            if bad[l] {
+                bank.reset_lane(model, l);
+                out.flags[l].insert(StepFlags::COVARIANCE_RESET);
+                if has_bias {
+                    out.torque_state_nm[l] = input.expected_torque_nm[l] + bank.b[l];
+                }
+            }
+        }
+    }
+}
+
+/// Joint `l`'s whole step but the reset of a bad covariance: the decisions (input
+/// validity, reference increments `Δθ = wrap_π(θ(k) − θ(k−1))` or `(ω(k−1) + ω(k))/2 · dt`,
+/// encoder jumps and time gaps, each order's status), the phase bookkeeping and
+/// phasors, the time update, the prediction that is output and the measurement
+/// update, every decision applied as a select. Returns whether the covariance went bad.
+#[allow(clippy::too_many_lines)]
+#[inline(always)]
+fn lane<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool, const TRACE: bool>(
+    p: &Params<T, M>,
+    bank: &mut RippleBank<T, M, J>,
+    input: &BankInput<T, J>,
+    l: usize,
+    out: &mut BankOutput<T, J>,
+    trace: Option<&mut StepTrace<T, M>>,
+) -> bool {
+    let plan = &p.plan;
+    let refs = [input.references.relative[l], input.references.output[l], input.references.motor[l]];
+    let (torque, expected) = (input.torque_nm[l], input.expected_torque_nm[l]);
+    let y = torque - expected;
+
+    // The sample: skipped (a used reference or `dt` not finite: the state stays as it
+    // was, the next increment spans the gap), first, or after a time gap.
+    let mut refs_ok = p.dt_ok;
+    for r in 0..3 {
+        refs_ok &= !plan.uses[r] | finite(refs[r]);
+    }
+    let skip = !refs_ok;
+    let pending = bank.pending_samples[l];
+    let n_samples = pending + T::ONE;
+    let total_dt = bank.pending_dt[l] + p.dt;
+    let first = !bank.has_last[l];
+    let gap = !skip & !first & !(total_dt <= plan.max_gap_s);
+    let meas_ok = !skip & finite(y);
+    // The initial state is the prior of the first sample: no noise before it.
+    let counted = !skip & !first;
+    let n_noise = if counted { n_samples } else { T::ZERO };
+    let infl = if counted { p.inflation } else { T::ZERO };
+
+    // Each reference: its increment, whether it jumped, its phase and phasor.
+    let (mut delta, mut jump) = ([T::ZERO; 3], [false; 3]);
+    let mut base = [Doubling::new(T::ONE, T::ZERO); 3];
+    for r in 0..3 {
+        if !plan.uses[r] {
+            continue;
+        }
+        let (v, last) = (refs[r], bank.last[r][l]);
+        let d = if p.angle_input { wrap(v - last) } else { (v + last) * T::HALF * total_dt };
+        // A glitch: an increment too large, or too different from the last one.
+        let expected_d = bank.last_delta[r][l] * n_samples;
+        let changed = bank.delta_known[l] & !((d - expected_d).abs() <= p.max_step_change);
+        let jumped = counted & (!(d.abs() <= p.max_angle_step) | changed);
+        let accept = counted & !jumped;
+        let per_sample = if pending == T::ZERO { d } else { d / n_samples };
+        // Mean increment over ~16 samples: encoder jitter at standstill averages out of
+        // it, so it alone decides whether an order is held.
+        let m = bank.mean_delta[r][l];
+        bank.mean_delta[r][l] = if accept { madd::<T, F>(m, per_sample - m, T::from_f64(HOLD_AVERAGE)) } else { m };
+        bank.last_delta[r][l] = if accept { per_sample } else { bank.last_delta[r][l] };
+        jump[r] = jumped;
+        delta[r] = if counted { d } else { T::ZERO };
+        // The phase: the angle itself, or the accumulated increments.
+        let psi = bank.psi[r][l];
+        let next = wrap(if p.angle_input { v } else { psi + delta[r] });
+        let psi = if skip | (!p.angle_input & jumped) { psi } else { next };
+        bank.psi[r][l] = psi;
+        bank.last[r][l] = if skip { last } else { v };
+        base[r] = sin_cos_with::<T, F>(psi);
+    }
+    let any_jump = jump[0] | jump[1] | jump[2];
+    bank.steps[l] = bank.steps[l].wrapping_add(1);
+    bank.has_last[l] |= !skip;
+    // After a jump or a gap the next increment sets a new baseline.
+    bank.delta_known[l] = if skip { bank.delta_known[l] } else { !first & !gap & !any_jump };
+    bank.pending_samples[l] = if skip { n_samples } else { T::ZERO };
+    let pending_dt = bank.pending_dt[l] + if p.dt_ok { p.dt } else { plan.dt_s };
+    bank.pending_dt[l] = if skip { pending_dt } else { T::ZERO };
+    let mut flags = StepFlags::empty();
+    flags.set(StepFlags::ANGLE_SKIPPED, skip);
+    flags.set(StepFlags::MEASUREMENT_SKIPPED, !skip & !meas_ok);
+    flags.set(StepFlags::GAP_RESET, gap);
+    flags.set(StepFlags::JUMP_RESET, !gap & any_jump);
+
+    // Each order: its status (active, held or off), what the time update does with it
+    // (keep its state or restart from its prior, keep its covariances with the others),
+    // its process noise `q_i = q_s + q_rad |a_i|` and its phasor (times the load
+    // `|T_exp + b̂(k|k−1)|` for a load-scaled order).
+    let load = (expected + bank.b[l]).abs();
+    let load = if finite(load) { load } else { T::ZERO };
+    let (mut keep, mut couple, mut pred, mut upd) = ([true; M], [true; M], [true; M], [false; M]);
+    let (mut inc, mut q) = ([T::ZERO; M], [T::ZERO; M]);
+    for i in 0..M {
+        let r = plan.reference[i];
+        let reset = gap | jump[r];
+        let a = if reset { T::ZERO } else { p.multiple[i] * delta[r] };
+        let abs_a = a.abs();
+        let mean_a = (p.multiple[i] * bank.mean_delta[r][l]).abs();
+        let prev = bank.status[i][l];
+        let was_off = prev == OrderStatus::Off;
+        let off = !reset & ((was_off & !(abs_a < plan.on_below_rad)) | (!was_off & (abs_a > plan.off_above_rad)));
+        let held = reset | (!off & (mean_a < plan.hold_below_rad));
+        let status = if skip {
+            prev
+        } else if off {
+            OrderStatus::Off
+        } else if held {
+            OrderStatus::Held
+        } else {
+            OrderStatus::Active
+        };
+        bank.status[i][l] = status;
+        let (off, active) = (status == OrderStatus::Off, status == OrderStatus::Active);
+        let zeroed = !skip & (reset | off);
+        keep[i] = !zeroed;
+        couple[i] = skip | active;
+        pred[i] = !off;
+        upd[i] = meas_ok & active;
+        inc[i] = if zeroed { T::ZERO } else { a };
+        let q_i = madd::<T, F>(p.q_per_sample[i] * n_noise, p.q_per_rad[i], abs_a);
+        q[i] = if off | skip { T::ZERO } else { q_i };
+        flags.set(StepFlags::ORDER_OFF, off);
+        flags.set(StepFlags::ORDER_HELD, status == OrderStatus::Held);
+        let b = base[r];
+        let ph = match plan.power[i] {
+            0 => {
+                let psi = wrap(bank.order_psi[i][l] + inc[i]);
+                bank.order_psi[i][l] = psi;
+                sin_cos_with::<T, F>(psi)
+            }
+            1 => b,
+            2 => b.doubled::<F>(),
+            4 => b.doubled::<F>().doubled::<F>(),
+            n => {
+                let (c, s) = phasor_power_with::<T, F>(b.c, b.s, n);
+                Doubling::new(c, s)
+            }
+        };
+        let scale = if p.load_scaled[i] { load } else { T::ONE };
+        bank.phasor[i][0][l] = ph.c * scale;
+        bank.phasor[i][1][l] = ph.s * scale;
+    }
 
     // Time update: inflation `ρ (P_00 + P_11)/2 · I₂` (rotation invariant, like Q) and
-    // process noise on the diagonal blocks; resets and decoupling where decided.
+    // process noise on the diagonal blocks; a reset order restarts from its prior and
+    // forgets its covariances, an order not active is decoupled from the others.
+    let grow = infl * T::HALF;
     for i in 0..M {
-        let p = &mut bank.p[i][i];
-        for l in 0..J {
-            let (trace, q, grow) = (p[0][0][l] + p[1][1][l], d.q[i][l], d.infl[l] * T::HALF);
-            p[0][0][l] = madd::<T, F>(p[0][0][l], grow, trace) + q;
-            p[1][1][l] = madd::<T, F>(p[1][1][l], grow, trace) + q;
+        let d = &mut bank.p[i][i];
+        let (v0, v1) = (d[0][0][l], d[1][1][l]);
+        let trace = v0 + v1;
+        let fresh = plan.p0_nm2[i] + q[i];
+        d[0][0][l] = if keep[i] { madd::<T, F>(v0, grow, trace) + q[i] } else { fresh };
+        d[1][1][l] = if keep[i] { madd::<T, F>(v1, grow, trace) + q[i] } else { fresh };
+        let off = if keep[i] { d[0][1][l] } else { T::ZERO };
+        d[0][1][l] = off;
+        d[1][0][l] = off;
+        for r in 0..2 {
+            bank.z[i][r][l] = if keep[i] { bank.z[i][r][l] } else { p.prior[i][r] };
+            if BIAS {
+                bank.pb[i][r][l] = if couple[i] { bank.pb[i][r][l] } else { T::ZERO };
+            }
+        }
+        for j in i + 1..M {
+            let both = couple[i] & couple[j];
+            for v in bank.p[i][j].iter_mut().flatten() {
+                v[l] = if both { v[l] } else { T::ZERO };
+            }
         }
     }
-    if !d.plain {
-        reset_orders(model, bank, &d);
-    }
-    if has_bias {
-        for l in 0..J {
-            let v = bank.pbb[l];
-            let v = if d.reinflate[l] && v < model.p0_bias_nm2 { model.p0_bias_nm2 } else { v };
-            bank.pbb[l] = madd::<T, F>(v, v, d.infl[l]) + d.q_b[l];
-        }
+    if BIAS {
+        // A time gap brings the bias variance back up to its initial value.
+        let v = bank.pbb[l];
+        let v = if gap & (v < p.p0_bias) { p.p0_bias } else { v };
+        bank.pbb[l] = madd::<T, F>(v, v, infl) + p.q_bias * n_noise;
     }
 
     // Prediction ŷ(k) = h ẑ(k|k−1) (every order not off) and the update row h (the
     // orders updated; the bias entry is 1 when the measurement is used).
-    let (mut ripple, mut mis) = ([T::ZERO; J], [T::ZERO; J]);
+    let (mut ripple, mut mis) = (T::ZERO, T::ZERO);
     let (mut any_ripple, mut any_mis) = (false, false);
-    let mut h = [[[T::ZERO; J]; 2]; M];
+    let mut h = [[T::ZERO; 2]; M];
     for i in 0..M {
-        let is_ripple = model.orders[i].reference.is_ripple();
-        let first = if is_ripple { !any_ripple } else { !any_mis };
-        let sum = if is_ripple { &mut ripple } else { &mut mis };
-        for l in 0..J {
-            let (c, s) = (bank.phasor[i][0][l], bank.phasor[i][1][l]);
-            let v = madd::<T, F>(c * bank.z[i][0][l], s, bank.z[i][1][l]);
-            sum[l] = sum_from(first, sum[l], if d.pred[i][l] { v } else { T::ZERO });
-            let u = d.upd[i][l];
-            h[i][0][l] = if u { c } else { T::ZERO };
-            h[i][1][l] = if u { s } else { T::ZERO };
+        let (c, s) = (bank.phasor[i][0][l], bank.phasor[i][1][l]);
+        let v = madd::<T, F>(c * bank.z[i][0][l], s, bank.z[i][1][l]);
+        let v = if pred[i] { v } else { T::ZERO };
+        if p.is_ripple[i] {
+            ripple = sum_from(!any_ripple, ripple, v);
+            any_ripple = true;
+        } else {
+            mis = sum_from(!any_mis, mis, v);
+            any_mis = true;
         }
-        any_ripple |= is_ripple;
-        any_mis |= !is_ripple;
+        h[i] = if upd[i] { [c, s] } else { [T::ZERO; 2] };
     }
 
     // Gains g = P hᵀ from the upper blocks of the symmetric P, and the bias entry.
-    let mut g = [[[T::ZERO; J]; 2]; M];
-    let mut gb = [T::ZERO; J];
+    let mut g = [[T::ZERO; 2]; M];
     for i in 0..M {
-        if has_bias {
-            for l in 0..J {
-                let u = d.meas_ok[l];
-                g[i][0][l] = if u { bank.pb[i][0][l] } else { T::ZERO };
-                g[i][1][l] = if u { bank.pb[i][1][l] } else { T::ZERO };
-            }
+        if BIAS {
+            g[i] = if meas_ok { [bank.pb[i][0][l], bank.pb[i][1][l]] } else { [T::ZERO; 2] };
         }
         for j in 0..M {
-            let first = !has_bias && j == 0;
-            for l in 0..J {
-                let (t0, t1) = block_times::<T, M, J, F>(bank, i, j, l, [h[j][0][l], h[j][1][l]]);
-                g[i][0][l] = sum_from(first, g[i][0][l], t0);
-                g[i][1][l] = sum_from(first, g[i][1][l], t1);
-            }
+            let (t0, t1) = block_times::<T, M, J, F>(bank, i, j, l, h[j]);
+            let first = !BIAS && j == 0;
+            g[i] = [sum_from(first, g[i][0], t0), sum_from(first, g[i][1], t1)];
         }
     }
-    if has_bias {
-        for l in 0..J {
-            gb[l] = if d.meas_ok[l] { bank.pbb[l] } else { T::ZERO };
-            for j in 0..M {
-                gb[l] += madd::<T, F>(bank.pb[j][0][l] * h[j][0][l], bank.pb[j][1][l], h[j][1][l]);
-            }
+    let mut gb = T::ZERO;
+    if BIAS {
+        gb = if meas_ok { bank.pbb[l] } else { T::ZERO };
+        for j in 0..M {
+            gb += madd::<T, F>(bank.pb[j][0][l] * h[j][0], bank.pb[j][1][l], h[j][1]);
         }
     }
 
     // Innovation `e = y − ŷ`, its variance `S = R + h g`, and the load-step decision:
     // an innovation beyond the NIS limit is a jump of the bias, not of the oscillators.
     // The update is then the exact limit Var(b) → ∞ (gain 0 here, completed below).
-    let (mut s_var, mut inv, mut e, mut e_used) = ([T::ZERO; J], [T::ZERO; J], [T::ZERO; J], [T::ZERO; J]);
-    let mut load_step = [false; J];
-    let nis_limit = model.limits.load_step_nis;
-    for l in 0..J {
-        let mut s = if has_bias && d.meas_ok[l] { gb[l] } else { T::ZERO };
-        for i in 0..M {
-            s = sum_from(!has_bias && i == 0, s, madd::<T, F>(h[i][0][l] * g[i][0][l], h[i][1][l], g[i][1][l]));
-        }
-        s_var[l] = r_nm2 + s;
-        e[l] = d.y[l] - (ripple[l] + mis[l] + bank.b[l]);
-        e_used[l] = if d.meas_ok[l] { e[l] } else { T::ZERO };
-        load_step[l] = has_bias & (nis_limit > T::ZERO) & (e_used[l] * e_used[l] > nis_limit * s_var[l]);
-        inv[l] = if load_step[l] { T::ZERO } else { T::ONE / s_var[l] };
-        d.flags[l].set(StepFlags::LOAD_STEP, load_step[l]);
+    let mut s = if BIAS { gb } else { T::ZERO };
+    for i in 0..M {
+        s = sum_from(!BIAS && i == 0, s, madd::<T, F>(h[i][0] * g[i][0], h[i][1], g[i][1]));
     }
+    let s_var = p.r_nm2 + s;
+    let e = y - (ripple + mis + bank.b[l]);
+    let e_used = if meas_ok { e } else { T::ZERO };
+    let load_step = BIAS & (p.load_step_nis > T::ZERO) & (e_used * e_used > p.load_step_nis * s_var);
+    let inv = if load_step { T::ZERO } else { T::ONE / s_var };
+    flags.set(StepFlags::LOAD_STEP, load_step);
     let mut trace = trace;
     if let Some(tr) = trace.as_deref_mut().filter(|_| TRACE) {
-        record(tr, bank, &d, &h, &g, [gb, s_var, e_used, d.y], load_step, has_bias);
+        let row_b = if BIAS && meas_ok { T::ONE } else { T::ZERO };
+        let masks = [keep, pred];
+        record(
+            tr,
+            bank,
+            l,
+            (inc, q, masks, h, g),
+            [p.q_bias * n_noise, row_b, gb, s_var, e_used, y],
+            BIAS & gap,
+            load_step,
+        );
     }
 
     // Measurement update `ẑ += g e / S`, `P −= g gᵀ / S` (upper blocks; each product
     // `g_i g_j` times `1/S`, so that it waits on the division for one multiply–add).
     // Variances never fall below their exact lower bound `P_ii R / S`.
+    let floor = p.r_nm2 * inv;
     for i in 0..M {
-        for l in 0..J {
-            let [g0, g1] = [g[i][0][l], g[i][1][l]];
-            let (k0, k1) = (g0 * inv[l], g1 * inv[l]);
-            bank.z[i][0][l] = madd::<T, F>(bank.z[i][0][l], k0, e_used[l]);
-            bank.z[i][1][l] = madd::<T, F>(bank.z[i][1][l], k1, e_used[l]);
-            let floor = r_nm2 * inv[l];
-            let p = &mut bank.p[i][i];
-            let (v0, v1) = (p[0][0][l], p[1][1][l]);
-            p[0][0][l] = madd::<T, F>(v0, -(g0 * g0), inv[l]).max(v0 * floor);
-            p[1][1][l] = madd::<T, F>(v1, -(g1 * g1), inv[l]).max(v1 * floor);
-            let off = madd::<T, F>(p[0][1][l], -(g0 * g1), inv[l]);
-            p[0][1][l] = off;
-            p[1][0][l] = off;
-            for j in i + 1..M {
-                let [gj0, gj1] = [g[j][0][l], g[j][1][l]];
-                let b = &mut bank.p[i][j];
-                b[0][0][l] = madd::<T, F>(b[0][0][l], -(g0 * gj0), inv[l]);
-                b[0][1][l] = madd::<T, F>(b[0][1][l], -(g0 * gj1), inv[l]);
-                b[1][0][l] = madd::<T, F>(b[1][0][l], -(g1 * gj0), inv[l]);
-                b[1][1][l] = madd::<T, F>(b[1][1][l], -(g1 * gj1), inv[l]);
-            }
-            if has_bias {
-                bank.pb[i][0][l] = madd::<T, F>(bank.pb[i][0][l], -k0, gb[l]);
-                bank.pb[i][1][l] = madd::<T, F>(bank.pb[i][1][l], -k1, gb[l]);
-            }
+        let [g0, g1] = g[i];
+        let (k0, k1) = (g0 * inv, g1 * inv);
+        bank.z[i][0][l] = madd::<T, F>(bank.z[i][0][l], k0, e_used);
+        bank.z[i][1][l] = madd::<T, F>(bank.z[i][1][l], k1, e_used);
+        let d = &mut bank.p[i][i];
+        let (v0, v1) = (d[0][0][l], d[1][1][l]);
+        d[0][0][l] = madd::<T, F>(v0, -(g0 * g0), inv).max(v0 * floor);
+        d[1][1][l] = madd::<T, F>(v1, -(g1 * g1), inv).max(v1 * floor);
+        let off = madd::<T, F>(d[0][1][l], -(g0 * g1), inv);
+        d[0][1][l] = off;
+        d[1][0][l] = off;
+        for j in i + 1..M {
+            let [gj0, gj1] = g[j];
+            let b = &mut bank.p[i][j];
+            b[0][0][l] = madd::<T, F>(b[0][0][l], -(g0 * gj0), inv);
+            b[0][1][l] = madd::<T, F>(b[0][1][l], -(g0 * gj1), inv);
+            b[1][0][l] = madd::<T, F>(b[1][0][l], -(g1 * gj0), inv);
+            b[1][1][l] = madd::<T, F>(b[1][1][l], -(g1 * gj1), inv);
+        }
+        if BIAS {
+            bank.pb[i][0][l] = madd::<T, F>(bank.pb[i][0][l], -k0, gb);
+            bank.pb[i][1][l] = madd::<T, F>(bank.pb[i][1][l], -k1, gb);
         }
     }
-    if has_bias {
-        for l in 0..J {
-            let kb = gb[l] * inv[l];
-            bank.b[l] = madd::<T, F>(bank.b[l], kb, e_used[l]);
-            let v = bank.pbb[l];
-            bank.pbb[l] = madd::<T, F>(v, -kb, gb[l]).max(v * r_nm2 * inv[l]);
+    if BIAS {
+        let kb = gb * inv;
+        bank.b[l] = madd::<T, F>(bank.b[l], kb, e_used);
+        let v = bank.pbb[l];
+        bank.pbb[l] = madd::<T, F>(v, -kb, gb).max(v * p.r_nm2 * inv);
+        // The load-step limit: the bias takes the whole innovation, the oscillators
+        // learn nothing, and `Var(b) = R + h P_zz hᵀ`, `Cov(z, b) = −P_zz hᵀ` (no
+        // cancellation, PSD by construction); `P_zz hᵀ = g − Cov(z, b)` as h's bias
+        // entry is 1.
+        let mut s_z = T::ZERO;
+        for i in 0..M {
+            for r in 0..2 {
+                let pzh = g[i][r] - bank.pb[i][r][l];
+                s_z += h[i][r] * pzh;
+                bank.pb[i][r][l] = if load_step { -pzh } else { bank.pb[i][r][l] };
+            }
         }
-        if load_step.iter().any(|&s| s) {
-            complete_load_steps(r_nm2, bank, &h, &g, &load_step, &e_used);
-        }
+        bank.pbb[l] = if load_step { p.r_nm2 + s_z } else { bank.pbb[l] };
+        bank.b[l] = if load_step { bank.b[l] + e_used } else { bank.b[l] };
     }
     if let Some(tr) = trace.filter(|_| TRACE) {
-        tr.posterior = gaussian(bank);
+        tr.posterior = gaussian(bank, l);
     }
 
-    // Health check (a joint whose covariance went bad restarts) and the outputs.
-    let mut any_bad = false;
-    for l in 0..J {
-        let bad = !healthy(has_bias, bank, l, s_var[l]);
-        d.flags[l].set(StepFlags::COVARIANCE_RESET, bad);
-        any_bad |= bad;
-    }
-    if any_bad {
-        for l in 0..J {
-            if d.flags[l].contains(StepFlags::COVARIANCE_RESET) {
-                bank.reset_lane(model, l);
-            }
-        }
-    }
-    for l in 0..J {
-        let torque = input.torque_nm[l] - ripple[l] - mis[l];
-        out.torque_nm[l] = torque;
-        out.ripple_nm[l] = ripple[l];
-        out.misalignment_nm[l] = mis[l];
-        out.torque_state_nm[l] = if has_bias { input.expected_torque_nm[l] + bank.b[l] } else { torque };
-        out.innovation_nm[l] = e[l];
-        out.innovation_variance_nm2[l] = s_var[l];
-        out.nis[l] = e[l] * e[l] / s_var[l];
-        out.flags[l] = d.flags[l];
-    }
-}
-
-/// The resets and decoupling of the time update, for the joints and orders where
-/// [`decide`] asked for them: a reset order restarts from its prior (0 or learned
-/// coefficients) and forgets its covariances; an order not active is decoupled from
-/// the others.
-#[inline(never)]
-fn reset_orders<T: Real, const M: usize, const J: usize>(
-    model: &RippleModel<T, M>,
-    bank: &mut RippleBank<T, M, J>,
-    d: &Decisions<T, M, J>,
-) {
-    for i in 0..M {
-        let (p0, mu) = (model.plan.p0_nm2[i], model.orders[i].prior_nm);
-        for l in 0..J {
-            if !d.keep[i][l] {
-                bank.z[i][0][l] = mu[0];
-                bank.z[i][1][l] = mu[1];
-                let p = &mut bank.p[i][i];
-                p[0][0][l] = p0 + d.q[i][l];
-                p[1][1][l] = p0 + d.q[i][l];
-                p[0][1][l] = T::ZERO;
-                p[1][0][l] = T::ZERO;
-            }
-        }
-        for j in i + 1..M {
-            for l in 0..J {
-                if !(d.couple[i][l] & d.couple[j][l]) {
-                    bank.p[i][j] = zero_lane(bank.p[i][j], l);
-                }
-            }
-        }
-        for l in 0..J {
-            if !d.couple[i][l] {
-                bank.pb[i][0][l] = T::ZERO;
-                bank.pb[i][1][l] = T::ZERO;
-            }
-        }
-    }
-}
-
-/// `block` with joint `l`'s entries set to 0.
-#[inline(always)]
-fn zero_lane<T: Real, const J: usize>(mut block: [[[T; J]; 2]; 2], l: usize) -> [[[T; J]; 2]; 2] {
-    for row in &mut block {
-        for v in row {
-            v[l] = T::ZERO;
-        }
-    }
-    block
-}
-
-/// The load-step limit `Var(b) → ∞` for the joints `steps`, after their (gain 0)
-/// update: the bias takes the whole innovation `e`, the oscillators learn nothing, and
-/// `Var(b) = R + h P_zz hᵀ`, `Cov(z, b) = −P_zz hᵀ` (no cancellation, PSD by
-/// construction).
-#[inline(always)]
-fn complete_load_steps<T: Real, const M: usize, const J: usize>(
-    r_nm2: T,
-    bank: &mut RippleBank<T, M, J>,
-    h: &Lanes2<T, M, J>,
-    g: &Lanes2<T, M, J>,
-    steps: &[bool; J],
-    e: &[T; J],
-) {
-    for l in 0..J {
-        if steps[l] {
-            // P_zz hᵀ = g − Cov(z, b) since the bias entry of h is 1.
-            let mut s_z = T::ZERO;
-            for i in 0..M {
-                for r in 0..2 {
-                    let pzh = g[i][r][l] - bank.pb[i][r][l];
-                    s_z += h[i][r][l] * pzh;
-                    bank.pb[i][r][l] = -pzh;
-                }
-            }
-            bank.pbb[l] = r_nm2 + s_z;
-            bank.b[l] += e[l];
-        }
-    }
+    // Outputs, and whether the covariance went bad.
+    let clean = torque - ripple - mis;
+    out.torque_nm[l] = clean;
+    out.ripple_nm[l] = ripple;
+    out.misalignment_nm[l] = mis;
+    out.torque_state_nm[l] = if BIAS { expected + bank.b[l] } else { clean };
+    out.innovation_nm[l] = e;
+    out.innovation_variance_nm2[l] = s_var;
+    out.nis[l] = e * e / s_var;
+    out.flags[l] = flags;
+    !healthy(BIAS, bank, l, s_var)
 }
 
 /// Whether joint `l`'s state is usable after an update with innovation variance
@@ -803,64 +646,48 @@ fn finite<T: Real>(x: T) -> bool {
     x - x == T::ZERO
 }
 
-/// Joint 0's rotating-frame mean and covariance.
-fn gaussian<T: Real, const M: usize, const J: usize>(bank: &RippleBank<T, M, J>) -> RotatingGaussian<T, M> {
+/// Joint `l`'s rotating-frame mean and covariance.
+fn gaussian<T: Real, const M: usize, const J: usize>(bank: &RippleBank<T, M, J>, l: usize) -> RotatingGaussian<T, M> {
     let mut g = RotatingGaussian::zeros();
-    if J == 0 {
-        return g;
-    }
     for i in 0..M {
         for r in 0..2 {
-            g.z[i][r] = bank.z[i][r][0];
-            g.pb[i][r] = bank.pb[i][r][0];
+            g.z[i][r] = bank.z[i][r][l];
+            g.pb[i][r] = bank.pb[i][r][l];
         }
         for j in 0..M {
-            g.p[i][j] = bank.block(i, j, 0).unwrap_or([[T::ZERO; 2]; 2]);
+            g.p[i][j] = bank.block(i, j, l).unwrap_or([[T::ZERO; 2]; 2]);
         }
     }
-    g.bias = bank.b[0];
-    g.pbb = bank.pbb[0];
+    g.bias = bank.b[l];
+    g.pbb = bank.pbb[l];
     g
 }
 
-/// Joint 0's quantities of this step into `tr` (before the measurement update):
-/// `scalars` are `[g_b, S, e used, y]` per joint.
-#[allow(clippy::too_many_arguments)]
+/// Per order: increments, process noise, [kept, predicted], update row, gains.
+type OrderQuantities<T, const M: usize> = ([T; M], [T; M], [[bool; M]; 2], [[T; 2]; M], [[T; 2]; M]);
+
+/// Joint `l`'s quantities of this step into `tr`, before the measurement update;
+/// `scalars`: bias noise, update row and gain entries, `S`, the innovation used, `y`.
 #[inline(never)]
 fn record<T: Real, const M: usize, const J: usize>(
     tr: &mut StepTrace<T, M>,
     bank: &RippleBank<T, M, J>,
-    d: &Decisions<T, M, J>,
-    h: &Lanes2<T, M, J>,
-    g: &Lanes2<T, M, J>,
-    scalars: [[T; J]; 4],
-    load_step: [bool; J],
-    has_bias: bool,
+    l: usize,
+    (inc, q, [kept, predicted], h, g): OrderQuantities<T, M>,
+    [q_b, row_b, g_b, s_var, e_used, y]: [T; 6],
+    reinflated: bool,
+    load_step: bool,
 ) {
-    if J == 0 {
-        return;
-    }
+    (tr.increment_rad, tr.q_nm2, tr.kept, tr.predicted, tr.update_row, tr.gain_numerator) =
+        (inc, q, kept, predicted, h, g);
     for i in 0..M {
-        tr.increment_rad[i] = d.inc[i][0];
-        tr.q_nm2[i] = d.q[i][0];
-        tr.kept[i] = d.keep[i][0];
-        tr.predicted[i] = d.pred[i][0];
-        for r in 0..2 {
-            tr.phasor[i][r] = bank.phasor[i][r][0];
-            tr.update_row[i][r] = h[i][r][0];
-            tr.gain_numerator[i][r] = g[i][r][0];
-        }
+        tr.phasor[i] = [bank.phasor[i][0][l], bank.phasor[i][1][l]];
     }
-    tr.prior = gaussian(bank);
-    let [gb, s_var, e_used, y] = scalars;
-    tr.q_bias_nm2 = d.q_b[0];
-    tr.update_row_bias = if has_bias && d.meas_ok[0] { T::ONE } else { T::ZERO };
-    tr.gain_numerator_bias = gb[0];
-    tr.innovation_variance_nm2 = s_var[0];
-    tr.innovation_used_nm = e_used[0];
-    tr.measurement_nm = y[0];
-    tr.bias_reinflated = d.reinflate[0];
-    tr.load_step = load_step[0];
+    tr.prior = gaussian(bank, l);
+    (tr.q_bias_nm2, tr.update_row_bias, tr.gain_numerator_bias) = (q_b, row_b, g_b);
+    (tr.innovation_variance_nm2, tr.innovation_used_nm, tr.measurement_nm) = (s_var, e_used, y);
+    tr.bias_reinflated = reinflated;
+    tr.load_step = load_step;
 }
 
 #[cfg(test)]

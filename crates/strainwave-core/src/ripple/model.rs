@@ -1,9 +1,9 @@
-//! The immutable error model of the canceller: orders, noise, limits (SPEC §4).
+//! The immutable error model of the canceller: orders, noise, limits.
 //!
 //! ```text
 //! x_i(k+1) = Φ_i(k) x_i(k) + w_i(k),   Φ_i(k) = [[cos a_i, sin a_i], [−sin a_i, cos a_i]]
 //! a_i(k)   = n_i Δθ_r(k)               phase increment of order i on reference r, rad
-//! b(k+1)   = b(k) + w_b(k)             optional torque/bias random walk (seed 001)
+//! b(k+1)   = b(k) + w_b(k)             optional torque/bias random walk
 //! y(k)     = T_meas(k) − T_exp(k) = Σ_i [1 0] x_i(k) + b(k) + v(k)
 //! E w_i w_iᵀ = (q_s,i + q_rad,i |a_i(k)|) I₂,   E w_b² = q_b,   E v² = R
 //! ```
@@ -19,7 +19,7 @@ use crate::Real;
 /// The measured angle an order is periodic in. The caller supplies each per sample.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Reference {
-    /// Relative WG–FS angle `φ = θ_wg − θ_fs` (SPEC §1): gear meshing and elliptical
+    /// Relative angle `φ = θ_wg − θ_fs` of wave generator and flexspline: gear meshing and elliptical
     /// interference ripple, 2× and 4×.
     #[default]
     Relative,
@@ -188,7 +188,7 @@ pub struct Limits<T: Real> {
     /// subtracted, never updated, so standstill load cannot leak into it. The line
     /// frequency is taken from the running mean (≈ 16 samples) of the signed increment,
     /// so ±1-count encoder jitter at standstill does not count as motion.
-    /// Default 0.05 Hz; 0 disables (seed behaviour).
+    /// Default 0.05 Hz; 0 disables (as the classic filter).
     pub hold_below_hz: T,
     /// Each sample the covariance is inflated by this fraction `ρ`: every oscillator block
     /// gains `ρ (P_i,00 + P_i,11)/2 · I₂` (rotation invariant, so it is part of `Q`) and
@@ -269,7 +269,7 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
             p0_bias_nm2: T::from_f64(1e4),
             phase_source: PhaseSource::Angle,
             limits: Limits::default(),
-            plan: Plan::new(&orders, T::ONE, T::ONE, T::HALF, T::ZERO, T::ONE),
+            plan: Plan::new(&orders, T::ONE, &Limits::default(), T::ONE),
         };
         m.derive();
         Ok(m)
@@ -372,15 +372,7 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
     }
 
     fn derive(&mut self) {
-        let lim = &self.limits;
-        self.plan = Plan::new(
-            &self.orders,
-            self.sample_rate_hz,
-            lim.max_gap_periods,
-            lim.nyquist_fraction,
-            lim.hold_below_hz,
-            self.p0_oscillator_nm2,
-        );
+        self.plan = Plan::new(&self.orders, self.sample_rate_hz, &self.limits, self.p0_oscillator_nm2);
     }
 
     /// The orders.

@@ -210,7 +210,7 @@ pub(super) fn phasor_power_with<T: Real, const F: bool>(c: T, s: T, n: u8) -> (T
 
 /// `wrap_angle` for `|x| ≤ 3π` as selects (vectorizes); larger `|x|` are fixed up after.
 #[inline(always)]
-pub(super) fn wrap_near<T: Real>(x: T) -> T {
+fn wrap_near<T: Real>(x: T) -> T {
     let up = if x < -T::PI { x + T::TAU } else { x };
     if x > T::PI {
         x - T::TAU
@@ -219,18 +219,20 @@ pub(super) fn wrap_near<T: Real>(x: T) -> T {
     }
 }
 
-/// Wraps an angle into `[−π, π]`; cheap for inputs within `±3π` (wrapped encoders),
-/// exact in the general case. Non-finite inputs come back non-finite.
+/// Wraps an angle into `[−π, π]`: by selects within `±3π` (wrapped encoder angles and
+/// their differences), else by the nearest whole number of turns. No branch, so the
+/// loop over a bank's joints vectorizes. Non-finite inputs come back non-finite.
 #[inline(always)]
-pub fn wrap_angle<T: Real>(x: T) -> T {
-    if x.abs() <= T::PI {
-        x
-    } else if x > T::PI && x <= T::from_f64(3.0) * T::PI {
-        x - T::TAU
-    } else if x < -T::PI && x >= T::from_f64(-3.0) * T::PI {
-        x + T::TAU
+pub(super) fn wrap_angle<T: Real>(x: T) -> T {
+    // Round to the nearest whole number of turns by adding and removing 1.5 / ε, which
+    // leaves no fraction (exact below 2⁵¹ turns in f64, 2²² in f32).
+    let big = T::from_f64(1.5) / T::EPSILON;
+    let turns = x * T::from_f64(1.0 / core::f64::consts::TAU);
+    let far = x - T::TAU * ((turns + big) - big);
+    if x.abs() <= T::from_f64(3.0) * T::PI {
+        wrap_near(x)
     } else {
-        x - T::TAU * (x / T::TAU).round()
+        far
     }
 }
 
