@@ -15,13 +15,9 @@
 //! which is the same filter: identical `ŷ`, `x̂ = Φ(ψ) ẑ`, `P_x = Φ(ψ) P_z Φ(ψ)ᵀ`.
 //! `Φ` never multiplies `P`; a step costs one symmetric mat-vec and one rank-1 update.
 //!
-//! A step first decides, per joint, what the sample means (skipped, first, gap, jump;
-//! each order active, held or off) and does the phase bookkeeping, as lane-wise
-//! selects; then the arithmetic applies those decisions as selects. The common sample
-//! (no order reset or decoupled in any joint) skips the block of resets: the only
-//! branch on the data. Joints are the innermost index of every array (structure of
-//! arrays), so a bank's loops vectorize across joints and one joint's step is
-//! straight-line code.
+//! One joint's step is scalar code ([`lane`]); a bank runs it for each joint. Every
+//! per-joint decision (skipped sample, first sample, gap, jump, order active, held or
+//! off, load step) is a select, so the common sample takes no branch of its own.
 //!
 //! The CPU-specific build is chosen in one place, `run`: on x86-64 CPUs with AVX2 and
 //! FMA (std builds) the same generic step is compiled with its multiply–adds fused,
@@ -65,8 +61,6 @@ pub(crate) struct Plan<T: Real, const M: usize> {
     pub(crate) power: [u8; M],
     /// Initial (and reset) variance of each order: its prior's, or the model's.
     pub(crate) p0_nm2: [T; M],
-    /// Whether some order is scaled by the load.
-    pub(crate) any_load_scaled: bool,
 }
 
 impl<T: Real, const M: usize> Plan<T, M> {
@@ -83,7 +77,6 @@ impl<T: Real, const M: usize> Plan<T, M> {
             reference: [0; M],
             power: [0; M],
             p0_nm2: [p0_oscillator_nm2; M],
-            any_load_scaled: orders.iter().any(|o| o.load_scaled),
         };
         for (i, o) in orders.iter().enumerate() {
             let r = o.reference.index();
@@ -176,57 +169,6 @@ fn run_fma<T: Real, const M: usize, const J: usize, const TRACE: bool>(
     advance::<T, M, J, true, TRACE>(model, bank, input, out, trace);
 }
 
-/// The model's numbers one joint's step reads, copied out of the model so that the
-/// loop over the joints reads no memory the bank could share.
-#[derive(Clone, Copy)]
-struct Params<T: Real, const M: usize> {
-    plan: Plan<T, M>,
-    multiple: [T; M],
-    q_per_sample: [T; M],
-    q_per_rad: [T; M],
-    prior: [[T; 2]; M],
-    is_ripple: [bool; M],
-    load_scaled: [bool; M],
-    r_nm2: T,
-    inflation: T,
-    q_bias: T,
-    p0_bias: T,
-    load_step_nis: T,
-    max_angle_step: T,
-    max_step_change: T,
-    angle_input: bool,
-    /// This sample's interval, and whether it is usable (finite, positive).
-    dt: T,
-    dt_ok: bool,
-}
-
-impl<T: Real, const M: usize> Params<T, M> {
-    #[inline(always)]
-    fn new(model: &RippleModel<T, M>, dt_s: Option<T>) -> Self {
-        let o = &model.orders;
-        let dt = dt_s.unwrap_or(model.plan.dt_s);
-        Self {
-            plan: model.plan,
-            multiple: core::array::from_fn(|i| o[i].multiple),
-            q_per_sample: core::array::from_fn(|i| o[i].q_per_sample_nm2),
-            q_per_rad: core::array::from_fn(|i| o[i].q_per_rad_nm2),
-            prior: core::array::from_fn(|i| o[i].prior_nm),
-            is_ripple: core::array::from_fn(|i| o[i].reference.is_ripple()),
-            load_scaled: core::array::from_fn(|i| o[i].load_scaled),
-            r_nm2: model.r_nm2,
-            inflation: model.limits.covariance_inflation,
-            q_bias: model.bias_q_nm2.unwrap_or(T::ZERO),
-            p0_bias: model.p0_bias_nm2,
-            load_step_nis: model.limits.load_step_nis,
-            max_angle_step: model.limits.max_angle_step_rad,
-            max_step_change: model.limits.max_step_change_rad,
-            angle_input: model.phase_source == PhaseSource::Angle,
-            dt,
-            dt_ok: finite(dt) & (dt > T::ZERO),
-        }
-    }
-}
-
 /// Every joint's step: [`lane`] for each, then the reset of joints whose covariance
 /// went bad.
 #[inline(always)]
@@ -237,15 +179,14 @@ fn advance<T: Real, const M: usize, const J: usize, const F: bool, const TRACE: 
     out: &mut BankOutput<T, J>,
     mut trace: Option<&mut StepTrace<T, M>>,
 ) {
-    let p = Params::new(model, input.dt_s);
     let has_bias = model.bias_q_nm2.is_some();
     let mut bad = [false; J];
     for l in 0..J {
         let tr = if TRACE && l == 0 { trace.as_deref_mut() } else { None };
         bad[l] = if has_bias {
-            lane::<T, M, J, F, true, TRACE>(&p, bank, input, l, out, tr)
+            lane::<T, M, J, F, true, TRACE>(model, bank, input, l, out, tr)
         } else {
-            lane::<T, M, J, F, false, TRACE>(&p, bank, input, l, out, tr)
+            lane::<T, M, J, F, false, TRACE>(model, bank, input, l, out, tr)
         };
     }
     if bad.iter().any(|&b| b) {
@@ -269,65 +210,74 @@ fn advance<T: Real, const M: usize, const J: usize, const F: bool, const TRACE: 
 #[allow(clippy::too_many_lines)]
 #[inline(always)]
 fn lane<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool, const TRACE: bool>(
-    p: &Params<T, M>,
+    model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
     l: usize,
     out: &mut BankOutput<T, J>,
     trace: Option<&mut StepTrace<T, M>>,
 ) -> bool {
-    let plan = &p.plan;
+    let (plan, lim, orders) = (&model.plan, &model.limits, &model.orders);
+    let angle_input = model.phase_source == PhaseSource::Angle;
+    let dt = input.dt_s.unwrap_or(plan.dt_s);
+    let dt_ok = finite(dt) & (dt > T::ZERO);
+    let q_bias = model.bias_q_nm2.unwrap_or(T::ZERO);
     let refs = [input.references.relative[l], input.references.output[l], input.references.motor[l]];
     let (torque, expected) = (input.torque_nm[l], input.expected_torque_nm[l]);
     let y = torque - expected;
 
     // The sample: skipped (a used reference or `dt` not finite: the state stays as it
     // was, the next increment spans the gap), first, or after a time gap.
-    let mut refs_ok = p.dt_ok;
+    let mut refs_ok = dt_ok;
     for r in 0..3 {
         refs_ok &= !plan.uses[r] | finite(refs[r]);
     }
     let skip = !refs_ok;
     let pending = bank.pending_samples[l];
     let n_samples = pending + T::ONE;
-    let total_dt = bank.pending_dt[l] + p.dt;
+    let total_dt = bank.pending_dt[l] + dt;
     let first = !bank.has_last[l];
     let gap = !skip & !first & !(total_dt <= plan.max_gap_s);
     let meas_ok = !skip & finite(y);
     // The initial state is the prior of the first sample: no noise before it.
     let counted = !skip & !first;
     let n_noise = if counted { n_samples } else { T::ZERO };
-    let infl = if counted { p.inflation } else { T::ZERO };
+    let infl = if counted { lim.covariance_inflation } else { T::ZERO };
 
     // Each reference: its increment, whether it jumped, its phase and phasor.
-    let (mut delta, mut jump) = ([T::ZERO; 3], [false; 3]);
+    let (mut delta, mut jump, mut mean) = ([T::ZERO; 3], [false; 3], [T::ZERO; 3]);
     let mut base = [Doubling::new(T::ONE, T::ZERO); 3];
     for r in 0..3 {
         if !plan.uses[r] {
             continue;
         }
         let (v, last) = (refs[r], bank.last[r][l]);
-        let d = if p.angle_input { wrap(v - last) } else { (v + last) * T::HALF * total_dt };
+        let d = if angle_input { wrap(v - last) } else { (v + last) * T::HALF * total_dt };
         // A glitch: an increment too large, or too different from the last one.
         let expected_d = bank.last_delta[r][l] * n_samples;
-        let changed = bank.delta_known[l] & !((d - expected_d).abs() <= p.max_step_change);
-        let jumped = counted & (!(d.abs() <= p.max_angle_step) | changed);
+        let changed = bank.delta_known[l] & !((d - expected_d).abs() <= lim.max_step_change_rad);
+        let jumped = counted & (!(d.abs() <= lim.max_angle_step_rad) | changed);
         let accept = counted & !jumped;
         let per_sample = if pending == T::ZERO { d } else { d / n_samples };
         // Mean increment over ~16 samples: encoder jitter at standstill averages out of
         // it, so it alone decides whether an order is held.
         let m = bank.mean_delta[r][l];
-        bank.mean_delta[r][l] = if accept { madd::<T, F>(m, per_sample - m, T::from_f64(HOLD_AVERAGE)) } else { m };
+        mean[r] = if accept { madd::<T, F>(m, per_sample - m, T::from_f64(HOLD_AVERAGE)) } else { m };
+        bank.mean_delta[r][l] = mean[r];
         bank.last_delta[r][l] = if accept { per_sample } else { bank.last_delta[r][l] };
         jump[r] = jumped;
         delta[r] = if counted { d } else { T::ZERO };
         // The phase: the angle itself, or the accumulated increments.
         let psi = bank.psi[r][l];
-        let next = wrap(if p.angle_input { v } else { psi + delta[r] });
-        let psi = if skip | (!p.angle_input & jumped) { psi } else { next };
+        let next = wrap(if angle_input { v } else { psi + delta[r] });
+        let psi = if skip | (!angle_input & jumped) { psi } else { next };
         bank.psi[r][l] = psi;
         bank.last[r][l] = if skip { last } else { v };
-        base[r] = sin_cos_with::<T, F>(psi);
+    }
+    for r in 0..3 {
+        if plan.uses[r] {
+            base[r] = sin_cos_with::<T, F>(bank.psi[r][l]);
+        }
     }
     let any_jump = jump[0] | jump[1] | jump[2];
     bank.steps[l] = bank.steps[l].wrapping_add(1);
@@ -335,7 +285,7 @@ fn lane<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool
     // After a jump or a gap the next increment sets a new baseline.
     bank.delta_known[l] = if skip { bank.delta_known[l] } else { !first & !gap & !any_jump };
     bank.pending_samples[l] = if skip { n_samples } else { T::ZERO };
-    let pending_dt = bank.pending_dt[l] + if p.dt_ok { p.dt } else { plan.dt_s };
+    let pending_dt = bank.pending_dt[l] + if dt_ok { dt } else { plan.dt_s };
     bank.pending_dt[l] = if skip { pending_dt } else { T::ZERO };
     let mut flags = StepFlags::empty();
     flags.set(StepFlags::ANGLE_SKIPPED, skip);
@@ -352,11 +302,13 @@ fn lane<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool
     let (mut keep, mut couple, mut pred, mut upd) = ([true; M], [true; M], [true; M], [false; M]);
     let (mut inc, mut q) = ([T::ZERO; M], [T::ZERO; M]);
     for i in 0..M {
+        // The order's reference by selects, not by index: the per-reference values
+        // then stay in registers.
         let r = plan.reference[i];
-        let reset = gap | jump[r];
-        let a = if reset { T::ZERO } else { p.multiple[i] * delta[r] };
+        let reset = gap | pick(&jump, r);
+        let a = if reset { T::ZERO } else { orders[i].multiple * pick(&delta, r) };
         let abs_a = a.abs();
-        let mean_a = (p.multiple[i] * bank.mean_delta[r][l]).abs();
+        let mean_a = (orders[i].multiple * pick(&mean, r)).abs();
         let prev = bank.status[i][l];
         let was_off = prev == OrderStatus::Off;
         let off = !reset & ((was_off & !(abs_a < plan.on_below_rad)) | (!was_off & (abs_a > plan.off_above_rad)));
@@ -378,26 +330,28 @@ fn lane<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool
         pred[i] = !off;
         upd[i] = meas_ok & active;
         inc[i] = if zeroed { T::ZERO } else { a };
-        let q_i = madd::<T, F>(p.q_per_sample[i] * n_noise, p.q_per_rad[i], abs_a);
+        let q_i = madd::<T, F>(orders[i].q_per_sample_nm2 * n_noise, orders[i].q_per_rad_nm2, abs_a);
         q[i] = if off | skip { T::ZERO } else { q_i };
         flags.set(StepFlags::ORDER_OFF, off);
         flags.set(StepFlags::ORDER_HELD, status == OrderStatus::Held);
-        let b = base[r];
-        let ph = match plan.power[i] {
+        let b = pick(&base, r);
+        let n = plan.power[i];
+        let ph = match n {
+            1 => b,
+            2 => b.doubled::<F>(),
+            4 => b.doubled::<F>().doubled::<F>(),
             0 => {
+                // A fractional multiple: its own accumulated phase.
                 let psi = wrap(bank.order_psi[i][l] + inc[i]);
                 bank.order_psi[i][l] = psi;
                 sin_cos_with::<T, F>(psi)
             }
-            1 => b,
-            2 => b.doubled::<F>(),
-            4 => b.doubled::<F>().doubled::<F>(),
             n => {
                 let (c, s) = phasor_power_with::<T, F>(b.c, b.s, n);
                 Doubling::new(c, s)
             }
         };
-        let scale = if p.load_scaled[i] { load } else { T::ONE };
+        let scale = if orders[i].load_scaled { load } else { T::ONE };
         bank.phasor[i][0][l] = ph.c * scale;
         bank.phasor[i][1][l] = ph.s * scale;
     }
@@ -417,7 +371,7 @@ fn lane<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool
         d[0][1][l] = off;
         d[1][0][l] = off;
         for r in 0..2 {
-            bank.z[i][r][l] = if keep[i] { bank.z[i][r][l] } else { p.prior[i][r] };
+            bank.z[i][r][l] = if keep[i] { bank.z[i][r][l] } else { orders[i].prior_nm[r] };
             if BIAS {
                 bank.pb[i][r][l] = if couple[i] { bank.pb[i][r][l] } else { T::ZERO };
             }
@@ -432,8 +386,8 @@ fn lane<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool
     if BIAS {
         // A time gap brings the bias variance back up to its initial value.
         let v = bank.pbb[l];
-        let v = if gap & (v < p.p0_bias) { p.p0_bias } else { v };
-        bank.pbb[l] = madd::<T, F>(v, v, infl) + p.q_bias * n_noise;
+        let v = if gap & (v < model.p0_bias_nm2) { model.p0_bias_nm2 } else { v };
+        bank.pbb[l] = madd::<T, F>(v, v, infl) + q_bias * n_noise;
     }
 
     // Prediction ŷ(k) = h ẑ(k|k−1) (every order not off) and the update row h (the
@@ -445,7 +399,7 @@ fn lane<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool
         let (c, s) = (bank.phasor[i][0][l], bank.phasor[i][1][l]);
         let v = madd::<T, F>(c * bank.z[i][0][l], s, bank.z[i][1][l]);
         let v = if pred[i] { v } else { T::ZERO };
-        if p.is_ripple[i] {
+        if orders[i].reference.is_ripple() {
             ripple = sum_from(!any_ripple, ripple, v);
             any_ripple = true;
         } else {
@@ -482,10 +436,10 @@ fn lane<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool
     for i in 0..M {
         s = sum_from(!BIAS && i == 0, s, madd::<T, F>(h[i][0] * g[i][0], h[i][1], g[i][1]));
     }
-    let s_var = p.r_nm2 + s;
+    let s_var = model.r_nm2 + s;
     let e = y - (ripple + mis + bank.b[l]);
     let e_used = if meas_ok { e } else { T::ZERO };
-    let load_step = BIAS & (p.load_step_nis > T::ZERO) & (e_used * e_used > p.load_step_nis * s_var);
+    let load_step = BIAS & (lim.load_step_nis > T::ZERO) & (e_used * e_used > lim.load_step_nis * s_var);
     let inv = if load_step { T::ZERO } else { T::ONE / s_var };
     flags.set(StepFlags::LOAD_STEP, load_step);
     let mut trace = trace;
@@ -497,7 +451,7 @@ fn lane<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool
             bank,
             l,
             (inc, q, masks, h, g),
-            [p.q_bias * n_noise, row_b, gb, s_var, e_used, y],
+            [q_bias * n_noise, row_b, gb, s_var, e_used, y],
             BIAS & gap,
             load_step,
         );
@@ -506,7 +460,7 @@ fn lane<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool
     // Measurement update `ẑ += g e / S`, `P −= g gᵀ / S` (upper blocks; each product
     // `g_i g_j` times `1/S`, so that it waits on the division for one multiply–add).
     // Variances never fall below their exact lower bound `P_ii R / S`.
-    let floor = p.r_nm2 * inv;
+    let floor = model.r_nm2 * inv;
     for i in 0..M {
         let [g0, g1] = g[i];
         let (k0, k1) = (g0 * inv, g1 * inv);
@@ -536,7 +490,7 @@ fn lane<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool
         let kb = gb * inv;
         bank.b[l] = madd::<T, F>(bank.b[l], kb, e_used);
         let v = bank.pbb[l];
-        bank.pbb[l] = madd::<T, F>(v, -kb, gb).max(v * p.r_nm2 * inv);
+        bank.pbb[l] = madd::<T, F>(v, -kb, gb).max(v * model.r_nm2 * inv);
         // The load-step limit: the bias takes the whole innovation, the oscillators
         // learn nothing, and `Var(b) = R + h P_zz hᵀ`, `Cov(z, b) = −P_zz hᵀ` (no
         // cancellation, PSD by construction); `P_zz hᵀ = g − Cov(z, b)` as h's bias
@@ -549,7 +503,7 @@ fn lane<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool
                 bank.pb[i][r][l] = if load_step { -pzh } else { bank.pb[i][r][l] };
             }
         }
-        bank.pbb[l] = if load_step { p.r_nm2 + s_z } else { bank.pbb[l] };
+        bank.pbb[l] = if load_step { model.r_nm2 + s_z } else { bank.pbb[l] };
         bank.b[l] = if load_step { bank.b[l] + e_used } else { bank.b[l] };
     }
     if let Some(tr) = trace.filter(|_| TRACE) {
@@ -644,6 +598,18 @@ fn sum_from<T: Real>(first: bool, acc: T, t: T) -> T {
 #[allow(clippy::eq_op)]
 fn finite<T: Real>(x: T) -> bool {
     x - x == T::ZERO
+}
+
+/// `a[r]` by selects (`r < 3`).
+#[inline(always)]
+fn pick<V: Copy>(a: &[V; 3], r: usize) -> V {
+    if r == 0 {
+        a[0]
+    } else if r == 1 {
+        a[1]
+    } else {
+        a[2]
+    }
 }
 
 /// Joint `l`'s rotating-frame mean and covariance.

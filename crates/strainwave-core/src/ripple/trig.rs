@@ -15,16 +15,12 @@
 //! The polynomial error is below 4e-18 (f64) and 1e-9 (f32) on |h| ≤ π/4; the two
 //! doublings multiply it by at most 4. There is no branch and no table, so the loop
 //! over the lanes of a joint bank vectorizes. Whole multiples of a reference angle
-//! come from its phasor by the same doubling ([`phasor_power`]), so a step needs one
+//! come from its phasor by the same doubling ([`Doubling::doubled`]), so a step needs one
 //! sine/cosine per reference angle, not one per order.
 //!
-//! Each doubling carries the phasor's double along ([`Doubling`]): `2 sin 2h =
-//! (2 sin h)(2 cos h)` and `2 cos 2h = 2 − (2 sin h)²` round exactly like the phasor
-//! itself (doubling is exact), so one doubling is one multiply–add deep instead of
-//! two. The numbers are the same as doubling `(cos, sin)` alone; only the dependency
-//! chain from the angle to the orders' phasors is shorter (four doublings of one
-//! multiply–add each to the 4× order instead of eight steps), and that chain is what
-//! bounds one joint's step.
+//! Each doubling carries the phasor's double along ([`Doubling`]), which rounds exactly
+//! like the phasor (doubling is exact): one multiply–add per doubling on the chain from
+//! the angle to the orders' phasors instead of two.
 
 use super::kernel::madd;
 use crate::Real;
@@ -174,15 +170,8 @@ impl<T: Real> Doubling<T> {
     }
 }
 
-/// `(cos nψ, sin nψ)` from `(cos ψ, sin ψ)` for a whole `n ≥ 1`, by repeated angle
-/// doubling (`n = 1, 2, 4` cost 0, 1, 2 doublings; `cos 2ψ = 1 − 2 sin² ψ`, which
-/// takes the phasor as a unit vector).
-#[cfg(test)]
-fn phasor_power<T: Real>(c: T, s: T, n: u8) -> (T, T) {
-    phasor_power_with::<T, false>(c, s, n)
-}
-
-/// [`phasor_power`], its multiply–adds fused in the build `F` (see [`madd`]).
+/// `(cos nψ, sin nψ)` from `(cos ψ, sin ψ)` for a whole `n ≥ 1`, by binary powers:
+/// squarings by angle doubling, products by complex multiplication.
 #[inline(always)]
 pub(super) fn phasor_power_with<T: Real, const F: bool>(c: T, s: T, n: u8) -> (T, T) {
     let sq = |(c, s): (T, T)| {
@@ -190,22 +179,15 @@ pub(super) fn phasor_power_with<T: Real, const F: bool>(c: T, s: T, n: u8) -> (T
         (d.c, d.s)
     };
     let mul = |(a, b): (T, T), (c, d): (T, T)| (madd::<T, F>(a * c, -b, d), madd::<T, F>(a * d, b, c));
-    match n {
-        0 | 1 => (c, s),
-        2 => sq((c, s)),
-        4 => sq(sq((c, s))),
-        _ => {
-            let (mut acc, mut base, mut k) = ((T::ONE, T::ZERO), (c, s), n);
-            while k > 0 {
-                if k & 1 == 1 {
-                    acc = mul(acc, base);
-                }
-                base = sq(base);
-                k >>= 1;
-            }
-            acc
+    let (mut acc, mut base, mut k) = ((T::ONE, T::ZERO), (c, s), n);
+    while k > 0 {
+        if k & 1 == 1 {
+            acc = mul(acc, base);
         }
+        base = sq(base);
+        k >>= 1;
     }
+    acc
 }
 
 /// `wrap_angle` for `|x| ≤ 3π` as selects (vectorizes); larger `|x|` are fixed up after.
@@ -331,7 +313,7 @@ mod tests {
     fn phasor_powers_match_multiple_angles() {
         for &psi in &[0.3_f64, -2.9, 3.1, 1.0] {
             for n in [1u8, 2, 3, 4, 5, 7, 12] {
-                let (c, s) = phasor_power(psi.cos(), psi.sin(), n);
+                let (c, s) = phasor_power_with::<f64, false>(psi.cos(), psi.sin(), n);
                 let want = psi * n as f64;
                 assert!((c - want.cos()).abs() < 1e-13 && (s - want.sin()).abs() < 1e-13, "{psi} × {n}");
             }
