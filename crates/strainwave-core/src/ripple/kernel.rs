@@ -15,7 +15,7 @@
 //! which is the same filter: identical `ŷ`, `x̂ = Φ(ψ) ẑ`, `P_x = Φ(ψ) P_z Φ(ψ)ᵀ`.
 //! `Φ` never multiplies `P`; a step costs one symmetric mat-vec and one rank-1 update.
 //!
-//! One joint's step is scalar code ([`lane`]); a bank runs it for each joint. Every
+//! One joint's step is scalar code (`lane`); a bank runs it for each joint. Every
 //! per-joint decision (skipped sample, first sample, gap, jump, order active, held or
 //! off, load step) is a select, so the common sample takes no branch of its own.
 //!
@@ -143,7 +143,7 @@ pub(crate) fn run<T: Real, const M: usize, const J: usize, const TRACE: bool>(
     run_portable::<T, M, J, TRACE>(model, bank, input, out, trace);
 }
 
-/// [`advance`] in the portable build. Out of line, so that a caller of [`run`] saves no
+/// `advance` in the portable build. Out of line, so that a caller of [`run`] saves no
 /// registers for the build it does not take.
 #[inline(never)]
 fn run_portable<T: Real, const M: usize, const J: usize, const TRACE: bool>(
@@ -156,7 +156,7 @@ fn run_portable<T: Real, const M: usize, const J: usize, const TRACE: bool>(
     advance::<T, M, J, false, TRACE>(model, bank, input, out, trace);
 }
 
-/// [`advance`] compiled for AVX2 and FMA, its multiply–adds fused.
+/// `advance` compiled for AVX2 and FMA, its multiply–adds fused.
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
 #[target_feature(enable = "avx2,fma")]
 fn run_fma<T: Real, const M: usize, const J: usize, const TRACE: bool>(
@@ -169,7 +169,7 @@ fn run_fma<T: Real, const M: usize, const J: usize, const TRACE: bool>(
     advance::<T, M, J, true, TRACE>(model, bank, input, out, trace);
 }
 
-/// Every joint's step: [`lane`] for each, then the reset of joints whose covariance
+/// Every joint's step: `lane` for each, then the reset of joints whose covariance
 /// went bad.
 #[inline(always)]
 fn advance<T: Real, const M: usize, const J: usize, const F: bool, const TRACE: bool>(
