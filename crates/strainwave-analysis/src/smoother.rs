@@ -18,7 +18,9 @@
 //! `O(N n²)` for `n = 2M + 1` states (about 1.2 kB per sample for the product model);
 //! [`CheckpointedSmoother`] gives the same result in memory bounded by a block.
 
-use strainwave_core::ripple::{step_traced, RippleInput, RippleModel, RippleOutput, RippleState, StepTrace};
+use strainwave_core::ripple::{
+    step_traced, RippleInput, RippleModel, RippleOutput, RippleState, RotatingGaussian, StepTrace,
+};
 use strainwave_core::Real;
 
 mod checkpointed;
@@ -102,38 +104,24 @@ pub(crate) struct Record {
     phasor: Vec<(f64, f64, bool)>,
 }
 
-fn record<T: Real, const M: usize>(tr: &StepTrace<T, M>, n: usize, r_nm2: f64) -> Record {
+/// The backward pass's copy of one traced step: the filter's own prior and posterior
+/// (its measurement update, load-step limit included, is not re-derived here).
+fn record<T: Real, const M: usize>(tr: &StepTrace<T, M>, n: usize) -> Record {
     let f = |x: T| x.to_f64();
-    let prior_mean: Vec<f64> = (0..n).map(|i| tr.prior.mean(i).map_or(0.0, f)).collect();
-    let prior_cov: Vec<f64> = (0..n * n).map(|ij| tr.prior.cov(ij / n, ij % n).map_or(0.0, f)).collect();
-    let mut g: Vec<f64> = tr.gain_numerator.iter().flat_map(|v| [f(v[0]), f(v[1])]).collect();
-    let mut h: Vec<f64> = tr.update_row.iter().flat_map(|v| [f(v[0]), f(v[1])]).collect();
-    if n > 2 * M {
-        g.push(f(tr.gain_numerator_bias));
-        h.push(f(tr.update_row_bias));
-    }
-    let (s, e) = (f(tr.innovation_variance_nm2), f(tr.innovation_used_nm));
-    let (mut post_mean, mut post_cov) = (prior_mean.clone(), prior_cov.clone());
-    if tr.load_step && n > 2 * M {
-        // Limit Var(b) → ∞: the bias takes the innovation, the oscillators keep their prior.
-        let b = 2 * M;
-        post_mean[b] += e;
-        let pzh: Vec<f64> = (0..b).map(|i| (0..b).map(|j| prior_cov[i * n + j] * h[j]).sum()).collect();
-        for i in 0..b {
-            post_cov[i * n + b] = -pzh[i];
-            post_cov[b * n + i] = -pzh[i];
-        }
-        post_cov[b * n + b] = r_nm2 + (0..b).map(|i| h[i] * pzh[i]).sum::<f64>();
-    } else if s > 0.0 {
-        for i in 0..n {
-            post_mean[i] += g[i] * e / s;
-            for j in 0..n {
-                post_cov[i * n + j] -= g[i] * g[j] / s;
-            }
-        }
-    }
+    let mean = |g: &RotatingGaussian<T, M>| -> Vec<f64> { (0..n).map(|i| g.mean(i).map_or(0.0, f)).collect() };
+    let cov = |g: &RotatingGaussian<T, M>| -> Vec<f64> {
+        (0..n * n).map(|ij| g.cov(ij / n, ij % n).map_or(0.0, f)).collect()
+    };
     let phasor = (0..M).map(|i| (f(tr.phasor[i][0]), f(tr.phasor[i][1]), tr.predicted[i])).collect();
-    Record { prior_mean, prior_cov, post_mean, post_cov, kept: tr.kept.to_vec(), load_step: tr.load_step, phasor }
+    Record {
+        prior_mean: mean(&tr.prior),
+        prior_cov: cov(&tr.prior),
+        post_mean: mean(&tr.posterior),
+        post_cov: cov(&tr.posterior),
+        kept: tr.kept.to_vec(),
+        load_step: tr.load_step,
+        phasor,
+    }
 }
 
 /// Cholesky factor of the `n × n` row-major `a` with the rows/columns in `skip` taken
@@ -216,7 +204,7 @@ pub(crate) fn forward<T: Real, const M: usize>(
     inputs: &[RippleInput<T>],
     first: usize,
 ) -> Result<(Vec<RippleOutput<T>>, Vec<Record>), SmootherError> {
-    let (n, r_nm2) = (model.state_len(), model.r_nm2().to_f64());
+    let n = model.state_len();
     let mut trace = StepTrace::new();
     let mut filtered = Vec::with_capacity(inputs.len());
     let mut records = Vec::with_capacity(inputs.len());
@@ -224,7 +212,7 @@ pub(crate) fn forward<T: Real, const M: usize>(
         let out = step_traced(model, state, input, &mut trace)
             .map_err(|source| SmootherError::Filter { index: first + k, source })?;
         filtered.push(out);
-        records.push(record(&trace, n, r_nm2));
+        records.push(record(&trace, n));
     }
     Ok((filtered, records))
 }

@@ -17,8 +17,8 @@
 //! - banks (`step_many`): as strainwave above, for `J` joints at once.
 //!
 //! On x86-64 CPUs with AVX2 and FMA the library runs its build for them (chosen at run
-//! time; multiply–adds of the common sample fused, so results equal to rounding), one
-//! joint and banks alike; other CPUs run the portable build. nalgebra and adskalman run
+//! time; its multiply–adds fused, so results equal to rounding), one joint and banks
+//! alike; other CPUs run the portable build. nalgebra and adskalman run
 //! as compiled (no run-time choice of build: they form no fused multiply–add).
 //!
 //! Run: `cargo bench -p strainwave-core --bench ripple -- --warm-up-time 1 --measurement-time 2`,
@@ -123,7 +123,7 @@ fn bench_alternating<T: Real, const M: usize>(c: &mut Criterion, name: &str, mod
     group.finish();
 }
 
-/// The textbook prediction-type filter (seed 000 eqs 12–14) with dense nalgebra algebra.
+/// The textbook prediction-type filter (Taghirad and Bélanger, 1999) with dense nalgebra algebra.
 struct Dense<T: RealField + Copy, const N: usize> {
     x: SVector<T, N>,
     p: SMatrix<T, N, N>,

@@ -1,7 +1,7 @@
 //! Writes golden data for the filterpy comparison (`python/tests/test_ripple_filterpy.py`):
 //! the measurements, the Φ sequence (phase increments), Q, and the core filter's
 //! predictions, for the product model in f64 (hold and load-step detector off, so the
-//! filter is exactly seed 000's eqs 12–14).
+//! filter is exactly the textbook prediction-type Kalman filter of Taghirad and Bélanger, 1999).
 //!
 //! `cargo run -p strainwave-core --example ripple_golden -- OUT.csv`
 

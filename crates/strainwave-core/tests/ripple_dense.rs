@@ -1,5 +1,5 @@
 //! The structured filter equals the textbook dense prediction-type Kalman filter
-//! (seed 000 eqs 12–14) run with the same Φ sequence, Q, R, x0 and P0.
+//! (Taghirad and Bélanger, 1999) run with the same Φ sequence, Q, R, x0 and P0.
 
 mod ripple_common;
 

@@ -128,7 +128,7 @@ fn ripple_amplitude_growing_with_load_is_tracked() {
 
 #[test]
 fn seed_6th_order_reduces_ripple_at_the_seed_speed() {
-    // SPEC §8: 156 rad/s motor speed, lines near 312 and 624 rad/s. No load change here:
+    // 156 rad/s motor speed (the classic test bench), lines near 312 and 624 rad/s. No load change here:
     // the seed model has no bias state and is meant for y = T_meas − T_exp.
     let joint = Joint { noise: NOISE_NM, ..Joint::default() };
     let data = joint.run(30_000, 13, |t| 156.0 * t, |_| 0.0);

@@ -8,7 +8,7 @@
 //! ```
 //!
 //! so `z` and its covariance `P_z` are what is stored; [`RippleBank::estimate`] and
-//! [`RippleBank::covariance`] give the seed's `x` and `P` back.
+//! [`RippleBank::covariance`] give the fixed-frame `x` and `P` back.
 
 use super::io::{OrderStatus, ReferenceValues, StepFlags};
 use super::model::RippleModel;
@@ -106,7 +106,7 @@ impl<T: Real, const M: usize, const J: usize> RippleBank<T, M, J> {
             return;
         }
         for i in 0..M {
-            let p0 = model.p0_order[i];
+            let p0 = model.plan.p0_nm2[i];
             for r in 0..2 {
                 self.z[i][r][l] = model.orders[i].prior_nm[r];
                 self.pb[i][r][l] = T::ZERO;
@@ -143,7 +143,7 @@ impl<T: Real, const M: usize, const J: usize> RippleBank<T, M, J> {
         Some(ReferenceValues::new(v(0), v(1), v(2)))
     }
 
-    /// Element `index` of the seed-frame posterior `x̂(k|k)` of `joint`: `x_{i,0}` at
+    /// Element `index` of the fixed-frame posterior `x̂(k|k)` of `joint`: `x_{i,0}` at
     /// `2i`, `x_{i,1}` at `2i+1`, the bias at `2M`. `None` out of range.
     pub fn estimate(&self, model: &RippleModel<T, M>, joint: usize, index: usize) -> Option<T> {
         if joint >= J || index >= model.state_len() {
@@ -159,7 +159,7 @@ impl<T: Real, const M: usize, const J: usize> RippleBank<T, M, J> {
         Some(if r == 0 { c * z0 + s * z1 } else { c * z1 - s * z0 })
     }
 
-    /// Element `(row, col)` of the seed-frame covariance `P(k|k)` of `joint`
+    /// Element `(row, col)` of the fixed-frame covariance `P(k|k)` of `joint`
     /// (`P_x = Φ(ψ) P_z Φ(ψ)ᵀ`), indices as in [`Self::estimate`].
     pub fn covariance(&self, model: &RippleModel<T, M>, joint: usize, row: usize, col: usize) -> Option<T> {
         let n = model.state_len();

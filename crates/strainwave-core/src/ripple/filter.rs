@@ -1,10 +1,9 @@
 //! The single-joint canceller: [`RippleState`], [`step`] and the traced step that the
 //! offline smoother builds on.
 
-use super::bank::{BankInput, RippleBank};
+use super::bank::{BankInput, BankOutput, RippleBank};
 use super::io::{OrderStatus, ReferenceValues, RippleInput, RippleOutput, StepFlags};
 use super::kernel::run;
-use super::lean;
 use super::model::RippleModel;
 use crate::{Error, Real};
 
@@ -34,13 +33,13 @@ impl<T: Real, const M: usize> RippleState<T, M> {
         self.bank.reset(model);
     }
 
-    /// Element `index` of the posterior `x̂(k|k)` in the seed's frame (`x_{i,0}` at `2i`,
+    /// Element `index` of the posterior `x̂(k|k)` in the fixed frame (`x_{i,0}` at `2i`,
     /// `x_{i,1}` at `2i+1`, bias at `2M`).
     pub fn estimate(&self, model: &RippleModel<T, M>, index: usize) -> Option<T> {
         self.bank.estimate(model, 0, index)
     }
 
-    /// Element `(row, col)` of the posterior covariance `P(k|k)` in the seed's frame.
+    /// Element `(row, col)` of the posterior covariance `P(k|k)` in the fixed frame.
     pub fn covariance(&self, model: &RippleModel<T, M>, row: usize, col: usize) -> Option<T> {
         self.bank.covariance(model, 0, row, col)
     }
@@ -96,10 +95,6 @@ impl<T: Real, const M: usize> RippleState<T, M> {
 /// went bad; the state has then been reset to the initial one and the next sample
 /// starts over. Never panics, whatever the input.
 ///
-/// On x86-64 CPUs with AVX2 and FMA (std builds) this runs a build whose common sample
-/// fuses its multiply–adds: the same decisions, the numbers equal to rounding to those of
-/// the portable build (which [`step_traced`] runs).
-///
 /// ```
 /// use strainwave_core::ripple::{step, ReferenceValues, RippleInput, RippleModel, RippleState};
 /// let model = RippleModel::<f64, 2>::seed_4th_order(1000.0)?;
@@ -120,27 +115,13 @@ pub fn step<T: Real, const M: usize>(
     state: &mut RippleState<T, M>,
     input: &RippleInput<T>,
 ) -> Result<RippleOutput<T>, Error> {
-    #[cfg(all(feature = "std", target_arch = "x86_64"))]
-    if super::avx2::available() {
-        return super::avx2::single(model, state, input);
-    }
-    portable(model, state, input)
-}
-
-/// [`step`] in the portable build, out of line: inlined into `step`, it made `step`
-/// save and restore six registers on every call, in the AVX2 build too (6-state f64,
-/// about 0.6 ns of 32.6 in a plain timing loop).
-#[inline(never)]
-fn portable<T: Real, const M: usize>(
-    model: &RippleModel<T, M>,
-    state: &mut RippleState<T, M>,
-    input: &RippleInput<T>,
-) -> Result<RippleOutput<T>, Error> {
-    single::<T, M, false>(model, state, input, None)
+    let mut out = BankOutput::default();
+    run::<T, M, 1, false>(model, &mut state.bank, &one_joint(input), &mut out, None);
+    result(out)
 }
 
 /// [`step`] that also records the filter's intermediate quantities in `trace`
-/// (for smoothers, golden data and tests).
+/// (for smoothers, golden data and tests). The step itself is [`step`]'s, bit for bit.
 ///
 /// ```
 /// use strainwave_core::ripple::{step_traced, ReferenceValues, RippleInput, RippleModel, RippleState, StepTrace};
@@ -157,31 +138,9 @@ pub fn step_traced<T: Real, const M: usize>(
     input: &RippleInput<T>,
     trace: &mut StepTrace<T, M>,
 ) -> Result<RippleOutput<T>, Error> {
-    single::<T, M, false>(model, state, input, Some(trace))
-}
-
-/// [`step`] or [`step_traced`] in the build the caller is compiled for; `F`: the
-/// common sample's multiply–adds fused (a build for FMA).
-#[inline(always)]
-pub(super) fn single<T: Real, const M: usize, const F: bool>(
-    model: &RippleModel<T, M>,
-    state: &mut RippleState<T, M>,
-    input: &RippleInput<T>,
-    trace: Option<&mut StepTrace<T, M>>,
-) -> Result<RippleOutput<T>, Error> {
-    let bank_input = one_joint(input);
-    // The common sample; the traced step keeps the general path for the smoother.
-    if trace.is_none() {
-        let mut out = super::BankOutput::default();
-        if super::fused::step::<T, M, 1, F>(model, &mut state.bank, &bank_input, &mut out) {
-            if out.flags[0].contains(StepFlags::COVARIANCE_RESET) {
-                return Err(Error::NotPositiveDefinite("ripple covariance"));
-            }
-            return Ok(out.into());
-        }
-        return uncommon(model, state, input, None);
-    }
-    uncommon(model, state, input, trace)
+    let mut out = BankOutput::default();
+    run::<T, M, 1, true>(model, &mut state.bank, &one_joint(input), &mut out, Some(trace));
+    result(out)
 }
 
 /// `input` as a bank input of one joint.
@@ -196,30 +155,13 @@ fn one_joint<T: Real>(input: &RippleInput<T>) -> BankInput<T, 1> {
     }
 }
 
-/// The samples the one-loop step declines (or every sample, traced): the lean
-/// single-joint path if it takes them (untraced), else the general path. Kept out of
-/// line, so that the common sample's registers are not shared with these paths.
-#[inline(never)]
-fn uncommon<T: Real, const M: usize>(
-    model: &RippleModel<T, M>,
-    state: &mut RippleState<T, M>,
-    input: &RippleInput<T>,
-    trace: Option<&mut StepTrace<T, M>>,
-) -> Result<RippleOutput<T>, Error> {
-    if trace.is_none() {
-        if let Some(o) = lean::step(model, &mut state.bank, input) {
-            if o.flags.contains(StepFlags::COVARIANCE_RESET) {
-                return Err(Error::NotPositiveDefinite("ripple covariance"));
-            }
-            return Ok(o);
-        }
-    }
-    let bank_input = one_joint(input);
-    let o = run(model, &mut state.bank, &bank_input, trace);
-    if o.flags[0].contains(StepFlags::COVARIANCE_RESET) {
+/// The one joint's output, or the error of a covariance reset.
+#[inline(always)]
+fn result<T: Real>(out: BankOutput<T, 1>) -> Result<RippleOutput<T>, Error> {
+    if out.flags[0].contains(StepFlags::COVARIANCE_RESET) {
         return Err(Error::NotPositiveDefinite("ripple covariance"));
     }
-    Ok(o.into())
+    Ok(out.into())
 }
 
 /// Mean and covariance of the rotating-frame state `[z_1, …, z_M, b]` (length `2M+1`;
@@ -301,6 +243,9 @@ pub struct StepTrace<T: Real, const M: usize> {
     pub phasor: [[T; 2]; M],
     /// `ẑ(k|k−1)`, `P(k|k−1)`.
     pub prior: RotatingGaussian<T, M>,
+    /// `ẑ(k|k)`, `P(k|k)`: the filter's own measurement update (with its variance
+    /// floor and, on a load step, the limit `Var(b) → ∞`), before any health reset.
+    pub posterior: RotatingGaussian<T, M>,
     /// Measurement row `h` over the oscillators (zero where not updated).
     pub update_row: [[T; 2]; M],
     /// Measurement row entry of the bias (1 or 0).
@@ -341,6 +286,7 @@ impl<T: Real, const M: usize> StepTrace<T, M> {
             predicted: [true; M],
             phasor: [[T::ZERO; 2]; M],
             prior: RotatingGaussian::zeros(),
+            posterior: RotatingGaussian::zeros(),
             update_row: [[T::ZERO; 2]; M],
             update_row_bias: T::ZERO,
             gain_numerator: [[T::ZERO; 2]; M],
@@ -349,51 +295,5 @@ impl<T: Real, const M: usize> StepTrace<T, M> {
             innovation_used_nm: T::ZERO,
             measurement_nm: T::ZERO,
         }
-    }
-
-    /// Copies joint 0 of a bank step (called by the kernel before the update).
-    #[allow(clippy::too_many_arguments, clippy::type_complexity)]
-    pub(crate) fn record<const J: usize>(
-        &mut self,
-        bank: &RippleBank<T, M, J>,
-        inc: &[[T; J]; M],
-        q: &[[T; J]; M],
-        keep: &[[T; J]; M],
-        pred: &[[T; J]; M],
-        h: &[[[T; J]; 2]; M],
-        g: &[[[T; J]; 2]; M],
-        scalars: (T, T, T, T, T, T, bool, bool),
-    ) {
-        if J == 0 {
-            return;
-        }
-        let f = |a: &[T; J]| a.first().copied().unwrap_or(T::ZERO);
-        for i in 0..M {
-            self.increment_rad[i] = f(&inc[i]);
-            self.q_nm2[i] = f(&q[i]);
-            self.kept[i] = f(&keep[i]) != T::ZERO;
-            self.predicted[i] = f(&pred[i]) != T::ZERO;
-            for r in 0..2 {
-                self.phasor[i][r] = f(&bank.phasor[i][r]);
-                self.prior.z[i][r] = f(&bank.z[i][r]);
-                self.prior.pb[i][r] = f(&bank.pb[i][r]);
-                self.update_row[i][r] = f(&h[i][r]);
-                self.gain_numerator[i][r] = f(&g[i][r]);
-            }
-            for j in 0..M {
-                self.prior.p[i][j] = bank.block(i, j, 0).unwrap_or([[T::ZERO; 2]; 2]);
-            }
-        }
-        let (q_b, h_b, g_b, s, e, y, reinflated, load_step) = scalars;
-        self.load_step = load_step;
-        self.prior.bias = f(&bank.b);
-        self.prior.pbb = f(&bank.pbb);
-        self.q_bias_nm2 = q_b;
-        self.update_row_bias = h_b;
-        self.gain_numerator_bias = g_b;
-        self.innovation_variance_nm2 = s;
-        self.innovation_used_nm = e;
-        self.measurement_nm = y;
-        self.bias_reinflated = reinflated;
     }
 }

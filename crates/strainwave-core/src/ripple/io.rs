@@ -35,7 +35,7 @@ impl<V: Copy> ReferenceValues<V> {
 
 impl<T: Real> ReferenceValues<T> {
     /// References from the measured motor (WG) and output angles of a joint, rad:
-    /// `φ = θ_wg − θ_fs` (SPEC §1), output, motor. Works on rates too (rad/s).
+    /// `φ = θ_wg − θ_fs` (wave generator minus flexspline), output, motor. Works on rates too (rad/s).
     ///
     /// ```
     /// use strainwave_core::gear::{FixedElement, Gear};
@@ -54,7 +54,7 @@ impl<T: Real> ReferenceValues<T> {
 pub struct RippleInput<T: Real> {
     /// Measured torque `T_meas`, N·m.
     pub torque_nm: T,
-    /// Crude expected torque `T_exp` (seed 000: load inertia × acceleration), N·m; 0 if none.
+    /// Crude expected torque `T_exp` (e.g. load inertia × acceleration), N·m; 0 if none.
     pub expected_torque_nm: T,
     /// Reference angles (rad) or velocities (rad/s).
     pub references: ReferenceValues<T>,
@@ -139,6 +139,11 @@ impl StepFlags {
     pub fn insert(&mut self, other: Self) {
         self.0 |= other.0;
     }
+    /// Sets the flags of `other` if `on` (without a branch).
+    #[inline(always)]
+    pub(crate) fn set(&mut self, other: Self, on: bool) {
+        self.0 |= other.0 * u16::from(on);
+    }
 }
 
 impl core::ops::BitOr for StepFlags {
@@ -170,7 +175,7 @@ pub struct RippleOutput<T: Real> {
     pub ripple_nm: T,
     /// Predicted misalignment: sum of the Output-referenced orders, N·m.
     pub misalignment_nm: T,
-    /// Seed-001 torque estimate `T_exp + b̂(k|k)` (filtered, lags); equals `torque_nm`
+    /// Filtered torque estimate `T_exp + b̂(k|k)` (filtered, lags); equals `torque_nm`
     /// when the model has no bias state.
     pub torque_state_nm: T,
     /// Innovation `e = y − C x̂(k|k−1)`, N·m (with the bias state in `C`).

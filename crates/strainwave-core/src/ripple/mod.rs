@@ -1,5 +1,7 @@
-//! Oscillator-bank Kalman canceller of torque ripple and misalignment (SPEC §4,
-//! seed 000 §V–VI, seed 001's torque state).
+//! Oscillator-bank Kalman canceller of torque ripple and misalignment, after Taghirad
+//! and Bélanger, “An intelligent built-in torque sensor for harmonic drive systems”
+//! (IEEE Trans. Instrumentation and Measurement, 1999), with the torque as a random-walk
+//! state of its own.
 //!
 //! The measured torque carries ripple periodic in the relative WG–FS angle (2×, 4×),
 //! misalignment periodic in the output angle (1×) and noise. Each order is a
@@ -14,11 +16,12 @@
 //! T̂(k)   = T_meas(k) − C_osc x̂(k|k−1)
 //! ```
 //!
-//! Implementation: each oscillator is kept in its rotating frame `x_i = Φ(ψ_i) z_i`
-//! (see [`kernel`]): the same filter, but `Φ` never multiplies `P`.
+//! Implementation: each oscillator is kept in its rotating frame `x_i = Φ(ψ_i) z_i`: the
+//! same filter, but `Φ` never multiplies `P`. One step, in [`kernel`], serves one joint
+//! ([`step`]) and banks of joints ([`step_many`]) alike.
 //!
 //! **Feeding angles.** Each sample carries the three reference angles in
-//! [`ReferenceValues`] (`relative` = `φ = θ_wg − θ_fs`, SPEC §1; `output`; `motor`),
+//! [`ReferenceValues`] (`relative` = `φ = θ_wg − θ_fs`, wave generator minus flexspline; `output`; `motor`),
 //! e.g. [`ReferenceValues::from_gear`] from the two encoders; only the references some
 //! order uses are read. Angles may be unwrapped or wrapped (prefer wrapped, e.g. encoder
 //! counts modulo one turn, in f32): the filter uses `Δθ = wrap_π(θ(k) − θ(k−1))`, so
@@ -46,21 +49,11 @@
 //! # Ok::<(), strainwave_core::Error>(())
 //! ```
 
-#[cfg(all(feature = "std", target_arch = "x86_64"))]
-mod avx2;
 mod bank;
-mod fast;
 mod filter;
-mod fused;
 mod io;
-mod joint;
 pub mod kernel;
-mod layout;
-mod lean;
 mod model;
-#[cfg(test)]
-mod path_check;
-mod plan;
 mod presets;
 mod snapshot;
 mod trig;

@@ -1,9 +1,9 @@
-//! The immutable error model of the canceller: orders, noise, limits (SPEC §4).
+//! The immutable error model of the canceller: orders, noise, limits.
 //!
 //! ```text
 //! x_i(k+1) = Φ_i(k) x_i(k) + w_i(k),   Φ_i(k) = [[cos a_i, sin a_i], [−sin a_i, cos a_i]]
 //! a_i(k)   = n_i Δθ_r(k)               phase increment of order i on reference r, rad
-//! b(k+1)   = b(k) + w_b(k)             optional torque/bias random walk (seed 001)
+//! b(k+1)   = b(k) + w_b(k)             optional torque/bias random walk
 //! y(k)     = T_meas(k) − T_exp(k) = Σ_i [1 0] x_i(k) + b(k) + v(k)
 //! E w_i w_iᵀ = (q_s,i + q_rad,i |a_i(k)|) I₂,   E w_b² = q_b,   E v² = R
 //! ```
@@ -12,13 +12,14 @@
 
 use core::cmp::Ordering;
 
+use super::kernel::Plan;
 use crate::error::{finite, non_negative, positive, Error};
 use crate::Real;
 
 /// The measured angle an order is periodic in. The caller supplies each per sample.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Reference {
-    /// Relative WG–FS angle `φ = θ_wg − θ_fs` (SPEC §1): gear meshing and elliptical
+    /// Relative angle `φ = θ_wg − θ_fs` of wave generator and flexspline: gear meshing and elliptical
     /// interference ripple, 2× and 4×.
     #[default]
     Relative,
@@ -187,7 +188,7 @@ pub struct Limits<T: Real> {
     /// subtracted, never updated, so standstill load cannot leak into it. The line
     /// frequency is taken from the running mean (≈ 16 samples) of the signed increment,
     /// so ±1-count encoder jitter at standstill does not count as motion.
-    /// Default 0.05 Hz; 0 disables (seed behaviour).
+    /// Default 0.05 Hz; 0 disables (as the classic filter).
     pub hold_below_hz: T,
     /// Each sample the covariance is inflated by this fraction `ρ`: every oscillator block
     /// gains `ρ (P_i,00 + P_i,11)/2 · I₂` (rotation invariant, so it is part of `Q`) and
@@ -229,32 +230,8 @@ pub struct RippleModel<T: Real, const M: usize> {
     pub(crate) p0_bias_nm2: T,
     pub(crate) phase_source: PhaseSource,
     pub(crate) limits: Limits<T>,
-    // Derived, refreshed by `derive`.
-    pub(crate) dt_s: T,
-    pub(crate) max_gap_s: T,
-    pub(crate) off_above_rad: T,
-    pub(crate) on_below_rad: T,
-    pub(crate) hold_below_rad: T,
-    pub(crate) uses: [bool; 3],
-    /// Whole multiple `n ≤ 16` of each order (its phasor is the reference's to the
-    /// `n`th power), or 0 for a fractional or larger multiple (own accumulated phase).
-    pub(crate) power: [u8; M],
-    /// The references some order uses, in index order, and how many there are.
-    pub(crate) used_refs: [u8; 3],
-    pub(crate) n_used: u8,
-    /// Orders on the relative (and output) angle, whole multiples 1, 2 or 4: the bank
-    /// step can run as one loop over the joints (`fused`).
-    pub(crate) single_pass: bool,
-    /// The orders as a compile-time layout code (`layout::RUNTIME` if none).
-    pub(crate) layout: u32,
-    /// Relative and output angle: the largest increment and the smallest running mean
-    /// for which every order on it stays active (line below the off limit and above the
-    /// hold limit), as exact bounds for the one-loop step.
-    pub(crate) fused_bounds: [[T; 2]; 2],
-    /// Initial (and reset) variance of each order: its prior's, or the model's.
-    pub(crate) p0_order: [T; M],
-    /// Whether some order is scaled by the load.
-    pub(crate) any_load_scaled: bool,
+    /// What the kernel precomputes from the fields above, refreshed by `derive`.
+    pub(crate) plan: Plan<T, M>,
 }
 
 impl<T: Real, const M: usize> RippleModel<T, M> {
@@ -292,20 +269,7 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
             p0_bias_nm2: T::from_f64(1e4),
             phase_source: PhaseSource::Angle,
             limits: Limits::default(),
-            dt_s: T::ZERO,
-            max_gap_s: T::ZERO,
-            off_above_rad: T::ZERO,
-            on_below_rad: T::ZERO,
-            hold_below_rad: T::ZERO,
-            uses: [false; 3],
-            power: [0; M],
-            used_refs: [0; 3],
-            n_used: 0,
-            single_pass: false,
-            layout: super::layout::RUNTIME,
-            fused_bounds: [[T::ZERO; 2]; 2],
-            p0_order: [T::ONE; M],
-            any_load_scaled: false,
+            plan: Plan::new(&orders, T::ONE, &Limits::default(), T::ONE),
         };
         m.derive();
         Ok(m)
@@ -408,45 +372,7 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
     }
 
     fn derive(&mut self) {
-        let fs = self.sample_rate_hz;
-        self.dt_s = T::ONE / fs;
-        self.max_gap_s = self.limits.max_gap_periods / fs;
-        self.off_above_rad = self.limits.nyquist_fraction * T::TAU;
-        self.on_below_rad = self.off_above_rad * T::from_f64(0.9);
-        self.hold_below_rad = self.limits.hold_below_hz * T::TAU / fs;
-        self.uses = [false; 3];
-        self.any_load_scaled = self.orders.iter().any(|o| o.load_scaled);
-        for (o, p0) in self.orders.iter().zip(self.p0_order.iter_mut()) {
-            *p0 = o.prior_variance_nm2.unwrap_or(self.p0_oscillator_nm2);
-        }
-        let mut span = [[T::ZERO; 2]; 3];
-        for (o, p) in self.orders.iter().zip(self.power.iter_mut()) {
-            let r = o.reference.index();
-            let s = &mut span[r];
-            *s = if self.uses[r] { [s[0].min(o.multiple), s[1].max(o.multiple)] } else { [o.multiple; 2] };
-            self.uses[r] = true;
-            let m = o.multiple.to_f64();
-            *p = if m == libm::round(m) && (1.0..=16.0).contains(&m) { m as u8 } else { 0 };
-        }
-        self.n_used = 0;
-        for r in 0..3u8 {
-            if self.uses[usize::from(r)] {
-                self.used_refs[usize::from(self.n_used)] = r;
-                self.n_used += 1;
-            }
-        }
-        // `n |Δ| ≤ off ⇔ |Δ| ≤ off / n` exactly for n = 1, 2, 4 unless the quotient is
-        // inexact (subnormal); then the one-loop step is not used.
-        let mut exact = true;
-        self.fused_bounds = [[T::ZERO; 2]; 2];
-        for r in (0..2).filter(|&r| self.uses[r]) {
-            let [low, high] = span[r];
-            let (step, mean) = (self.off_above_rad / high, self.hold_below_rad / low);
-            exact &= step * high == self.off_above_rad && mean * low == self.hold_below_rad;
-            self.fused_bounds[r] = [step.min(self.limits.max_angle_step_rad), mean];
-        }
-        self.single_pass = self.uses[0] && !self.uses[2] && self.power.iter().all(|&p| matches!(p, 1 | 2 | 4)) && exact;
-        self.layout = super::layout::of(self);
+        self.plan = Plan::new(&self.orders, self.sample_rate_hz, &self.limits, self.p0_oscillator_nm2);
     }
 
     /// The orders.
@@ -479,7 +405,7 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
     }
     /// Whether an order uses `reference` (the others' values are ignored, even NaN).
     pub fn uses(&self, reference: Reference) -> bool {
-        self.uses[reference.index()]
+        self.plan.uses[reference.index()]
     }
     /// State dimension: `2M`, plus 1 with the bias state.
     pub fn state_len(&self) -> usize {

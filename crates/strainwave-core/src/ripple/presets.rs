@@ -1,12 +1,13 @@
-//! Ready-made models: the seed's 4th- and 6th-order filters and the product default.
+//! Ready-made models: the classic 4th- and 6th-order filters of Taghirad and Bélanger, “An intelligent built-in torque sensor for harmonic drive systems”, 1999,
+//! and the product defaults.
 
 use super::model::{Limits, Order, Reference, RippleModel};
 use super::tuning::{oscillator_q, per_radian, random_walk_q, slow_line_q};
 use crate::error::{positive, Error};
 use crate::Real;
 
-/// The seed's noise: `Q = 10⁻³ I` per sample, `R = 1` (N·m², seed 000 §V at 1 kHz).
-const SEED_Q_NM2: f64 = 1e-3;
+/// The classic noise: `Q = 10⁻³ I` per sample, `R = 1` (N·m², at 1 kHz).
+const CLASSIC_Q_NM2: f64 = 1e-3;
 
 /// Product tuning, documented in [`RippleModel::product`].
 const RIPPLE_BANDWIDTH_HZ: f64 = 1.0;
@@ -16,18 +17,19 @@ const BIAS_BANDWIDTH_HZ: f64 = 25.0;
 const OSCILLATOR_P0_NM2: f64 = 1.0;
 const BIAS_P0_NM2: f64 = 1e4;
 
-fn seed_order<T: Real>(reference: Reference, multiple: f64) -> Result<Order<T>, Error> {
-    Order::new(reference, T::from_f64(multiple))?.with_noise(T::from_f64(SEED_Q_NM2), T::ZERO)
+fn classic_order<T: Real>(reference: Reference, multiple: f64) -> Result<Order<T>, Error> {
+    Order::new(reference, T::from_f64(multiple))?.with_noise(T::from_f64(CLASSIC_Q_NM2), T::ZERO)
 }
 
-fn seed_limits<T: Real>() -> Limits<T> {
+fn classic_limits<T: Real>() -> Limits<T> {
     Limits { hold_below_hz: T::ZERO, ..Limits::default() }
 }
 
 impl<T: Real> RippleModel<T, 2> {
-    /// Seed 000's 4th-order model: 2× and 4× of the reference angle, `Q = 10⁻³ I` per
-    /// sample, `R = 1`, no bias state, no hold (the seed's behaviour). The seed fed the
-    /// motor angle; the product feeds the relative angle `φ` (SPEC §1) as `relative`.
+    /// The classic 4th-order model (Taghirad and Bélanger, 1999): 2× and 4× of the
+    /// reference angle, `Q = 10⁻³ I` per sample, `R = 1`, no bias state, no hold (as
+    /// published). The paper fed the motor angle; here it is the relative angle
+    /// `φ = θ_wg − θ_fs` (wave generator minus flexspline) as `relative`.
     ///
     /// ```
     /// use strainwave_core::ripple::RippleModel;
@@ -35,13 +37,13 @@ impl<T: Real> RippleModel<T, 2> {
     /// assert_eq!((m.state_len(), m.r_nm2()), (4, 1.0));
     /// ```
     pub fn seed_4th_order(sample_rate_hz: T) -> Result<Self, Error> {
-        let orders = [seed_order(Reference::Relative, 2.0)?, seed_order(Reference::Relative, 4.0)?];
-        RippleModel::new(orders, T::ONE, sample_rate_hz)?.with_limits(seed_limits())
+        let orders = [classic_order(Reference::Relative, 2.0)?, classic_order(Reference::Relative, 4.0)?];
+        RippleModel::new(orders, T::ONE, sample_rate_hz)?.with_limits(classic_limits())
     }
 }
 
 impl<T: Real> RippleModel<T, 3> {
-    /// Seed 000's 6th-order model: the 4th-order one plus misalignment at 1× the output
+    /// The classic 6th-order model: the 4th-order one plus misalignment at 1× the output
     /// angle, same noise.
     ///
     /// ```
@@ -51,11 +53,11 @@ impl<T: Real> RippleModel<T, 3> {
     /// ```
     pub fn seed_6th_order(sample_rate_hz: T) -> Result<Self, Error> {
         let orders = [
-            seed_order(Reference::Relative, 2.0)?,
-            seed_order(Reference::Relative, 4.0)?,
-            seed_order(Reference::Output, 1.0)?,
+            classic_order(Reference::Relative, 2.0)?,
+            classic_order(Reference::Relative, 4.0)?,
+            classic_order(Reference::Output, 1.0)?,
         ];
-        RippleModel::new(orders, T::ONE, sample_rate_hz)?.with_limits(seed_limits())
+        RippleModel::new(orders, T::ONE, sample_rate_hz)?.with_limits(classic_limits())
     }
 
     /// The product configuration: 2× and 4× relative-angle ripple, 1× output
@@ -63,7 +65,7 @@ impl<T: Real> RippleModel<T, 3> {
     ///
     /// - bias: random walk with a 25 Hz first-order bandwidth. It is the sink for load
     ///   (steps, friction, slow sinusoids); with the load-step detector of [`Limits`]
-    ///   steps go to it in one sample. Its estimate is seed 001's torque output.
+    ///   steps go to it in one sample. Its estimate is the filtered torque output.
     /// - ripple orders: noise per radian of phase, 1 Hz −3 dB half-width when the line
     ///   is at 20 Hz (`1 Hz · √(f_line / 20 Hz)` at other speeds, none at standstill),
     ///   fast enough to follow ripple amplitude that grows with load;

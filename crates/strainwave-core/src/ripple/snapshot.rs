@@ -188,7 +188,7 @@ impl<T: Real, const M: usize> RippleState<T, M> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::path_check::sample;
+    use super::super::kernel::tests::sample;
     use super::super::{step, RippleInput, RippleModel, RippleState};
     use crate::Real;
 

@@ -15,20 +15,14 @@
 //! The polynomial error is below 4e-18 (f64) and 1e-9 (f32) on |h| ≤ π/4; the two
 //! doublings multiply it by at most 4. There is no branch and no table, so the loop
 //! over the lanes of a joint bank vectorizes. Whole multiples of a reference angle
-//! come from its phasor by the same doubling ([`phasor_power`]), so a step needs one
+//! come from its phasor by the same doubling ([`Doubling::doubled`]), so a step needs one
 //! sine/cosine per reference angle, not one per order.
 //!
-//! Each doubling carries the phasor's double along ([`Doubling`]): `2 sin 2h =
-//! (2 sin h)(2 cos h)` and `2 cos 2h = 2 − (2 sin h)²` round exactly like the phasor
-//! itself (doubling is exact), so one doubling is one multiply–add deep instead of
-//! two. The numbers are the same as doubling `(cos, sin)` alone; only the dependency
-//! chain from the angle to the orders' phasors is shorter (four doublings of one
-//! multiply–add each to the 4× order instead of eight steps), and that chain is what
-//! bounds one joint's step.
+//! Each doubling carries the phasor's double along ([`Doubling`]), which rounds exactly
+//! like the phasor (doubling is exact): one multiply–add per doubling on the chain from
+//! the angle to the orders' phasors instead of two.
 
-use super::bank::{BankInput, RippleBank};
-use super::joint::madd;
-use super::model::RippleModel;
+use super::kernel::madd;
 use crate::Real;
 
 /// Whether the scalar is single precision (decides the series length; constant-folded).
@@ -87,16 +81,17 @@ fn estrin<T: Real, const N: usize, const F: bool>(c: &[f64; N], x: T) -> T {
 /// so the result is always a finite unit vector.
 ///
 /// Accurate to a few ulp of 1 (absolute) over the whole range.
-#[inline(always)]
-pub fn sin_cos_small<T: Real>(a: T) -> (T, T) {
-    sin_cos_with::<T, false>(a)
+#[cfg(test)]
+fn sin_cos_small<T: Real>(a: T) -> (T, T) {
+    let p = sin_cos_with::<T, false>(a);
+    (p.s, p.c)
 }
 
-/// [`sin_cos_small`], its multiply–adds fused in the build `F` (see [`madd`]).
+/// The phasor `(cos a, sin a)` of [`sin_cos_small`] with its double, its multiply–adds
+/// fused in the build `F` (see [`madd`]).
 #[inline(always)]
-pub(super) fn sin_cos_with<T: Real, const F: bool>(a: T) -> (T, T) {
-    let p = phasor_of_wrapped::<T, F>(a.clamp(-T::PI, T::PI));
-    (p.s, p.c)
+pub(super) fn sin_cos_with<T: Real, const F: bool>(a: T) -> Doubling<T> {
+    phasor_of_wrapped::<T, F>(a.clamp(-T::PI, T::PI))
 }
 
 /// `(cos a, sin a)` and their doubles for `|a| ≤ π` (not checked: the caller's angle
@@ -156,15 +151,9 @@ impl<T: Real> Doubling<T> {
     }
 
     /// `[cos, sin, 2 cos, 2 sin]`.
-    #[inline(always)]
-    pub(super) fn parts(self) -> [T; 4] {
+    #[cfg(test)]
+    fn parts(self) -> [T; 4] {
         [self.c, self.s, self.c2, self.s2]
-    }
-
-    /// From [`parts`](Self::parts).
-    #[inline(always)]
-    pub(super) fn from_parts([c, s, c2, s2]: [T; 4]) -> Self {
-        Self { c, s, c2, s2 }
     }
 
     /// The angle doubled: `sin 2x = (2 sin x) cos x`, `cos 2x = 1 − (2 sin x) sin x`, and
@@ -181,15 +170,8 @@ impl<T: Real> Doubling<T> {
     }
 }
 
-/// `(cos nψ, sin nψ)` from `(cos ψ, sin ψ)` for a whole `n ≥ 1`, by repeated angle
-/// doubling (`n = 1, 2, 4` cost 0, 1, 2 doublings; `cos 2ψ = 1 − 2 sin² ψ`, which
-/// takes the phasor as a unit vector).
-#[inline(always)]
-pub fn phasor_power<T: Real>(c: T, s: T, n: u8) -> (T, T) {
-    phasor_power_with::<T, false>(c, s, n)
-}
-
-/// [`phasor_power`], its multiply–adds fused in the build `F` (see [`madd`]).
+/// `(cos nψ, sin nψ)` from `(cos ψ, sin ψ)` for a whole `n ≥ 1`, by binary powers:
+/// squarings by angle doubling, products by complex multiplication.
 #[inline(always)]
 pub(super) fn phasor_power_with<T: Real, const F: bool>(c: T, s: T, n: u8) -> (T, T) {
     let sq = |(c, s): (T, T)| {
@@ -197,93 +179,20 @@ pub(super) fn phasor_power_with<T: Real, const F: bool>(c: T, s: T, n: u8) -> (T
         (d.c, d.s)
     };
     let mul = |(a, b): (T, T), (c, d): (T, T)| (madd::<T, F>(a * c, -b, d), madd::<T, F>(a * d, b, c));
-    match n {
-        0 | 1 => (c, s),
-        2 => sq((c, s)),
-        4 => sq(sq((c, s))),
-        _ => {
-            let (mut acc, mut base, mut k) = ((T::ONE, T::ZERO), (c, s), n);
-            while k > 0 {
-                if k & 1 == 1 {
-                    acc = mul(acc, base);
-                }
-                base = sq(base);
-                k >>= 1;
-            }
-            acc
+    let (mut acc, mut base, mut k) = ((T::ONE, T::ZERO), (c, s), n);
+    while k > 0 {
+        if k & 1 == 1 {
+            acc = mul(acc, base);
         }
+        base = sq(base);
+        k >>= 1;
     }
-}
-
-/// `(cos ψ_i, sin ψ_i)` of every order (times the load for load-scaled orders):
-/// one sine/cosine per reference, whole multiples by complex squaring.
-// Lane loops index several arrays by the same joint index.
-#[allow(clippy::needless_range_loop)]
-#[inline(always)]
-pub(crate) fn phasors<T: Real, const M: usize, const J: usize>(
-    model: &RippleModel<T, M>,
-    bank: &mut RippleBank<T, M, J>,
-    input: &BankInput<T, J>,
-) {
-    let mut base = [[[T::ONE; J]; 2]; 3];
-    for r in 0..3 {
-        if model.uses[r] {
-            for l in 0..J {
-                let (s, c) = sin_cos_small(bank.psi[r][l]);
-                base[r][0][l] = c;
-                base[r][1][l] = s;
-            }
-        }
-    }
-    for i in 0..M {
-        let (n, r) = (model.power[i], model.orders[i].reference.index());
-        let ph = &mut bank.phasor[i];
-        match n {
-            0 => {
-                for l in 0..J {
-                    let (s, c) = sin_cos_small(bank.order_psi[i][l]);
-                    (ph[0][l], ph[1][l]) = (c, s);
-                }
-            }
-            1 => *ph = base[r],
-            2 => {
-                for l in 0..J {
-                    (ph[0][l], ph[1][l]) = phasor_power(base[r][0][l], base[r][1][l], 2);
-                }
-            }
-            4 => {
-                for l in 0..J {
-                    (ph[0][l], ph[1][l]) = phasor_power(base[r][0][l], base[r][1][l], 4);
-                }
-            }
-            _ => {
-                for l in 0..J {
-                    (ph[0][l], ph[1][l]) = phasor_power(base[r][0][l], base[r][1][l], n);
-                }
-            }
-        }
-    }
-    if model.any_load_scaled {
-        // Load regressor |T_exp + b̂(k|k−1)| (the bias is not changed by the time update).
-        let mut load = [T::ZERO; J];
-        for l in 0..J {
-            load[l] = (input.expected_torque_nm[l] + bank.b[l]).abs();
-            load[l] = if load[l].is_finite() { load[l] } else { T::ZERO };
-        }
-        for i in 0..M {
-            if model.orders[i].load_scaled {
-                for l in 0..J {
-                    bank.phasor[i][0][l] *= load[l];
-                    bank.phasor[i][1][l] *= load[l];
-                }
-            }
-        }
-    }
+    acc
 }
 
 /// `wrap_angle` for `|x| ≤ 3π` as selects (vectorizes); larger `|x|` are fixed up after.
 #[inline(always)]
-pub(super) fn wrap_near<T: Real>(x: T) -> T {
+fn wrap_near<T: Real>(x: T) -> T {
     let up = if x < -T::PI { x + T::TAU } else { x };
     if x > T::PI {
         x - T::TAU
@@ -292,18 +201,20 @@ pub(super) fn wrap_near<T: Real>(x: T) -> T {
     }
 }
 
-/// Wraps an angle into `[−π, π]`; cheap for inputs within `±3π` (wrapped encoders),
-/// exact in the general case. Non-finite inputs come back non-finite.
+/// Wraps an angle into `[−π, π]`: by selects within `±3π` (wrapped encoder angles and
+/// their differences), else by the nearest whole number of turns. No branch, so the
+/// loop over a bank's joints vectorizes. Non-finite inputs come back non-finite.
 #[inline(always)]
-pub fn wrap_angle<T: Real>(x: T) -> T {
-    if x.abs() <= T::PI {
-        x
-    } else if x > T::PI && x <= T::from_f64(3.0) * T::PI {
-        x - T::TAU
-    } else if x < -T::PI && x >= T::from_f64(-3.0) * T::PI {
-        x + T::TAU
+pub(super) fn wrap_angle<T: Real>(x: T) -> T {
+    // Round to the nearest whole number of turns by adding and removing 1.5 / ε, which
+    // leaves no fraction (exact below 2⁵¹ turns in f64, 2²² in f32).
+    let big = T::from_f64(1.5) / T::EPSILON;
+    let turns = x * T::from_f64(1.0 / core::f64::consts::TAU);
+    let far = x - T::TAU * ((turns + big) - big);
+    if x.abs() <= T::from_f64(3.0) * T::PI {
+        wrap_near(x)
     } else {
-        x - T::TAU * (x / T::TAU).round()
+        far
     }
 }
 
@@ -376,8 +287,8 @@ mod tests {
         ladder_is_exact::<f32, true>();
     }
 
-    /// The one-loop step takes angles within ±3π (`3.0 * PI`, rounded) and gives their
-    /// wrapped phase to `phasor_of_wrapped` unclamped: it must be within ±π.
+    /// Angles within ±3π (`3.0 * PI`, rounded) wrap by selects; their wrapped phase
+    /// must be within ±π, so that the clamp before the polynomials never changes it.
     fn wrapped_within_pi<T: Real>() {
         let bound = T::from_f64(3.0) * T::PI;
         let ulp = |x: T| x.abs() * T::EPSILON;
@@ -402,7 +313,7 @@ mod tests {
     fn phasor_powers_match_multiple_angles() {
         for &psi in &[0.3_f64, -2.9, 3.1, 1.0] {
             for n in [1u8, 2, 3, 4, 5, 7, 12] {
-                let (c, s) = phasor_power(psi.cos(), psi.sin(), n);
+                let (c, s) = phasor_power_with::<f64, false>(psi.cos(), psi.sin(), n);
                 let want = psi * n as f64;
                 assert!((c - want.cos()).abs() < 1e-13 && (s - want.sin()).abs() < 1e-13, "{psi} × {n}");
             }

@@ -54,7 +54,7 @@ fn check3<T: Real>(a: T, an: &'static str, fs: T, r: T) -> Result<(f64, f64, f64
 ///
 /// ```
 /// use strainwave_core::ripple::tuning::{oscillator_bandwidth_hz, oscillator_q};
-/// let q = oscillator_q(3.48_f64, 1000.0, 1.0).unwrap(); // ≈ the seed's 1e-3 at R = 1
+/// let q = oscillator_q(3.48_f64, 1000.0, 1.0).unwrap(); // ≈ the classic 1e-3 at R = 1
 /// assert!((q - 1e-3).abs() < 1e-5);
 /// assert!((oscillator_bandwidth_hz(q, 1000.0, 1.0).unwrap() - 3.48).abs() < 1e-9);
 /// ```
@@ -307,7 +307,7 @@ mod tests {
     fn seed_noise_is_about_3_5_hz_at_1_khz() {
         let b = oscillator_bandwidth_hz(1e-3, 1000.0, 1.0).unwrap();
         assert!((b - 3.480).abs() < 1e-3, "{b}");
-        // SPEC §8: 156 rad/s motor speed, 2× line at 312 rad/s.
+        // 156 rad/s motor speed (the classic test bench), 2× line at 312 rad/s.
         let line = 312.0 / core::f64::consts::TAU;
         let q = oscillator_q_calibrated(b, line, 1000.0, 1.0).unwrap();
         assert!((q / 1e-3 - 1.0).abs() < 0.03, "{q}");

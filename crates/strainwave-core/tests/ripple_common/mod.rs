@@ -128,7 +128,7 @@ pub fn order_amplitude(e: &[f64], angle: &[f64], multiple: f64) -> f64 {
     (a * a + b * b).sqrt()
 }
 
-/// Textbook dense prediction-type Kalman filter (seed 000 eqs 12–14), f64:
+/// Textbook dense prediction-type Kalman filter (Taghirad and Bélanger, 1999), f64:
 /// `K = Φ P Cᵀ / (R + C P Cᵀ)`, `x ← Φ x + K (y − C x)`, `P ← Q + (Φ − K C) P Φᵀ`.
 pub struct DenseKf {
     pub x: Vec<f64>,
