@@ -108,4 +108,12 @@ pub enum IoError {
         /// Name.
         column: String,
     },
+    /// The output would replace an input.
+    #[error("{output}: is also an input ({input}); write the output to another file")]
+    OutputIsInput {
+        /// The output path.
+        output: PathBuf,
+        /// The input it names.
+        input: PathBuf,
+    },
 }

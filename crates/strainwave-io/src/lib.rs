@@ -9,6 +9,7 @@ pub mod csv_io;
 pub mod error;
 #[cfg(feature = "mcap")]
 pub mod mcap_in;
+pub mod output;
 #[cfg(feature = "parquet")]
 pub mod parquet_io;
 pub mod recording;

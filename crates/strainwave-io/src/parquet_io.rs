@@ -91,7 +91,12 @@ impl ParquetReader {
                 });
             }
         }
-        let columns = schema.fields().iter().map(|f| f.name().clone()).collect();
+        let columns: Vec<String> = schema.fields().iter().map(|f| f.name().clone()).collect();
+        // As the CSV reader: a name twice would leave which column a command reads to chance.
+        let mut seen = std::collections::HashSet::new();
+        if let Some(dup) = columns.iter().find(|c| !seen.insert(c.as_str())) {
+            return Err(IoError::DuplicateColumn { path: path.to_path_buf(), column: dup.clone() });
+        }
         let batches = builder.with_batch_size(crate::DEFAULT_CHUNK_ROWS).build().map_err(|e| pq_err(path, e))?;
         Ok(Self { path: path.to_path_buf(), columns, batches, batch: None, row_in_batch: 0, rows_read: 0 })
     }
@@ -135,7 +140,7 @@ impl ParquetReader {
 /// Parquet writer; the file appears under its name only on [`ParquetWriter::finish`].
 pub struct ParquetWriter {
     path: PathBuf,
-    tmp: PathBuf,
+    tmp: Option<crate::output::AtomicFile>,
     schema: SchemaRef,
     writer: Option<ArrowWriter<File>>,
     buffer: Vec<Vec<f64>>,
@@ -148,9 +153,8 @@ impl ParquetWriter {
         if path.is_dir() {
             return Err(IoError::IsDirectory(path.to_path_buf()));
         }
-        let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
-        let tmp = path.with_file_name(format!(".{name}.partial"));
-        let file = File::create(&tmp).map_err(|source| IoError::Os { path: path.to_path_buf(), source })?;
+        let tmp = crate::output::AtomicFile::create(path)?;
+        let file = tmp.try_clone_file()?;
         let schema: SchemaRef =
             Arc::new(Schema::new(columns.iter().map(|c| Field::new(*c, DataType::Float64, false)).collect::<Vec<_>>()));
         let props = WriterProperties::builder()
@@ -160,7 +164,7 @@ impl ParquetWriter {
         let writer = ArrowWriter::try_new(file, schema.clone(), Some(props)).map_err(|e| pq_err(path, e))?;
         Ok(Self {
             path: path.to_path_buf(),
-            tmp,
+            tmp: Some(tmp),
             schema,
             writer: Some(writer),
             buffer: vec![Vec::with_capacity(crate::DEFAULT_CHUNK_ROWS); columns.len()],
@@ -213,15 +217,9 @@ impl ParquetWriter {
         if let Some(w) = self.writer.take() {
             w.close().map_err(|e| pq_err(&self.path, e))?;
         }
-        std::fs::rename(&self.tmp, &self.path).map_err(|source| IoError::Os { path: self.path.clone(), source })?;
-        Ok(self.rows)
-    }
-}
-
-impl Drop for ParquetWriter {
-    fn drop(&mut self) {
-        if self.writer.take().is_some() {
-            let _ = std::fs::remove_file(&self.tmp);
+        if let Some(tmp) = self.tmp.take() {
+            tmp.commit()?;
         }
+        Ok(self.rows)
     }
 }

@@ -16,6 +16,7 @@ use std::path::{Path, PathBuf};
 use std::sync::mpsc::{self, Receiver, Sender, SyncSender};
 
 use crate::error::IoError;
+use crate::output::AtomicFile;
 
 /// Rows per chunk when streaming.
 pub const DEFAULT_CHUNK_ROWS: usize = 8192;
