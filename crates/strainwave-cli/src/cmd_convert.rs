@@ -48,6 +48,7 @@ pub fn write_row(w: &mut RecordingWriter, resampler: Option<&mut LinearResampler
 
 /// Runs `convert`.
 pub fn run(a: &Args) -> Result<()> {
+    strainwave_io::output::refuse_input_as_output(&a.out, [a.input.as_path()])?;
     if strainwave_io::format_of(&a.input)? == strainwave_io::Format::Mcap {
         return crate::cmd_mcap::convert(a);
     }

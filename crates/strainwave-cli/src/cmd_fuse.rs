@@ -162,6 +162,7 @@ fn rate_from_time(t0: f64, t1: f64) -> Result<f64> {
 
 /// Runs `fuse`.
 pub fn run(a: &Args) -> Result<()> {
+    strainwave_io::output::refuse_input_as_output(&a.out, [a.input.as_path(), a.config.as_path()])?;
     let cfg = BenchConfig::load(&a.config)?;
     let pair = AccelerometerPair::new(cfg.radius_m, cfg.stator_inertia_kg_m2)
         .map_err(|e| anyhow::anyhow!("{}: {e}", a.config.display()))?;

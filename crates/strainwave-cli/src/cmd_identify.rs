@@ -284,6 +284,10 @@ fn kinematic_model(fit: &KinematicFit) -> KinematicModel {
 
 /// Runs `identify`.
 pub fn run(a: &Args) -> Result<()> {
+    strainwave_io::output::refuse_input_as_output(
+        &a.out,
+        [a.no_load.as_path(), a.loaded.as_path(), a.config.as_path()],
+    )?;
     let text = std::fs::read_to_string(&a.config).with_context(|| format!("{}", a.config.display()))?;
     let cfg: ArmConfig = toml::from_str(&text).with_context(|| format!("config {}", a.config.display()))?;
     let gear = cfg.gear.gear()?;
@@ -353,7 +357,7 @@ pub fn run(a: &Args) -> Result<()> {
     };
     let text = toml::to_string(&model).context("serializing the model")?;
     let header = format!("# strainwave identify: {} (no load), {} (loaded)\n", a.no_load.display(), a.loaded.display());
-    std::fs::write(&a.out, header + &text).with_context(|| format!("{}", a.out.display()))?;
+    strainwave_io::output::write_file(&a.out, header + &text)?;
     if !a.quiet {
         let kb = match kin.basis {
             KinematicBasis::Polynomial { order } => format!("polynomial, order {order}"),

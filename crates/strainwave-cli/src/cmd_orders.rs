@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use strainwave_analysis::campbell::{order_slice, OrderSliceConfig};
 
 use crate::recording_args::{SignalArgs, SpeedArgs};
@@ -47,6 +47,7 @@ fn bin(s: &strainwave_analysis::campbell::OrderSlice, width: f64, nbins: usize) 
 
 /// Runs `orders`.
 pub fn run(a: &Args) -> Result<()> {
+    strainwave_io::output::refuse_input_as_output(&a.out, [a.source.input.as_path()])?;
     let (t, fs) = a.source.read()?;
     let x = a.source.signal(&t)?;
     let speed = a.speed.rpm(&t, &a.source.input)?;
@@ -107,6 +108,6 @@ pub fn run(a: &Args) -> Result<()> {
         log_y: true,
         ..Default::default()
     };
-    std::fs::write(&a.out, plot.to_svg()).with_context(|| format!("{}", a.out.display()))?;
+    strainwave_io::output::write_file(&a.out, plot.to_svg())?;
     Ok(())
 }

@@ -32,6 +32,7 @@ const TORQUE_COLUMNS: &[&str] = &["measured_torque", "reference_torque", "torque
 
 /// Runs `report`.
 pub fn run(a: &Args) -> Result<()> {
+    strainwave_io::output::refuse_input_as_output(&a.out, [a.input.as_path()].into_iter().chain(a.config.as_deref()))?;
     let t = strainwave_io::read_all(&a.input)?;
     let cfg = a.config.as_deref().map(JointConfig::load).transpose()?;
     let time_name = cfg.as_ref().map_or("time".to_string(), |c| c.channels.time.column_name().to_string());
@@ -151,6 +152,6 @@ pub fn run(a: &Args) -> Result<()> {
         subtitle: esc(&format!("strainwave {}", env!("CARGO_PKG_VERSION"))),
         sections,
     };
-    std::fs::write(&a.out, report.to_html()).with_context(|| format!("{}", a.out.display()))?;
+    strainwave_io::output::write_file(&a.out, report.to_html())?;
     Ok(())
 }

@@ -1,7 +1,8 @@
 //! `strainwave`: torque sensing for strain wave gear joints and motor test benches.
 //!
 //! A thin binary over the library crates: parse arguments, run one command, print
-//! errors once. Exit codes: 0 success, 1 user error (bad file, bad value), 2 bad usage.
+//! errors once. Exit codes: 0 success, 1 user error (bad file, bad value), 2 bad usage,
+//! 130 / 143 interrupted (SIGINT / SIGTERM), 141 output pipe closed.
 
 mod cmd_calibrate;
 mod cmd_campbell;
@@ -23,6 +24,7 @@ mod demo_estimate;
 mod progress;
 mod recording_args;
 mod report;
+mod signals;
 mod sim_arm;
 mod sim_bench;
 mod stdout;
@@ -116,6 +118,7 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    signals::install();
     let result = match cli.command {
         Command::Calibrate(a) => cmd_calibrate::run(&a),
         Command::Convert(a) => cmd_convert::run(&a),
@@ -139,6 +142,7 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e) if signals::is_broken_pipe(&e) => ExitCode::from(signals::BROKEN_PIPE_EXIT),
         Err(e) => {
             eprintln!("error: {}", one_line(&e));
             ExitCode::from(1)

@@ -113,6 +113,16 @@ impl AtomicFile {
         r.map_err(|source| IoError::Os { path: self.path.clone(), source })
     }
 
+    /// Syncs what was written to disk, so that a full disk shows here, before any
+    /// output is replaced.
+    pub fn sync(&mut self) -> Result<(), IoError> {
+        let r = match &mut self.file {
+            Some(f) => f.flush().and_then(|()| f.sync_all()),
+            None => Ok(()),
+        };
+        r.map_err(|source| IoError::Os { path: self.path.clone(), source })
+    }
+
     /// Syncs the data to disk, gives the file the target's permissions (or 0644 for a
     /// new one) and renames it over the target.
     pub fn commit(mut self) -> Result<(), IoError> {

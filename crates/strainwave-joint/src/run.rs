@@ -372,10 +372,19 @@ impl Run<'_> {
         if r.rows_read() == 0 {
             bail!("{input}: no data rows");
         }
+        // The learned file is written and synced before the output replaces anything:
+        // a `--learn` that cannot be written leaves `--out` as it was.
+        let rows = r.rows_read();
+        let learned = match &opts.learn {
+            Some(path) => Some(
+                LearnedFile::from_state(model, &state)
+                    .stage(path, &format!("learned by strainwave filter from {input} ({rows} rows)"))?,
+            ),
+            None => None,
+        };
         let rows = w.finish()?;
-        if let Some(path) = &opts.learn {
-            let file = LearnedFile::from_state(model, &state);
-            file.save(path, &format!("learned by strainwave filter from {input} ({rows} rows)"))?;
+        if let Some(file) = learned {
+            file.commit()?;
         }
         let span = first_t.zip(last_t).map(|(t0, t1)| t1 - t0);
         Ok(FilterSummary { rows, notes: Vec::new(), extrapolated, warnings: check.warnings(input, rows, span) })
