@@ -43,6 +43,7 @@ pub fn run(a: &Args) -> Result<()> {
     if !(a.speed_bin.is_finite() && a.speed_bin > 0.0) {
         bail!("--speed-bin: must be positive, got {}", a.speed_bin);
     }
+    crate::recording_args::speed_bins(&speed, a.speed_bin, &a.speed.speed, &a.source.input)?;
     if let Some(o) = a.orders.iter().find(|o| !(o.is_finite() && **o > 0.0)) {
         bail!("--orders: must be positive, got {o}");
     }

@@ -76,6 +76,9 @@ pub struct Model {
     pub fir_taps: usize,
 }
 
+/// Most taps of a correction FIR (2¹⁸ + 1: 262 s at 1 kHz).
+const MAX_FIR_TAPS: usize = (1 << 18) + 1;
+
 fn default_taps() -> usize {
     8191
 }
@@ -295,6 +298,15 @@ fn offline(a: &Args, cfg: &BenchConfig, pair: &AccelerometerPair<f64>) -> Result
                 m.stator_damping_nm_s_per_rad,
             )
             .map_err(bad)?;
+            // Taps beyond the recording only add zeros; the bound keeps a typo from
+            // sizing the design's FFT.
+            if !(1..=MAX_FIR_TAPS).contains(&m.fir_taps) || m.fir_taps > n {
+                bail!(
+                    "{}: [model] fir_taps = {}: must be from 1 to {MAX_FIR_TAPS} and at most the recording's {n} rows",
+                    a.config.display(),
+                    m.fir_taps
+                );
+            }
             let mut cc = CorrectionConfig::new(m.fir_taps | 1);
             cc.band = CrossoverBand::new(0.8 * cfg.crossover_hz, 1.2 * cfg.crossover_hz)?;
             if cc.band.hi_hz >= fs / 2.0 {

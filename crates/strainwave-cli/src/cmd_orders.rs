@@ -54,6 +54,7 @@ pub fn run(a: &Args) -> Result<()> {
     if !(a.speed_bin.is_finite() && a.speed_bin > 0.0) {
         bail!("--speed-bin: must be positive, got {}", a.speed_bin);
     }
+    crate::recording_args::speed_bins(&speed, a.speed_bin, &a.speed.speed, &a.source.input)?;
     let cfg = OrderSliceConfig { revs_per_block: a.revs_per_block, ..Default::default() };
     let mut slices = Vec::new();
     for &o in &a.orders {
@@ -62,8 +63,7 @@ pub fn run(a: &Args) -> Result<()> {
         }
         slices.push(order_slice(x, &speed, fs, o, &cfg).map_err(|e| anyhow::anyhow!("--order {o}: {e}"))?);
     }
-    let top = speed.iter().copied().fold(0.0, f64::max);
-    let nbins = ((top / a.speed_bin).floor() as usize + 1).min(100_000);
+    let nbins = crate::recording_args::speed_bins(&speed, a.speed_bin, &a.speed.speed, &a.source.input)?;
     let binned: Vec<_> = slices.iter().map(|s| bin(s, a.speed_bin, nbins)).collect();
     let mut header = vec!["speed rpm".to_string()];
     for o in &a.orders {
