@@ -231,31 +231,36 @@ fn stream(a: &Args, cfg: &BenchConfig, pair: &AccelerometerPair<f64>) -> Result<
     let mut wtr = RecordingWriter::create(&a.out, &output_columns(&cols)?)?;
     let mut state = fusion.settled_state(first[idx.torsion], idx.accel_torque(pair, &first));
     let mut out_row = Vec::with_capacity(cols.len() + 1);
-    let mut emit = |row: &[f64], wtr: &mut RecordingWriter| -> Result<()> {
+    let mut last_t = f64::NEG_INFINITY;
+    let mut emit = |row: &[f64], n: u64, wtr: &mut RecordingWriter| -> Result<()> {
+        let input = a.input.display();
+        let time = row[idx.time];
+        if !(time.is_finite() && time > last_t) {
+            bail!("{input}: row {n}, column `{}`: time {time} s does not come after {last_t} s", cfg.columns.time);
+        }
+        last_t = time;
         let (t, acc) = (row[idx.torsion], idx.accel_torque(pair, row));
         if !(t.is_finite() && acc.is_finite()) {
-            bail!("{}: row {}: torsion or accelerometer sample is not finite", a.input.display(), rdr_row_hint(row));
+            bail!("{input}: row {n}: the torsion or accelerometer torque is not finite (torsion {t}, accelerometers {acc} N·m)");
         }
         let y = fusion.step(&mut state, t, acc);
+        if !y.is_finite() {
+            bail!("{input}: row {n}: the fused torque overflows ({y}); check the scale of the input columns");
+        }
         out_row.clear();
         out_row.extend_from_slice(row);
         out_row.push(y);
         wtr.write_row(&out_row)?;
         Ok(())
     };
-    emit(&first, &mut wtr)?;
-    emit(&second, &mut wtr)?;
+    emit(&first, 1, &mut wtr)?;
+    emit(&second, 2, &mut wtr)?;
     let mut row = Vec::with_capacity(cols.len());
     while rdr.read_row(&mut row)? {
-        emit(&row, &mut wtr)?;
+        emit(&row, rdr.rows_read(), &mut wtr)?;
     }
     wtr.finish()?;
     Ok(())
-}
-
-/// The time stamp of a row, for messages.
-fn rdr_row_hint(row: &[f64]) -> String {
-    row.first().map_or_else(String::new, |t| format!("at t = {t}"))
 }
 
 fn offline(a: &Args, cfg: &BenchConfig, pair: &AccelerometerPair<f64>) -> Result<()> {
@@ -264,6 +269,16 @@ fn offline(a: &Args, cfg: &BenchConfig, pair: &AccelerometerPair<f64>) -> Result
     let n = table.rows();
     if n < 2 {
         bail!("{}: needs at least 2 samples", a.input.display());
+    }
+    let time = &table.data[idx.time];
+    if let Some(k) = (0..n).find(|&k| !(time[k].is_finite() && (k == 0 || time[k] > time[k - 1]))) {
+        bail!(
+            "{}: row {}, column `{}`: time {} s does not come after the row before",
+            a.input.display(),
+            k + 1,
+            cfg.columns.time,
+            time[k]
+        );
     }
     let fs = match cfg.sample_rate_hz {
         Some(fs) => fs,
@@ -326,6 +341,16 @@ fn offline(a: &Args, cfg: &BenchConfig, pair: &AccelerometerPair<f64>) -> Result
             complementary(torsion, &accel, &f)?
         }
     };
+    if let Some(k) = fused.iter().position(|y| !y.is_finite()) {
+        bail!(
+            "{}: row {}: the fused torque is not finite (torsion {}, accelerometers {} N·m); \
+             fix the recording or the scale of its columns",
+            a.input.display(),
+            k + 1,
+            torsion[k],
+            accel[k]
+        );
+    }
     let mut wtr = RecordingWriter::create(&a.out, &output_columns(&table.columns)?)?;
     let mut row = vec![0.0; table.columns.len() + 1];
     for (k, y) in fused.iter().enumerate() {

@@ -256,12 +256,14 @@ impl Bound {
         cal: &strainwave_core::calibration::Calibration<f64, MAX_TABLE_LEN>,
         row: &[f64],
         velocity: bool,
-    ) -> (RippleInput<f64>, bool) {
+    ) -> (RippleInput<f64>, bool, bool) {
         let speed = self.motor_velocity.map_or(0.0, |c| c.get(row));
-        let (torque, extrapolated) = match cal.apply_flagged(self.torque.get(row), speed) {
-            Ok(a) => (a.torque_nm, a.extrapolated),
+        let (torque, extrapolated, overflow) = match cal.apply_flagged(self.torque.get(row), speed) {
+            Ok(a) => (a.torque_nm, a.extrapolated, false),
+            // A finite reading the calibration makes infinite: as a NaN in the file.
+            Err(strainwave_core::Error::NonFinite("torque_nm")) => (f64::NAN, false, true),
             // A non-finite sample or a speed the policy rejects: the filter skips it.
-            Err(_) => (f64::NAN, false),
+            Err(_) => (f64::NAN, false, false),
         };
         let refs = if velocity {
             let w = speed;
@@ -275,7 +277,7 @@ impl Bound {
         if let Some(e) = self.expected {
             input = input.with_expected_torque(e.get(row));
         }
-        (input, extrapolated)
+        (input, extrapolated, overflow)
     }
 }
 
@@ -341,7 +343,10 @@ impl Run<'_> {
             let n = r.rows_read();
             check.row(&row, n, n - 1).with_context(|| input.to_string())?;
             let t = ch.time.get(&row);
-            let (mut sample, extra) = ch.input(&gear, &cal, &row, velocity);
+            let (mut sample, extra, overflow) = ch.input(&gear, &cal, &row, velocity);
+            if overflow {
+                check.calibration_overflow(&row, n).with_context(|| input.to_string())?;
+            }
             extrapolated += u64::from(extra);
             if let Some(t0) = last_t.filter(|t0| t.is_finite() && t > *t0) {
                 sample = sample.with_dt(t - t0);
