@@ -119,6 +119,13 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     signals::install();
+    // A panic inside a format reader is reported as an error naming the file: no trace.
+    let default_hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        if !strainwave_io::guard::is_active() {
+            default_hook(info);
+        }
+    }));
     let result = match cli.command {
         Command::Calibrate(a) => cmd_calibrate::run(&a),
         Command::Convert(a) => cmd_convert::run(&a),

@@ -7,6 +7,7 @@
 pub mod channels;
 pub mod csv_io;
 pub mod error;
+pub mod guard;
 #[cfg(feature = "mcap")]
 pub mod mcap_in;
 pub mod output;

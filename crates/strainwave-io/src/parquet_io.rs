@@ -60,6 +60,27 @@ fn value(a: &dyn Array, k: usize) -> f64 {
     }
 }
 
+/// Every column chunk inside the file: the `parquet` crate panics on a negative offset
+/// or size in the footer, and reads past the end on a large one.
+fn check_byte_ranges(meta: &parquet::file::metadata::ParquetMetaData, file_bytes: u64) -> Result<(), String> {
+    for (g, group) in meta.row_groups().iter().enumerate() {
+        for c in group.columns() {
+            let start = c.dictionary_page_offset().unwrap_or(c.data_page_offset());
+            let len = c.compressed_size();
+            let inside =
+                start >= 0 && len >= 0 && (start as u64).checked_add(len as u64).is_some_and(|e| e <= file_bytes);
+            if !inside {
+                return Err(format!(
+                    "row group {}, column `{}`: bytes {start}..+{len} are outside the file of {file_bytes} bytes (corrupt file)",
+                    g + 1,
+                    crate::error::shown(c.column_path().string().as_str())
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Streaming reader of a Parquet recording.
 pub struct ParquetReader {
     path: PathBuf,
@@ -80,7 +101,11 @@ impl ParquetReader {
         if file.metadata().map(|m| m.len()).unwrap_or(0) == 0 {
             return Err(IoError::Empty(path.to_path_buf()));
         }
-        let builder = ParquetRecordBatchReaderBuilder::try_new(file).map_err(|e| pq_err(path, e))?;
+        let size = file.metadata().map(|m| m.len()).unwrap_or(0);
+        let builder = crate::guard::guarded(|| ParquetRecordBatchReaderBuilder::try_new(file))
+            .map_err(|e| pq_err(path, e))?
+            .map_err(|e| pq_err(path, e))?;
+        check_byte_ranges(builder.metadata(), size).map_err(|msg| pq_err(path, msg))?;
         let schema = builder.schema().clone();
         for f in schema.fields() {
             if !numeric(f.data_type()) {
@@ -97,7 +122,9 @@ impl ParquetReader {
         if let Some(dup) = columns.iter().find(|c| !seen.insert(c.as_str())) {
             return Err(IoError::DuplicateColumn { path: path.to_path_buf(), column: dup.clone() });
         }
-        let batches = builder.with_batch_size(crate::DEFAULT_CHUNK_ROWS).build().map_err(|e| pq_err(path, e))?;
+        let batches = crate::guard::guarded(|| builder.with_batch_size(crate::DEFAULT_CHUNK_ROWS).build())
+            .map_err(|e| pq_err(path, e))?
+            .map_err(|e| pq_err(path, e))?;
         Ok(Self { path: path.to_path_buf(), columns, batches, batch: None, row_in_batch: 0, rows_read: 0 })
     }
 
@@ -125,7 +152,8 @@ impl ParquetReader {
                     return Ok(true);
                 }
             }
-            match self.batches.next() {
+            let next = crate::guard::guarded(|| self.batches.next()).map_err(|e| pq_err(&self.path, e))?;
+            match next {
                 None => return Ok(false),
                 Some(Err(e)) => return Err(pq_err(&self.path, e)),
                 Some(Ok(b)) => {
