@@ -91,7 +91,9 @@ impl LearnedFile {
     /// Reads a file.
     pub fn load(path: &Path) -> Result<Self> {
         let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
-        toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {}", path.display(), e.message()))
+        toml::from_str(&text).map_err(|e| {
+            anyhow::anyhow!("{}: {}", path.display(), strainwave_analysis::calibration::toml_error_line(&text, &e))
+        })
     }
 
     /// `model` with these coefficients as its priors; the orders must match one to one.

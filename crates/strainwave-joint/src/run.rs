@@ -358,6 +358,15 @@ impl Run<'_> {
             let o: RippleOutput<f64> =
                 step(model, &mut state, &sample).map_err(|e| anyhow!("{input}: data row {n}: filter: {e}"))?;
             check.flags(o.flags, n);
+            // NaN marks a skipped sample; an infinity is an overflow the filter made.
+            let outputs = [o.torque_nm, o.ripple_nm, o.misalignment_nm, o.innovation_nm, o.nis];
+            if let Some(v) = outputs.iter().find(|v| v.is_infinite()) {
+                bail!(
+                    "{input}: data row {n}: the filter's output overflows ({v}) from a torque of {} N·m; \
+                     check the calibration and `filter.noise_nm` in {config}",
+                    sample.torque_nm
+                );
+            }
             row.extend_from_slice(&[
                 o.torque_nm,
                 o.ripple_nm,
