@@ -117,7 +117,8 @@ pub fn filter_recording<S: RowSource, W: RowSink>(
         "velocity" => PhaseSource::Velocity,
         other => bail!("{config}: `filter.phase` must be `angle` or `velocity`, got `{other}`"),
     };
-    let core = |e: strainwave_core::Error| anyhow!("{config}: filter: {e}");
+    let orders_model = cfg.filter.model == "orders";
+    let core = |e: strainwave_core::Error| anyhow!("{config}: {}", in_config_terms(e, orders_model, fs));
     let noise = |model: &str| {
         cfg.filter.noise_nm.with_context(|| format!("{config}: `filter.noise_nm` is needed by the {model} model"))
     };
@@ -191,6 +192,32 @@ pub fn filter_recording<S: RowSource, W: RowSink>(
     notes.append(&mut summary.notes);
     summary.notes = notes;
     Ok(summary)
+}
+
+/// A core error in the words of the config file: a parameter the user did not write
+/// is named by the key it comes from (`noise_nm`, not the variance `r_nm2` made of it).
+fn in_config_terms(e: strainwave_core::Error, orders_model: bool, sample_rate_hz: f64) -> String {
+    use strainwave_core::Error as E;
+    let key = |p: &'static str| match p {
+        "r_nm2" if orders_model => "filter.r_nm2",
+        "r_nm2" => "filter.noise_nm",
+        "sample_rate_hz" => "filter.sample_rate_hz",
+        "q_per_sample_nm2" | "q_per_rad_nm2" | "multiple" => p,
+        "q_nm2" if orders_model => "filter.bias_q_nm2",
+        other => other,
+    };
+    match e {
+        E::OutOfRange("bandwidth_hz") => {
+            format!("`filter.sample_rate_hz` = {sample_rate_hz} is too low for the model's tracking bandwidth")
+        }
+        E::NotPositiveDefinite("ripple covariance") => "the filter's uncertainty became invalid (a glitch in the \
+             torque or the angles, or a `filter.noise_nm` far from the recording's noise?)"
+            .into(),
+        E::NonPositive(p) => format!("`{}` must be positive", key(p)),
+        E::NonFinite(p) => format!("`{}` must be finite", key(p)),
+        E::OutOfRange(p) => format!("`{}` is out of range", key(p)),
+        other => other.to_string(),
+    }
 }
 
 fn reference(name: &str) -> Result<Reference> {
@@ -355,8 +382,10 @@ impl Run<'_> {
                 first_t.get_or_insert(t);
                 last_t = Some(t);
             }
-            let o: RippleOutput<f64> =
-                step(model, &mut state, &sample).map_err(|e| anyhow!("{input}: data row {n}: filter: {e}"))?;
+            let o: RippleOutput<f64> = step(model, &mut state, &sample).map_err(|e| {
+                let why = in_config_terms(e, cfg.filter.model == "orders", cfg.filter.sample_rate_hz);
+                anyhow!("{input}: data row {n}: {why}")
+            })?;
             check.flags(o.flags, n);
             // NaN marks a skipped sample; an infinity is an overflow the filter made.
             let outputs = [o.torque_nm, o.ripple_nm, o.misalignment_nm, o.innovation_nm, o.nis];
