@@ -142,7 +142,7 @@ pub fn campbell(
     let nf = s.freqs_hz.len();
     let bins = (top / cfg.speed_bin_rpm).floor() + 1.0;
     let limit = MAX_SPEED_BINS.min(MAX_GRID_CELLS / nf.max(1));
-    if !(bins <= limit as f64) {
+    if bins.is_nan() || bins > limit as f64 {
         return Err(invalid(
             "speed_bin_rpm",
             format!(
@@ -302,7 +302,7 @@ pub fn order_slice(
         ));
     }
     let blocks = ((last - first - b) / (0.5 * b)).floor();
-    if !(blocks < (1u64 << 52) as f64) {
+    if blocks.is_nan() || blocks >= (1u64 << 52) as f64 {
         return Err(invalid(
             "speed_rpm",
             format!("the recording covers {:e} revolutions (a glitch in the speed?)", last - first),

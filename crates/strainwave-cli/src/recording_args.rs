@@ -106,7 +106,7 @@ pub fn speed_bins(speed_rpm: &[f64], bin_rpm: f64, name: &str, path: &Path) -> R
     let max = strainwave_analysis::campbell::MAX_SPEED_BINS;
     let (k, top) = speed_rpm.iter().copied().enumerate().fold((0, 0.0), |a, (k, v)| if v > a.1 { (k, v) } else { a });
     let bins = (top / bin_rpm).floor() + 1.0;
-    if !(bins <= max as f64) {
+    if bins.is_nan() || bins > max as f64 {
         bail!(
             "{}: row {}, column `{name}`: {top} rpm in --speed-bin {bin_rpm} rpm bins needs more than {max} bins \
              (a glitch in the speed? fix it, or widen --speed-bin)",

@@ -62,7 +62,8 @@ impl LinearResampler {
         }
         // Grid points up to `t`, counted before any is emitted.
         let last_k = ((t - self.start_s) * self.rate_hz).floor();
-        if !(last_k - (self.next_k as f64) < MAX_ROWS_PER_GAP as f64) {
+        let rows = last_k - self.next_k as f64;
+        if rows.is_nan() || rows >= MAX_ROWS_PER_GAP as f64 {
             return Err(GapTooLong { time_s: t, gap_s: t - t0 });
         }
         let mut out = vec![0.0; row.len()];
