@@ -151,7 +151,12 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) if signals::is_broken_pipe(&e) => ExitCode::from(signals::BROKEN_PIPE_EXIT),
         Err(e) => {
-            eprintln!("error: {}", one_line(&e));
+            // A path or cell with a line break in it is shown escaped: one line.
+            let line: String = one_line(&e)
+                .chars()
+                .flat_map(|c| if c.is_control() { c.escape_default().collect() } else { vec![c] })
+                .collect();
+            eprintln!("error: {line}");
             ExitCode::from(1)
         }
     }
