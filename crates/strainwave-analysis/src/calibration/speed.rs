@@ -215,10 +215,10 @@ pub fn fit_speed_dependent(
 
 fn fit_speed_poly(x: &[f64], t: &[f64], w: &[f64], degree: usize) -> Result<SpeedFit, CalibrationError> {
     let what = "speed polynomial fit";
-    let k = degree + 1;
-    if k > MAX_TABLE_LEN {
+    if degree >= MAX_TABLE_LEN {
         return Err(invalid(what, format!("degree {degree} exceeds {}", MAX_TABLE_LEN - 1)));
     }
+    let k = degree + 1;
     let lo = w.iter().copied().fold(f64::INFINITY, f64::min);
     let hi = w.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     // Even at degree 0 a speed model needs data at two speeds (its range must be an interval).
