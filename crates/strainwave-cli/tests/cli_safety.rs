@@ -442,3 +442,29 @@ fn standard_input_is_never_taken_for_the_same_file_as_the_output() {
     assert!(o.status.success());
     assert_eq!(String::from_utf8_lossy(&o.stdout).lines().count(), 101);
 }
+
+#[test]
+fn a_reading_the_calibration_makes_infinite_stops_filter_or_is_skipped_with_lenient() {
+    let d = tmp("calinf");
+    let rec = d.join("rec.csv");
+    assert!(simulate(&rec, "1").status.success());
+    let text = std::fs::read_to_string(&rec).unwrap();
+    let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    let v = header.iter().position(|c| *c == "bridge_voltage").unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let mut cells: Vec<String> = lines[400].split(',').map(str::to_string).collect();
+    cells[v] = "1e308".into();
+    lines[400] = cells.join(",");
+    let bad = d.join("bad.csv");
+    std::fs::write(&bad, lines.join("\n") + "\n").unwrap();
+    let out = d.join("out.csv");
+    let cfg = "../../examples/joint-taghirad.toml";
+    let o = run(&["filter", "--config", cfg, "--in", s(&bad), "--out", s(&out), "--quiet"]);
+    assert_error(&o, &["bad.csv", "data row 400", "`bridge_voltage`", "calibration makes infinite", "--lenient"]);
+    assert!(!out.exists());
+    let o = run(&["filter", "--config", cfg, "--in", s(&bad), "--out", s(&out), "--lenient"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("skipped, the first at data row 400"), "{}", stderr(&o));
+    let written = std::fs::read_to_string(&out).unwrap();
+    assert!(!written.contains("inf"), "an infinity was written");
+}
