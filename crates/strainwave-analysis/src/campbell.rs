@@ -46,6 +46,12 @@ fn check_speed(signal: &[f64], speed_rpm: &[f64]) -> Result<(), AnalysisError> {
     Ok(())
 }
 
+/// Most speed bins of a Campbell grid: a wider speed range (a glitched speed sample, a
+/// tiny bin width) is an error rather than an allocation sized by the glitch.
+pub const MAX_SPEED_BINS: usize = 4096;
+/// Most cells (speed bins × frequency bins) of a Campbell grid (128 MiB of `f64`).
+pub const MAX_GRID_CELLS: usize = 1 << 24;
+
 /// Segmentation and speed grid of a Campbell diagram.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CampbellConfig {
@@ -133,8 +139,19 @@ pub fn campbell(
     if top <= 0.0 {
         return Err(invalid("speed_rpm", "no frame has a positive mean speed (negate a reverse run)".to_string()));
     }
-    let nbins = ((top / cfg.speed_bin_rpm).floor() as usize + 1).min(1_000_000);
     let nf = s.freqs_hz.len();
+    let bins = (top / cfg.speed_bin_rpm).floor() + 1.0;
+    let limit = MAX_SPEED_BINS.min(MAX_GRID_CELLS / nf.max(1));
+    if bins.is_nan() || bins > limit as f64 {
+        return Err(invalid(
+            "speed_bin_rpm",
+            format!(
+                "speeds up to {top} rpm in bins of {} rpm need {bins} bins, more than the {limit} allowed (a glitch in the speed?)",
+                cfg.speed_bin_rpm
+            ),
+        ));
+    }
+    let nbins = bins as usize;
     let mut sum = vec![vec![0.0; nf]; nbins];
     let mut count = vec![0usize; nbins];
     for (v, amp) in frame_speed_rpm.iter().zip(&frame_amplitude) {
@@ -284,21 +301,38 @@ pub fn order_slice(
             format!("the recording covers {:.3} revolutions, one block needs {b}", last - first),
         ));
     }
-    let blocks = ((last - first - b) / (0.5 * b)).floor() as usize + 1;
+    let blocks = ((last - first - b) / (0.5 * b)).floor();
+    if blocks.is_nan() || blocks >= (1u64 << 52) as f64 {
+        return Err(invalid(
+            "speed_rpm",
+            format!("the recording covers {:e} revolutions (a glitch in the speed?)", last - first),
+        ));
+    }
+    // Each sample lies in at most two blocks, so at most 2n blocks hold samples; empty
+    // ones (a speed glitch makes many) are jumped over, never counted or allocated.
+    let cap = (2 * theta.len()).min(blocks as usize + 1);
     let mut out = OrderSlice {
         order,
-        time_s: Vec::with_capacity(blocks),
-        speed_rpm: Vec::with_capacity(blocks),
-        amplitude: Vec::with_capacity(blocks),
-        phase_rad: Vec::with_capacity(blocks),
+        time_s: Vec::with_capacity(cap),
+        speed_rpm: Vec::with_capacity(cap),
+        amplitude: Vec::with_capacity(cap),
+        phase_rad: Vec::with_capacity(cap),
     };
-    for j in 0..blocks {
-        let a = first + 0.5 * b * j as f64;
+    let mut j = 0.0f64;
+    while j <= blocks {
+        let a = first + 0.5 * b * j;
         let i0 = theta.partition_point(|t| *t < a);
         let i1 = theta.partition_point(|t| *t < a + b);
         if i1 <= i0 {
+            // The first block that reaches the next sample.
+            let next = match theta.get(i0) {
+                Some(t) => ((t - first - b) / (0.5 * b)).floor() + 1.0,
+                None => break,
+            };
+            j = next.max(j + 1.0);
             continue;
         }
+        j += 1.0;
         let (mut x, mut wsum, mut vsum) = (Complex::new(0.0, 0.0), 0.0, 0.0);
         for i in i0..i1 {
             let u = (theta[i] - a) / b;

@@ -263,6 +263,10 @@ fn pooled(exps: &[ExperimentRows]) -> ExperimentRows {
 
 /// Runs `calibrate`.
 pub fn run(a: &Args) -> Result<()> {
+    for out in a.out.iter().chain(&a.plot) {
+        strainwave_io::output::refuse_input_as_output(out, a.inputs.iter().map(|p| p.as_path()))
+            .with_context(|| format!("{}", out.display()))?;
+    }
     let speed_model = matches!(a.model, Model::SpeedTable | Model::SpeedPoly);
     if a.model != Model::Gain && a.with_offset {
         bail!("--with-offset applies to --model gain (static and dynamic models always fit an offset)");
@@ -369,11 +373,12 @@ pub fn run(a: &Args) -> Result<()> {
         let ev = shown.apply(&all.sensor, speed).context("evaluating the calibration for --plot")?;
         let plots =
             fit_plots(&format!("{} model", a.model.name()), &all.sensor, &all.reference, &ev.torque_nm, &a.sensor);
-        std::fs::write(p, stacked_svg(&plots)).with_context(|| format!("--plot {}", p.display()))?;
+        strainwave_io::output::write_file(p, stacked_svg(&plots)).context("--plot")?;
         let _ = writeln!(out, "wrote {}", p.display());
     }
     if let Some(p) = &a.out {
-        file.save(p).with_context(|| format!("--out {}", p.display()))?;
+        let text = file.to_toml_string().with_context(|| format!("--out {}", p.display()))?;
+        strainwave_io::output::write_file(p, text).context("--out")?;
         let _ = writeln!(out, "wrote {}", p.display());
     }
     if !a.quiet {

@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use strainwave_analysis::campbell::{campbell, order_hz, CampbellConfig};
 
 use crate::recording_args::{check_window, SignalArgs, SpeedArgs};
@@ -35,6 +35,7 @@ pub struct Args {
 
 /// Runs `campbell`.
 pub fn run(a: &Args) -> Result<()> {
+    strainwave_io::output::refuse_input_as_output(&a.out, [a.source.input.as_path()])?;
     let (t, fs) = a.source.read()?;
     let signal = a.source.signal(&t)?;
     let speed = a.speed.rpm(&t, &a.source.input)?;
@@ -42,6 +43,7 @@ pub fn run(a: &Args) -> Result<()> {
     if !(a.speed_bin.is_finite() && a.speed_bin > 0.0) {
         bail!("--speed-bin: must be positive, got {}", a.speed_bin);
     }
+    crate::recording_args::speed_bins(&speed, a.speed_bin, &a.speed.speed, &a.source.input)?;
     if let Some(o) = a.orders.iter().find(|o| !(o.is_finite() && **o > 0.0)) {
         bail!("--orders: must be positive, got {o}");
     }
@@ -74,6 +76,6 @@ pub fn run(a: &Args) -> Result<()> {
         range_db: 80.0,
         lines,
     };
-    std::fs::write(&a.out, map.to_svg()).with_context(|| format!("{}", a.out.display()))?;
+    strainwave_io::output::write_file(&a.out, map.to_svg())?;
     Ok(())
 }

@@ -28,18 +28,28 @@ pub struct Args {
 }
 
 /// Writes `row` to `w`, through `resampler` when resampling; `false` when the resampler
-/// left it out (its time does not increase).
-pub fn write_row(w: &mut RecordingWriter, resampler: Option<&mut LinearResampler>, row: &[f64]) -> Result<bool> {
+/// left it out (its time is not finite or does not increase). `n` is the 1-based data row,
+/// for messages.
+pub fn write_row(
+    w: &mut RecordingWriter,
+    resampler: Option<&mut LinearResampler>,
+    row: &[f64],
+    n: u64,
+) -> Result<bool> {
     let Some(rs) = resampler else {
         w.write_row(row)?;
         return Ok(true);
     };
     let mut err = None;
-    let kept = rs.push(row, |o| {
-        if err.is_none() {
-            err = w.write_row(o).err();
+    let kept = rs.push(row, |o| match w.write_row(o) {
+        Ok(()) => true,
+        Err(e) => {
+            err = Some(e);
+            false
         }
     });
+    let kept =
+        kept.map_err(|e| anyhow::anyhow!("row {n}: {e}; fix the time column, or convert without --resample-hz"))?;
     match err {
         Some(e) => Err(e.into()),
         None => Ok(kept),
@@ -48,6 +58,7 @@ pub fn write_row(w: &mut RecordingWriter, resampler: Option<&mut LinearResampler
 
 /// Runs `convert`.
 pub fn run(a: &Args) -> Result<()> {
+    strainwave_io::output::refuse_input_as_output(&a.out, [a.input.as_path()])?;
     if strainwave_io::format_of(&a.input)? == strainwave_io::Format::Mcap {
         return crate::cmd_mcap::convert(a);
     }
@@ -72,7 +83,10 @@ pub fn run(a: &Args) -> Result<()> {
         if let Some(ti) = time_index {
             monitor.push(row[ti]);
         }
-        skipped += u64::from(!write_row(&mut w, resampler.as_mut(), &row)?);
+        skipped += u64::from(
+            !write_row(&mut w, resampler.as_mut(), &row, r.rows_read())
+                .with_context(|| a.input.display().to_string())?,
+        );
         if a.out.as_os_str() == "-" && r.rows_read() % strainwave_io::DEFAULT_CHUNK_ROWS as u64 == 0 {
             w.flush()?;
         }

@@ -221,7 +221,7 @@ pub fn run(a: &Args) -> Result<()> {
         ],
     };
     let report_path = a.out.join("report.html");
-    std::fs::write(&report_path, report.to_html()).with_context(|| format!("{}", report_path.display()))?;
+    strainwave_io::output::write_file(&report_path, report.to_html())?;
     if !a.quiet {
         out += &format!("\nwrote {} and {}\n", report_path.display(), rec_path.display());
         crate::stdout::print(&out)?;

@@ -59,6 +59,9 @@ pub fn render(r: &DesignReport, full_scale_for_pct: f64) -> String {
 
 /// Runs `design`.
 pub fn run(a: &Args) -> Result<()> {
+    if let Some(svg) = &a.svg {
+        strainwave_io::output::refuse_input_as_output(svg, [a.config.as_path()])?;
+    }
     let text = std::fs::read_to_string(&a.config).with_context(|| format!("{}", a.config.display()))?;
     let cfg = DesignConfig::from_toml(&text).with_context(|| format!("config {}", a.config.display()))?;
     let r = cfg.evaluate().with_context(|| format!("config {}", a.config.display()))?;
@@ -88,7 +91,7 @@ pub fn run(a: &Args) -> Result<()> {
             series: vec![Series { name: format!("{} draws", combined.samples_2x_nm.len()), x, y }],
             ..Default::default()
         };
-        std::fs::write(path, plot.to_svg()).with_context(|| format!("{}", path.display()))?;
+        strainwave_io::output::write_file(path, plot.to_svg())?;
         let _ = writeln!(out, "wrote {}", path.display());
     }
     crate::stdout::print(&out)

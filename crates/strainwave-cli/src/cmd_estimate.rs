@@ -53,6 +53,7 @@ fn flag_bits(e: &Estimate<f64>) -> u32 {
 
 /// Runs `estimate`.
 pub fn run(a: &Args) -> Result<()> {
+    strainwave_io::output::refuse_input_as_output(&a.out, [a.input.as_path(), a.config.as_path()])?;
     let model = ModelFile::load(&a.config)?;
     let gear = model.gear.gear()?;
     let kin = model.kinematic_fit()?;

@@ -41,6 +41,9 @@ pub struct Args {
 
 /// Runs `filter`.
 pub fn run(a: &Args) -> Result<()> {
+    for out in std::iter::once(&a.out).chain(&a.learn) {
+        strainwave_io::output::refuse_input_as_output(out, [a.input.as_path(), a.config.as_path()])?;
+    }
     let cfg = JointConfig::load(&a.config)?;
     let to_stdout = a.out.as_os_str() == "-";
     let scratch_dir = match a.out.parent() {

@@ -99,6 +99,9 @@ pub struct Model {
     pub static_corner_hz: f64,
 }
 
+/// Most taps of a correction FIR (2¹⁸ + 1: 262 s at 1 kHz).
+const MAX_FIR_TAPS: usize = (1 << 18) + 1;
+
 fn default_taps() -> usize {
     8191
 }
@@ -236,6 +239,7 @@ fn rate_from_time(t0: f64, t1: f64) -> Result<f64> {
 
 /// Runs `fuse`.
 pub fn run(a: &Args) -> Result<()> {
+    strainwave_io::output::refuse_input_as_output(&a.out, [a.input.as_path(), a.config.as_path()])?;
     let cfg = BenchConfig::load(&a.config)?;
     let pair = AccelerometerPair::new(cfg.radius_m, cfg.stator_inertia_kg_m2)
         .map_err(|e| anyhow::anyhow!("{}: {e}", a.config.display()))?;
@@ -346,21 +350,28 @@ fn stream(a: &Args, cfg: &BenchConfig, pair: &AccelerometerPair<f64>) -> Result<
     let mut wtr = RecordingWriter::create(&a.out, &output_columns(&cols)?)?;
     let mut check = reference.map(|_| Check::new(fs));
     let mut out_row = Vec::with_capacity(cols.len() + 1);
-    let mut row_no = 0_u64;
-    let mut emit = |row: &[f64], wtr: &mut RecordingWriter| -> Result<()> {
-        row_no += 1;
+    let mut last_t = f64::NEG_INFINITY;
+    let mut emit = |row: &[f64], n: u64, wtr: &mut RecordingWriter| -> Result<()> {
+        let input = a.input.display();
+        let time = row[idx.time];
+        if !(time.is_finite() && time > last_t) {
+            bail!("{input}: row {n}, column `{}`: time {time} s does not come after {last_t} s", cfg.columns.time);
+        }
+        last_t = time;
         let (t, acc) = (row[idx.torsion], idx.accel_torque(pair, row));
         if !(t.is_finite() && acc.is_finite()) {
             bail!(
-                "{}: data row {row_no}: `{}` or the accelerometer torque is not finite",
-                a.input.display(),
+                "{input}: data row {n}: `{}` or the accelerometer torque is not finite (torsion {t}, accelerometers {acc} N·m)",
                 cfg.columns.torsion
             );
         }
-        if row_no == 1 {
+        if n == 1 {
             fusion.settle(t, acc);
         }
         let y = fusion.step(t, acc);
+        if !y.is_finite() {
+            bail!("{input}: data row {n}: the fused torque overflows ({y}); check the scale of the input columns");
+        }
         if let (Some(c), Some(r)) = (check.as_mut(), reference) {
             c.push(row[r], y);
         }
@@ -370,11 +381,11 @@ fn stream(a: &Args, cfg: &BenchConfig, pair: &AccelerometerPair<f64>) -> Result<
         wtr.write_row(&out_row)?;
         Ok(())
     };
-    emit(&first, &mut wtr)?;
-    emit(&second, &mut wtr)?;
+    emit(&first, 1, &mut wtr)?;
+    emit(&second, 2, &mut wtr)?;
     let mut row = Vec::with_capacity(cols.len());
     while rdr.read_row(&mut row)? {
-        emit(&row, &mut wtr)?;
+        emit(&row, rdr.rows_read(), &mut wtr)?;
     }
     wtr.finish()?;
     if let (Some(c), Some(r)) = (check, a.reference.as_deref()) {
@@ -390,6 +401,16 @@ fn offline(a: &Args, cfg: &BenchConfig, pair: &AccelerometerPair<f64>) -> Result
     let n = table.rows();
     if n < 2 {
         bail!("{}: needs at least 2 samples", a.input.display());
+    }
+    let time = &table.data[idx.time];
+    if let Some(k) = (0..n).find(|&k| !(time[k].is_finite() && (k == 0 || time[k] > time[k - 1]))) {
+        bail!(
+            "{}: row {}, column `{}`: time {} s does not come after the row before",
+            a.input.display(),
+            k + 1,
+            cfg.columns.time,
+            time[k]
+        );
     }
     let fs = match cfg.sample_rate_hz {
         Some(fs) => fs,
@@ -409,6 +430,15 @@ fn offline(a: &Args, cfg: &BenchConfig, pair: &AccelerometerPair<f64>) -> Result
         "corrected" => {
             let m = cfg.model(&a.method, &a.config)?;
             let (ts, acc) = m.paths(cfg.stator_inertia_kg_m2, &a.config)?;
+            // Taps beyond the recording only add zeros; the bound keeps a typo from
+            // sizing the design's FFT.
+            if !(1..=MAX_FIR_TAPS).contains(&m.fir_taps) || m.fir_taps > n {
+                bail!(
+                    "{}: [model] fir_taps = {}: must be from 1 to {MAX_FIR_TAPS} and at most the recording's {n} rows",
+                    a.config.display(),
+                    m.fir_taps
+                );
+            }
             let mut cc = CorrectionConfig::new(m.fir_taps | 1);
             cc.band = CrossoverBand::new(0.8 * cfg.crossover_hz, 1.2 * cfg.crossover_hz)?;
             if cc.band.hi_hz >= fs / 2.0 {
@@ -428,6 +458,16 @@ fn offline(a: &Args, cfg: &BenchConfig, pair: &AccelerometerPair<f64>) -> Result
             complementary(torsion, &accel, &f)?
         }
     };
+    if let Some(k) = fused.iter().position(|y| !y.is_finite()) {
+        bail!(
+            "{}: row {}: the fused torque is not finite (torsion {}, accelerometers {} N·m); \
+             fix the recording or the scale of its columns",
+            a.input.display(),
+            k + 1,
+            torsion[k],
+            accel[k]
+        );
+    }
     let mut wtr = RecordingWriter::create(&a.out, &output_columns(&table.columns)?)?;
     let mut row = vec![0.0; table.columns.len() + 1];
     for (k, y) in fused.iter().enumerate() {

@@ -421,6 +421,9 @@ fn stiffness_hint(e: anyhow::Error) -> anyhow::Error {
 
 /// Runs `identify`.
 pub fn run(a: &Args) -> Result<()> {
+    let mut inputs = vec![a.loaded.as_path(), a.config.as_path()];
+    inputs.extend(a.no_load.as_deref());
+    strainwave_io::output::refuse_input_as_output(&a.out, inputs)?;
     let text = std::fs::read_to_string(&a.config).with_context(|| format!("{}", a.config.display()))?;
     let cfg: ArmConfig = toml::from_str(&text).with_context(|| format!("config {}", a.config.display()))?;
     cfg.refuse_unused(a.no_load.is_some()).with_context(|| format!("config {}", a.config.display()))?;
@@ -492,7 +495,7 @@ pub fn run(a: &Args) -> Result<()> {
         sample_rate_hz: fs,
     };
     if let Some(p) = &a.summary_json {
-        std::fs::write(p, summary.json()).with_context(|| format!("{}", p.display()))?;
+        strainwave_io::output::write_file(p, summary.json())?;
     }
     if !fit.converged() && !a.allow_unconverged {
         bail!(
@@ -507,7 +510,7 @@ pub fn run(a: &Args) -> Result<()> {
         a.no_load.as_deref().map_or("-".into(), |p| p.display().to_string()),
         a.loaded.display()
     );
-    std::fs::write(&a.out, header + &text).with_context(|| format!("{}", a.out.display()))?;
+    strainwave_io::output::write_file(&a.out, header + &text)?;
     if !a.quiet {
         crate::stdout::print(&summary.table())?;
     }

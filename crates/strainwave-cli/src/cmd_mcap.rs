@@ -35,7 +35,10 @@ pub fn convert(a: &crate::cmd_convert::Args) -> Result<()> {
     let mut row = Vec::with_capacity(columns.len());
     let mut skipped = 0u64;
     while r.read_row(&mut row)? {
-        skipped += u64::from(!write_row(&mut w, resampler.as_mut(), &row)?);
+        skipped += u64::from(
+            !write_row(&mut w, resampler.as_mut(), &row, r.rows_read())
+                .with_context(|| a.input.display().to_string())?,
+        );
     }
     let rows = w.finish()?;
     if !a.quiet {

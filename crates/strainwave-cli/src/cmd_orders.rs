@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use strainwave_analysis::campbell::{order_slice, OrderSliceConfig};
 
 use crate::recording_args::{SignalArgs, SpeedArgs};
@@ -47,12 +47,14 @@ fn bin(s: &strainwave_analysis::campbell::OrderSlice, width: f64, nbins: usize) 
 
 /// Runs `orders`.
 pub fn run(a: &Args) -> Result<()> {
+    strainwave_io::output::refuse_input_as_output(&a.out, [a.source.input.as_path()])?;
     let (t, fs) = a.source.read()?;
     let x = a.source.signal(&t)?;
     let speed = a.speed.rpm(&t, &a.source.input)?;
     if !(a.speed_bin.is_finite() && a.speed_bin > 0.0) {
         bail!("--speed-bin: must be positive, got {}", a.speed_bin);
     }
+    crate::recording_args::speed_bins(&speed, a.speed_bin, &a.speed.speed, &a.source.input)?;
     let cfg = OrderSliceConfig { revs_per_block: a.revs_per_block, ..Default::default() };
     let mut slices = Vec::new();
     for &o in &a.orders {
@@ -61,8 +63,7 @@ pub fn run(a: &Args) -> Result<()> {
         }
         slices.push(order_slice(x, &speed, fs, o, &cfg).map_err(|e| anyhow::anyhow!("--order {o}: {e}"))?);
     }
-    let top = speed.iter().copied().fold(0.0, f64::max);
-    let nbins = ((top / a.speed_bin).floor() as usize + 1).min(100_000);
+    let nbins = crate::recording_args::speed_bins(&speed, a.speed_bin, &a.speed.speed, &a.source.input)?;
     let binned: Vec<_> = slices.iter().map(|s| bin(s, a.speed_bin, nbins)).collect();
     let mut header = vec!["speed rpm".to_string()];
     for o in &a.orders {
@@ -107,6 +108,6 @@ pub fn run(a: &Args) -> Result<()> {
         log_y: true,
         ..Default::default()
     };
-    std::fs::write(&a.out, plot.to_svg()).with_context(|| format!("{}", a.out.display()))?;
+    strainwave_io::output::write_file(&a.out, plot.to_svg())?;
     Ok(())
 }

@@ -1,16 +1,17 @@
 //! `strainwave report`: a self-contained HTML report of a recording: torque over time,
 //! spectra with the order lines (when a joint config gives the gear and angles), the
 //! filter's result when the recording has its columns, and error tables against the
-//! truth when the recording is simulated.
+//! truth when the recording is simulated. One pass over the recording in constant
+//! memory: the time plot is a min/max decimation per pixel column, the spectra are
+//! averaged over segments.
 
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
-use strainwave_analysis::spectrum::amplitude_spectrum;
-use strainwave_analysis::stats::{max_abs, mean, rms};
+use anyhow::{bail, Context, Result};
 
 use crate::report::html::{esc, table, Report, Section};
 use crate::report::plot::{LinePlot, Marker, Series};
+use crate::report::streaming::{ColumnStats, MinMaxDecimator, WelchAmplitude};
 use strainwave_joint::JointConfig;
 
 /// Arguments of `report`.
@@ -30,58 +31,108 @@ pub struct Args {
 /// Torque-like columns shown when present, in this order.
 const TORQUE_COLUMNS: &[&str] = &["measured_torque", "reference_torque", "torque", "true_torque"];
 
-/// Runs `report`.
+/// Pixel columns of the time plot: each gets the minimum and maximum of its rows.
+const PLOT_COLUMNS: usize = 1000;
+/// Samples per segment of the averaged spectra (a recording shorter is taken whole).
+const SPECTRUM_SEGMENT: usize = 1 << 16;
+
+/// Runs `report`: one pass over the recording, in memory that does not grow with it.
 pub fn run(a: &Args) -> Result<()> {
-    let t = strainwave_io::read_all(&a.input)?;
+    strainwave_io::output::refuse_input_as_output(&a.out, [a.input.as_path()].into_iter().chain(a.config.as_deref()))?;
     let cfg = a.config.as_deref().map(JointConfig::load).transpose()?;
+    let mut r = strainwave_io::RecordingReader::open(&a.input)?;
+    let columns = r.columns().to_vec();
+    let input = a.input.display().to_string();
     let time_name = cfg.as_ref().map_or("time".to_string(), |c| c.channels.time.column_name().to_string());
-    let time = t.column(&time_name).with_context(|| format!("{}: no time column `{time_name}`", a.input.display()))?;
-    if time.len() < 16 {
-        anyhow::bail!("{}: {} rows, too few for a report", a.input.display(), time.len());
-    }
-    let fs = (time.len() - 1) as f64 / (time[time.len() - 1] - time[0]);
-    if !(fs.is_finite() && fs > 0.0) {
-        anyhow::bail!("{}: time column `{time_name}` does not increase", a.input.display());
-    }
-    let mut sections = Vec::new();
+    let time_at = columns
+        .iter()
+        .position(|c| *c == time_name)
+        .with_context(|| format!("{input}: no time column `{time_name}`"))?;
+    let at = |name: &str| columns.iter().position(|c| c == name);
     let mut torque_cols: Vec<String> =
-        TORQUE_COLUMNS.iter().filter(|c| t.column(c).is_some()).map(|c| c.to_string()).collect();
+        TORQUE_COLUMNS.iter().filter(|c| at(c).is_some()).map(|c| c.to_string()).collect();
     if let Some(c) = &cfg {
         let name = c.channels.torque.column_name().to_string();
-        if t.column(&name).is_some() && !torque_cols.contains(&name) {
+        if at(&name).is_some() && !torque_cols.contains(&name) {
             torque_cols.insert(0, name);
         }
     }
-    // Summary table.
-    let mut rows = Vec::new();
-    for c in &t.columns {
-        let v = t.column(c).unwrap_or(&[]);
-        let finite: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
-        rows.push(vec![
-            c.clone(),
-            format!("{}", v.len() - finite.len()),
-            format!("{:.6}", mean(&finite)),
-            format!("{:.6}", rms(&finite)),
-            format!("{:.6}", max_abs(&finite)),
-        ]);
+    let torque_at: Vec<usize> = torque_cols.iter().filter_map(|c| at(c)).collect();
+    let truth_at = at("true_torque");
+    let angle_at = cfg.as_ref().and_then(|c| {
+        let col = |ch: &Option<strainwave_io::Channel>| ch.as_ref().and_then(|ch| at(ch.column_name()));
+        col(&c.channels.motor_angle).zip(col(&c.channels.output_angle))
+    });
+    // The one pass.
+    let mut stats = vec![ColumnStats::default(); columns.len()];
+    let mut plots: Vec<MinMaxDecimator> = torque_at.iter().map(|_| MinMaxDecimator::new(PLOT_COLUMNS)).collect();
+    let mut spectra: Vec<WelchAmplitude> = torque_at.iter().map(|_| WelchAmplitude::new(SPECTRUM_SEGMENT)).collect();
+    let mut errors = vec![ColumnStats::default(); torque_at.len()];
+    let (mut first, mut last): (Option<Vec<f64>>, Vec<f64>) = (None, Vec::new());
+    let mut row = Vec::with_capacity(columns.len());
+    let mut prev_t = f64::NEG_INFINITY;
+    while r.read_row(&mut row)? {
+        let n = r.rows_read();
+        let t = row[time_at];
+        if !(t.is_finite() && t > prev_t) {
+            bail!("{input}: row {n}, column `{time_name}`: time {t} s does not come after the row before ({prev_t} s)");
+        }
+        prev_t = t;
+        for (s, v) in stats.iter_mut().zip(&row) {
+            s.push(*v);
+        }
+        for (k, &c) in torque_at.iter().enumerate() {
+            plots[k].push(t, row[c]);
+            spectra[k].push(row[c]);
+            if let Some(tr) = truth_at {
+                errors[k].push(row[c] - row[tr]);
+            }
+        }
+        if first.is_none() {
+            first = Some(row.clone());
+        }
+        last.clone_from(&row);
     }
-    let mut body = format!(
-        "<p>{} rows, {:.3} s, {:.1} Hz mean rate, {} columns.</p>",
-        time.len(),
-        time[time.len() - 1] - time[0],
-        fs,
-        t.columns.len()
-    );
-    body += &table(&["column", "non-finite", "mean", "rms", "max |x|"], &rows);
+    let rows = r.rows_read();
+    let first = first.unwrap_or_default();
+    if rows < 16 {
+        bail!("{input}: {rows} rows, too few for a report");
+    }
+    let span_s = last[time_at] - first[time_at];
+    let fs = (rows - 1) as f64 / span_s;
+    if !(fs.is_finite() && fs > 0.0) {
+        bail!("{input}: time column `{time_name}` does not increase");
+    }
+    let mut sections = Vec::new();
+    // Summary table.
+    let table_rows: Vec<Vec<String>> = columns
+        .iter()
+        .zip(&stats)
+        .map(|(c, s)| {
+            vec![
+                c.clone(),
+                format!("{}", s.non_finite),
+                format!("{:.6}", s.mean()),
+                format!("{:.6}", s.rms()),
+                format!("{:.6}", s.max_abs),
+            ]
+        })
+        .collect();
+    let mut body = format!("<p>{rows} rows, {span_s:.3} s, {fs:.1} Hz mean rate, {} columns.</p>", columns.len());
+    body += &table(&["column", "non-finite", "mean", "rms", "max |x|"], &table_rows);
     sections.push(Section { title: "Recording".into(), body });
-    // Torque over time.
     if !torque_cols.is_empty() {
+        // Torque over time.
         let series = torque_cols
             .iter()
-            .filter_map(|c| t.column(c).map(|y| Series { name: c.clone(), x: time.to_vec(), y: y.to_vec() }))
+            .zip(&plots)
+            .map(|(c, d)| {
+                let (x, y) = d.points();
+                Series { name: c.clone(), x, y }
+            })
             .collect();
         let plot = LinePlot {
-            title: "Torque over time".into(),
+            title: "Torque over time (minimum and maximum per pixel column)".into(),
             x_label: format!("{time_name} (s)"),
             y_label: "torque (N·m)".into(),
             series,
@@ -90,31 +141,28 @@ pub fn run(a: &Args) -> Result<()> {
         sections.push(Section { title: "Torque".into(), body: plot.to_svg() });
         // Spectra, with order lines from the joint config.
         let mut markers = Vec::new();
-        if let Some(c) = &cfg {
+        if let (Some(c), Some((m, o))) = (&cfg, angle_at) {
             let gear = c.gear()?;
-            let angle = |ch: &Option<strainwave_io::Channel>| ch.as_ref().and_then(|ch| t.column(ch.column_name()));
-            if let (Some(m), Some(o)) = (angle(&c.channels.motor_angle), angle(&c.channels.output_angle)) {
-                let n = m.len();
-                let phi0 = gear.relative_angle(m[0], o[0]);
-                let phi1 = gear.relative_angle(m[n - 1], o[n - 1]);
-                let rate = ((phi1 - phi0) / (time[n - 1] - time[0])).abs() / std::f64::consts::TAU;
-                let out_rate = ((o[n - 1] - o[0]) / (time[n - 1] - time[0])).abs() / std::f64::consts::TAU;
+            let phi0 = gear.relative_angle(first[m], first[o]);
+            let phi1 = gear.relative_angle(last[m], last[o]);
+            let rate = ((phi1 - phi0) / span_s).abs() / std::f64::consts::TAU;
+            let out_rate = ((last[o] - first[o]) / span_s).abs() / std::f64::consts::TAU;
+            if rate.is_finite() && out_rate.is_finite() {
                 for (k, label) in [(2.0, "2×"), (4.0, "4×")] {
                     markers.push(Marker { x: k * rate, label: format!("{label} (mean speed)") });
                 }
                 markers.push(Marker { x: out_rate, label: "1× output".into() });
             }
         }
-        let mut spec_series = Vec::new();
-        for c in torque_cols.iter().filter(|c| c.as_str() != "true_torque") {
-            let y: Vec<f64> = t.column(c).unwrap_or(&[]).iter().map(|v| if v.is_finite() { *v } else { 0.0 }).collect();
-            if let Ok(s) = amplitude_spectrum(&y, fs) {
-                spec_series.push(Series { name: c.clone(), x: s.freqs_hz, y: s.amplitude });
-            }
-        }
+        let spec_series: Vec<Series> = torque_cols
+            .iter()
+            .zip(spectra)
+            .filter(|(c, _)| c.as_str() != "true_torque")
+            .filter_map(|(c, w)| w.finish(fs).map(|(x, y)| Series { name: c.clone(), x, y }))
+            .collect();
         if !spec_series.is_empty() {
             let plot = LinePlot {
-                title: "Amplitude spectrum (Hann, whole recording)".into(),
+                title: format!("Amplitude spectrum (Hann, segments of up to {SPECTRUM_SEGMENT} samples averaged)"),
                 x_label: "frequency (Hz)".into(),
                 y_label: "amplitude (N·m)".into(),
                 series: spec_series,
@@ -126,18 +174,15 @@ pub fn run(a: &Args) -> Result<()> {
         }
     }
     // Errors against the truth.
-    if let Some(truth) = t.column("true_torque") {
-        let mut rows = Vec::new();
-        for c in torque_cols.iter().filter(|c| c.as_str() != "true_torque") {
-            let y = t.column(c).unwrap_or(&[]);
-            let e: Vec<f64> = y.iter().zip(truth).map(|(a, b)| a - b).filter(|x| x.is_finite()).collect();
-            rows.push(vec![
-                c.clone(),
-                format!("{:.5}", mean(&e)),
-                format!("{:.5}", rms(&e)),
-                format!("{:.5}", max_abs(&e)),
-            ]);
-        }
+    if truth_at.is_some() {
+        let rows: Vec<Vec<String>> = torque_cols
+            .iter()
+            .zip(&errors)
+            .filter(|(c, _)| c.as_str() != "true_torque")
+            .map(|(c, e)| {
+                vec![c.clone(), format!("{:.5}", e.mean()), format!("{:.5}", e.rms()), format!("{:.5}", e.max_abs)]
+            })
+            .collect();
         sections.push(Section {
             title: "Errors against true_torque".into(),
             body: table(&["signal", "mean error N·m", "RMS error N·m", "max |error| N·m"], &rows),
@@ -151,6 +196,6 @@ pub fn run(a: &Args) -> Result<()> {
         subtitle: esc(&format!("strainwave {}", env!("CARGO_PKG_VERSION"))),
         sections,
     };
-    std::fs::write(&a.out, report.to_html()).with_context(|| format!("{}", a.out.display()))?;
+    strainwave_io::output::write_file(&a.out, report.to_html())?;
     Ok(())
 }

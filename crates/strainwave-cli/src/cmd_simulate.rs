@@ -98,6 +98,9 @@ pub fn overridden<S: Adjustable>(s: &mut S, duration: Option<f64>, seed: Option<
 
 /// Runs `simulate`.
 pub fn run(a: &Args) -> Result<()> {
+    if let Some(out) = &a.out {
+        strainwave_io::output::refuse_input_as_output(out, a.scenario.as_deref())?;
+    }
     // The arm and bench twins have their own presets.
     if crate::sim_arm::run(a)? || crate::sim_bench::run(a)? {
         return Ok(());

@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use strainwave_analysis::psd::SpectralConfig;
 use strainwave_analysis::stft::spectrogram;
 
@@ -27,6 +27,7 @@ pub struct Args {
 
 /// Runs `spectrogram`.
 pub fn run(a: &Args) -> Result<()> {
+    strainwave_io::output::refuse_input_as_output(&a.out, [a.source.input.as_path()])?;
     let (t, fs) = a.source.read()?;
     let x = a.source.signal(&t)?;
     check_window(x.len(), a.nperseg)?;
@@ -62,6 +63,6 @@ pub fn run(a: &Args) -> Result<()> {
         range_db: 100.0,
         lines: Vec::new(),
     };
-    std::fs::write(&a.out, map.to_svg()).with_context(|| format!("{}", a.out.display()))?;
+    strainwave_io::output::write_file(&a.out, map.to_svg())?;
     Ok(())
 }

@@ -1,7 +1,8 @@
 //! `strainwave`: torque sensing for strain wave gear joints and motor test benches.
 //!
 //! A thin binary over the library crates: parse arguments, run one command, print
-//! errors once. Exit codes: 0 success, 1 user error (bad file, bad value), 2 bad usage.
+//! errors once. Exit codes: 0 success, 1 user error (bad file, bad value), 2 bad usage,
+//! 130 / 143 interrupted (SIGINT / SIGTERM), 141 output pipe closed.
 
 mod cmd_calibrate;
 mod cmd_campbell;
@@ -23,6 +24,7 @@ mod demo_estimate;
 mod progress;
 mod recording_args;
 mod report;
+mod signals;
 mod sim_arm;
 mod sim_bench;
 mod stdout;
@@ -116,6 +118,14 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    signals::install();
+    // A panic inside a format reader is reported as an error naming the file: no trace.
+    let default_hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        if !strainwave_io::guard::is_active() {
+            default_hook(info);
+        }
+    }));
     let result = match cli.command {
         Command::Calibrate(a) => cmd_calibrate::run(&a),
         Command::Convert(a) => cmd_convert::run(&a),
@@ -139,8 +149,14 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e) if signals::is_broken_pipe(&e) => ExitCode::from(signals::BROKEN_PIPE_EXIT),
         Err(e) => {
-            eprintln!("error: {}", one_line(&e));
+            // A path or cell with a line break in it is shown escaped: one line.
+            let line: String = one_line(&e)
+                .chars()
+                .flat_map(|c| if c.is_control() { c.escape_default().collect() } else { vec![c] })
+                .collect();
+            eprintln!("error: {line}");
             ExitCode::from(1)
         }
     }

@@ -55,17 +55,66 @@ pub fn column<'a>(t: &'a Table, name: &str, flag: &str, path: &Path) -> Result<&
     t.column(name).with_context(|| format!("{flag}: no column `{name}` in {}", path.display()))
 }
 
-/// Sample rate from the `time` column.
+/// A time step more than this many times the typical (median) one is a gap or a glitch:
+/// the spectral commands need evenly sampled recordings.
+pub const MAX_STEP_RATIO: f64 = 100.0;
+
+/// Sample rate from the `time` column, which must be finite and increase on every row,
+/// without steps of more than [`MAX_STEP_RATIO`] typical ones (errors name the 1-based row).
 pub fn sample_rate(t: &Table, path: &Path) -> Result<f64> {
     let time = column(t, "time", "time", path)?;
     if time.len() < 2 {
         bail!("{}: needs at least 2 samples, got {}", path.display(), time.len());
     }
-    let dt = (time[time.len() - 1] - time[0]) / (time.len() - 1) as f64;
-    if !(dt.is_finite() && dt > 0.0) {
-        bail!("{}: `time` must increase", path.display());
+    let mut steps = Vec::with_capacity(time.len() - 1);
+    for (k, w) in time.windows(2).enumerate() {
+        let dt = w[1] - w[0];
+        if !(w[1].is_finite() && dt > 0.0) {
+            let row = k + 2;
+            bail!(
+                "{}: row {row}, column `time`: {} s does not come after {} s of the row before",
+                path.display(),
+                w[1],
+                w[0]
+            );
+        }
+        steps.push(dt);
     }
+    if !time[0].is_finite() {
+        bail!("{}: row 1, column `time`: {} is not a time", path.display(), time[0]);
+    }
+    let mut sorted = steps.clone();
+    sorted.sort_by(f64::total_cmp);
+    let typical = sorted[sorted.len() / 2];
+    if let Some(k) = steps.iter().position(|dt| *dt > MAX_STEP_RATIO * typical) {
+        bail!(
+            "{}: row {}, column `time`: a step of {} s, more than {MAX_STEP_RATIO} times the typical {typical} s; \
+             this command needs an evenly sampled recording (fix the gap, or split the recording)",
+            path.display(),
+            k + 2,
+            steps[k]
+        );
+    }
+    let dt = (time[time.len() - 1] - time[0]) / (time.len() - 1) as f64;
     Ok(1.0 / dt)
+}
+
+/// Speed bins of `bin_rpm` up to the fastest sample: more than
+/// [`strainwave_analysis::campbell::MAX_SPEED_BINS`] is an error naming the row of that
+/// sample (usually a glitch in the speed column), never an allocation it sizes.
+pub fn speed_bins(speed_rpm: &[f64], bin_rpm: f64, name: &str, path: &Path) -> Result<usize> {
+    let max = strainwave_analysis::campbell::MAX_SPEED_BINS;
+    let (k, top) = speed_rpm.iter().copied().enumerate().fold((0, 0.0), |a, (k, v)| if v > a.1 { (k, v) } else { a });
+    let bins = (top / bin_rpm).floor() + 1.0;
+    if bins.is_nan() || bins > max as f64 {
+        bail!(
+            "{}: row {}, column `{name}`: {top} rpm in --speed-bin {bin_rpm} rpm bins needs more than {max} bins \
+             (a glitch in the speed? fix it, or widen --speed-bin)",
+            path.display(),
+            k + 1
+        );
+    }
+    Ok(bins as usize)
 }
 
 /// The speed column in rpm; an error naming it when it is zero or negative on average.
@@ -73,6 +122,9 @@ pub fn speed_rpm(t: &Table, name: &str, unit: &str, path: &Path) -> Result<Vec<f
     let raw = column(t, name, "--speed", path)?;
     let k = if unit == "rad_s" { 60.0 / std::f64::consts::TAU } else { 1.0 };
     let v: Vec<f64> = raw.iter().map(|x| x * k).collect();
+    if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+        bail!("{}: row {}, column `{name}`: speed {} is not finite", path.display(), i + 1, raw[i]);
+    }
     let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
     if mean.is_nan() || mean <= 0.0 {
         bail!("--speed: column `{name}` is zero or negative (mean {mean:.3} rpm); negate a reverse run");

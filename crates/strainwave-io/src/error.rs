@@ -2,6 +2,33 @@
 
 use std::path::PathBuf;
 
+/// Text from a file as a message shows it: on one line (control characters escaped)
+/// and at most 40 characters.
+pub(crate) fn shown(text: &str) -> String {
+    let mut out = String::new();
+    for (i, c) in text.chars().enumerate() {
+        if i == 40 {
+            out.push('…');
+            break;
+        }
+        if c.is_control() {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// A list of names on one line, at most 400 characters.
+fn shown_list(text: &str) -> String {
+    let one_line: String = text.chars().map(|c| if c.is_control() { ' ' } else { c }).collect();
+    match one_line.char_indices().nth(400) {
+        Some((i, _)) => format!("{}…", &one_line[..i]),
+        None => one_line,
+    }
+}
+
 /// A recording that cannot be read or written.
 #[derive(Debug, thiserror::Error)]
 pub enum IoError {
@@ -20,7 +47,7 @@ pub enum IoError {
     #[error("{0}: empty file (no header line)")]
     Empty(PathBuf),
     /// A column the command needs is absent.
-    #[error("{path}: no column `{column}` (columns: {available})")]
+    #[error("{path}: no column `{column}` (columns: {})", shown_list(available))]
     MissingColumn {
         /// File.
         path: PathBuf,
@@ -42,7 +69,7 @@ pub enum IoError {
         available: String,
     },
     /// A column of a non-numeric type (Parquet).
-    #[error("{path}: column `{column}` has type {found}, expected a number")]
+    #[error("{path}: column `{}` has type {found}, expected a number", shown(column))]
     WrongType {
         /// File.
         path: PathBuf,
@@ -69,7 +96,7 @@ pub enum IoError {
     #[error("{0}: MCAP output is not supported; write .csv or .parquet")]
     McapOutput(PathBuf),
     /// A cell that is not a number.
-    #[error("{path}: row {row}, column `{column}`: `{value}` is not a number")]
+    #[error("{path}: row {row}, column `{}`: `{}` is not a number", shown(column), shown(value))]
     NotANumber {
         /// File.
         path: PathBuf,
@@ -101,11 +128,19 @@ pub enum IoError {
         msg: String,
     },
     /// Duplicate column names in a header.
-    #[error("{path}: column `{column}` appears twice in the header")]
+    #[error("{path}: column `{}` appears twice in the header", shown(column))]
     DuplicateColumn {
         /// File.
         path: PathBuf,
         /// Name.
         column: String,
+    },
+    /// The output would replace an input.
+    #[error("{output}: is also an input ({input}); write the output to another file")]
+    OutputIsInput {
+        /// The output path.
+        output: PathBuf,
+        /// The input it names.
+        input: PathBuf,
     },
 }

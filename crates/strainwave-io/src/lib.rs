@@ -7,8 +7,10 @@
 pub mod channels;
 pub mod csv_io;
 pub mod error;
+pub mod guard;
 #[cfg(feature = "mcap")]
 pub mod mcap_in;
+pub mod output;
 #[cfg(feature = "parquet")]
 pub mod parquet_io;
 pub mod recording;

@@ -37,6 +37,7 @@ use serde::de::{DeserializeSeed, Deserializer, MapAccess, SeqAccess, Visitor};
 use crate::error::IoError;
 use crate::Table;
 
+mod bounds;
 mod cdr;
 pub use cdr::{decode_joint_state, CdrError, JointState, JOINT_STATE_SCHEMAS};
 
@@ -208,6 +209,7 @@ fn open_stream(path: &Path) -> Result<mcap::io::MessageReader<BufReader<File>>, 
             msg: "not an MCAP file (no MCAP magic at the start)".into(),
         });
     }
+    bounds::check_record_lengths(path)?;
     file.seek(SeekFrom::Start(0)).map_err(os)?;
     Ok(mcap::io::MessageReader::new(BufReader::with_capacity(1 << 16, file)))
 }

@@ -60,6 +60,27 @@ fn value(a: &dyn Array, k: usize) -> f64 {
     }
 }
 
+/// Every column chunk inside the file: the `parquet` crate panics on a negative offset
+/// or size in the footer, and reads past the end on a large one.
+fn check_byte_ranges(meta: &parquet::file::metadata::ParquetMetaData, file_bytes: u64) -> Result<(), String> {
+    for (g, group) in meta.row_groups().iter().enumerate() {
+        for c in group.columns() {
+            let start = c.dictionary_page_offset().unwrap_or(c.data_page_offset());
+            let len = c.compressed_size();
+            let inside =
+                start >= 0 && len >= 0 && (start as u64).checked_add(len as u64).is_some_and(|e| e <= file_bytes);
+            if !inside {
+                return Err(format!(
+                    "row group {}, column `{}`: bytes {start}..+{len} are outside the file of {file_bytes} bytes (corrupt file)",
+                    g + 1,
+                    crate::error::shown(c.column_path().string().as_str())
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Streaming reader of a Parquet recording.
 pub struct ParquetReader {
     path: PathBuf,
@@ -80,7 +101,11 @@ impl ParquetReader {
         if file.metadata().map(|m| m.len()).unwrap_or(0) == 0 {
             return Err(IoError::Empty(path.to_path_buf()));
         }
-        let builder = ParquetRecordBatchReaderBuilder::try_new(file).map_err(|e| pq_err(path, e))?;
+        let size = file.metadata().map(|m| m.len()).unwrap_or(0);
+        let builder = crate::guard::guarded(|| ParquetRecordBatchReaderBuilder::try_new(file))
+            .map_err(|e| pq_err(path, e))?
+            .map_err(|e| pq_err(path, e))?;
+        check_byte_ranges(builder.metadata(), size).map_err(|msg| pq_err(path, msg))?;
         let schema = builder.schema().clone();
         for f in schema.fields() {
             if !numeric(f.data_type()) {
@@ -91,8 +116,15 @@ impl ParquetReader {
                 });
             }
         }
-        let columns = schema.fields().iter().map(|f| f.name().clone()).collect();
-        let batches = builder.with_batch_size(crate::DEFAULT_CHUNK_ROWS).build().map_err(|e| pq_err(path, e))?;
+        let columns: Vec<String> = schema.fields().iter().map(|f| f.name().clone()).collect();
+        // As the CSV reader: a name twice would leave which column a command reads to chance.
+        let mut seen = std::collections::HashSet::new();
+        if let Some(dup) = columns.iter().find(|c| !seen.insert(c.as_str())) {
+            return Err(IoError::DuplicateColumn { path: path.to_path_buf(), column: dup.clone() });
+        }
+        let batches = crate::guard::guarded(|| builder.with_batch_size(crate::DEFAULT_CHUNK_ROWS).build())
+            .map_err(|e| pq_err(path, e))?
+            .map_err(|e| pq_err(path, e))?;
         Ok(Self { path: path.to_path_buf(), columns, batches, batch: None, row_in_batch: 0, rows_read: 0 })
     }
 
@@ -120,7 +152,8 @@ impl ParquetReader {
                     return Ok(true);
                 }
             }
-            match self.batches.next() {
+            let next = crate::guard::guarded(|| self.batches.next()).map_err(|e| pq_err(&self.path, e))?;
+            match next {
                 None => return Ok(false),
                 Some(Err(e)) => return Err(pq_err(&self.path, e)),
                 Some(Ok(b)) => {
@@ -135,7 +168,7 @@ impl ParquetReader {
 /// Parquet writer; the file appears under its name only on [`ParquetWriter::finish`].
 pub struct ParquetWriter {
     path: PathBuf,
-    tmp: PathBuf,
+    tmp: Option<crate::output::AtomicFile>,
     schema: SchemaRef,
     writer: Option<ArrowWriter<File>>,
     buffer: Vec<Vec<f64>>,
@@ -148,9 +181,8 @@ impl ParquetWriter {
         if path.is_dir() {
             return Err(IoError::IsDirectory(path.to_path_buf()));
         }
-        let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
-        let tmp = path.with_file_name(format!(".{name}.partial"));
-        let file = File::create(&tmp).map_err(|source| IoError::Os { path: path.to_path_buf(), source })?;
+        let tmp = crate::output::AtomicFile::create(path)?;
+        let file = tmp.try_clone_file()?;
         let schema: SchemaRef =
             Arc::new(Schema::new(columns.iter().map(|c| Field::new(*c, DataType::Float64, false)).collect::<Vec<_>>()));
         let props = WriterProperties::builder()
@@ -160,7 +192,7 @@ impl ParquetWriter {
         let writer = ArrowWriter::try_new(file, schema.clone(), Some(props)).map_err(|e| pq_err(path, e))?;
         Ok(Self {
             path: path.to_path_buf(),
-            tmp,
+            tmp: Some(tmp),
             schema,
             writer: Some(writer),
             buffer: vec![Vec::with_capacity(crate::DEFAULT_CHUNK_ROWS); columns.len()],
@@ -213,15 +245,9 @@ impl ParquetWriter {
         if let Some(w) = self.writer.take() {
             w.close().map_err(|e| pq_err(&self.path, e))?;
         }
-        std::fs::rename(&self.tmp, &self.path).map_err(|source| IoError::Os { path: self.path.clone(), source })?;
-        Ok(self.rows)
-    }
-}
-
-impl Drop for ParquetWriter {
-    fn drop(&mut self) {
-        if self.writer.take().is_some() {
-            let _ = std::fs::remove_file(&self.tmp);
+        if let Some(tmp) = self.tmp.take() {
+            tmp.commit()?;
         }
+        Ok(self.rows)
     }
 }

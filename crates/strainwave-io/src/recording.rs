@@ -227,6 +227,29 @@ mod tests {
     }
 
     #[test]
+    fn parquet_with_two_columns_of_one_name_is_refused() {
+        use arrow_array::{ArrayRef, Float64Array, RecordBatch};
+        use arrow_schema::{DataType, Field, Schema};
+        use std::sync::Arc;
+        let dir = std::env::temp_dir().join(format!("sw-pqd-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("dup.parquet");
+        let schema = Arc::new(Schema::new(vec![
+            Field::new("time", DataType::Float64, false),
+            Field::new("torque", DataType::Float64, false),
+            Field::new("torque", DataType::Float64, false),
+        ]));
+        let col = || Arc::new(Float64Array::from(vec![0.0, 1.0])) as ArrayRef;
+        let batch = RecordBatch::try_new(schema.clone(), vec![col(), col(), col()]).unwrap();
+        let mut w = parquet::arrow::ArrowWriter::try_new(std::fs::File::create(&p).unwrap(), schema, None).unwrap();
+        w.write(&batch).unwrap();
+        w.close().unwrap();
+        let e = RecordingReader::open(&p).err().unwrap().to_string();
+        assert!(e.ends_with("dup.parquet: column `torque` appears twice in the header"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
     fn format_by_extension() {
         assert_eq!(format_of(Path::new("a.CSV")).unwrap(), Format::Csv);
         assert_eq!(format_of(Path::new("-")).unwrap(), Format::Csv);

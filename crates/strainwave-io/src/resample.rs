@@ -1,6 +1,21 @@
 //! Explicit resampling of a recording to a uniform rate by linear interpolation between
 //! neighbouring rows, streaming. Used only when asked (`--resample-hz`), never silently.
 
+/// Most rows one interval between input rows may become. A longer interval is almost
+/// always a glitched timestamp (one time of 1e308 s would fill the disk); it is an error.
+/// At 1 kHz this is a gap of 2.8 hours.
+pub const MAX_ROWS_PER_GAP: u64 = 10_000_000;
+
+/// An interval between two input rows too long to fill.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("time {time_s} s is {gap_s} s after the previous row's: resampling would fill the gap with more than {max} rows (glitched time stamp?)", max = MAX_ROWS_PER_GAP)]
+pub struct GapTooLong {
+    /// Time of the row after the gap.
+    pub time_s: f64,
+    /// Length of the gap.
+    pub gap_s: f64,
+}
+
 /// Streaming linear resampler: push rows (time in column `time_index`), take rows on
 /// the grid `t0 + k / rate`.
 #[derive(Debug, Clone)]
@@ -24,21 +39,32 @@ impl LinearResampler {
         })
     }
 
-    /// Feeds one input row; calls `emit` for every output row it completes. Rows whose
-    /// time is not after the previous one are skipped and returned as `false`.
-    pub fn push(&mut self, row: &[f64], mut emit: impl FnMut(&[f64])) -> bool {
+    /// Feeds one input row; calls `emit` for every output row it completes, and stops
+    /// when `emit` returns `false` (a write failed). Rows whose time is not finite or not
+    /// after the previous one are skipped and returned as `Ok(false)`; a gap of more than
+    /// [`MAX_ROWS_PER_GAP`] output rows is an error, checked before anything is emitted.
+    pub fn push(&mut self, row: &[f64], mut emit: impl FnMut(&[f64]) -> bool) -> Result<bool, GapTooLong> {
         let t = row[self.time_index];
+        if !t.is_finite() {
+            return Ok(false);
+        }
         let Some(prev) = self.prev.as_ref() else {
             // Grid times are `t0 + k / rate`, computed afresh so they never drift.
             self.start_s = t;
             emit(row);
             self.next_k = 1;
             self.prev = Some(row.to_vec());
-            return true;
+            return Ok(true);
         };
         let t0 = prev[self.time_index];
-        if t.is_nan() || t <= t0 {
-            return false;
+        if t <= t0 {
+            return Ok(false);
+        }
+        // Grid points up to `t`, counted before any is emitted.
+        let last_k = ((t - self.start_s) * self.rate_hz).floor();
+        let rows = last_k - self.next_k as f64;
+        if rows.is_nan() || rows >= MAX_ROWS_PER_GAP as f64 {
+            return Err(GapTooLong { time_s: t, gap_s: t - t0 });
         }
         let mut out = vec![0.0; row.len()];
         loop {
@@ -51,11 +77,13 @@ impl LinearResampler {
                 *o = a + w * (b - a);
             }
             out[self.time_index] = tn;
-            emit(&out);
             self.next_k += 1;
+            if !emit(&out) {
+                break;
+            }
         }
         self.prev = Some(row.to_vec());
-        true
+        Ok(true)
     }
 }
 
@@ -68,7 +96,11 @@ mod tests {
         let mut r = LinearResampler::new(0, 10.0).unwrap();
         let mut out = Vec::new();
         for row in [[0.0, 0.0], [0.25, 2.5], [0.3, 3.0], [0.3, 9.0], [0.52, 5.2]] {
-            r.push(&row, |o| out.push(o.to_vec()));
+            r.push(&row, |o| {
+                out.push(o.to_vec());
+                true
+            })
+            .unwrap();
         }
         let t: Vec<f64> = out.iter().map(|r| r[0]).collect();
         assert_eq!(t.len(), 6);
@@ -77,5 +109,36 @@ mod tests {
             assert!((row[1] - row[0] * 10.0).abs() < 1e-9, "{row:?}");
         }
         assert!(LinearResampler::new(0, 0.0).is_none());
+    }
+
+    #[test]
+    fn a_glitched_time_stamp_is_an_error_before_any_row_and_infinity_is_skipped() {
+        let mut r = LinearResampler::new(0, 1000.0).unwrap();
+        let mut n = 0u64;
+        let mut count = |_: &[f64]| {
+            n += 1;
+            true
+        };
+        assert_eq!(r.push(&[0.0, 1.0], &mut count), Ok(true));
+        assert_eq!(r.push(&[f64::INFINITY, 1.0], &mut count), Ok(false));
+        let e = r.push(&[1e308, 1.0], &mut count).unwrap_err();
+        assert_eq!(e.gap_s, 1e308);
+        assert!(e.to_string().contains("more than 10000000 rows"), "{e}");
+        // A long but real gap is filled.
+        assert_eq!(r.push(&[100.0, 2.0], &mut count), Ok(true));
+        assert_eq!(n, 1 + 100_000);
+    }
+
+    #[test]
+    fn a_failed_write_stops_the_filling() {
+        let mut r = LinearResampler::new(0, 1000.0).unwrap();
+        let mut n = 0;
+        r.push(&[0.0], |_| true).unwrap();
+        r.push(&[5.0], |_| {
+            n += 1;
+            false
+        })
+        .unwrap();
+        assert_eq!(n, 1);
     }
 }

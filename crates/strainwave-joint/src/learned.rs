@@ -12,11 +12,13 @@
 //! variance_nm2 = 1.3e-6
 //! ```
 
+use std::io::Write;
 use std::path::Path;
 
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
 use strainwave_core::ripple::{Reference, RippleModel, RippleState};
+use strainwave_io::output::AtomicFile;
 
 /// The whole file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -71,20 +73,27 @@ impl LearnedFile {
         Self { orders }
     }
 
-    /// Writes the file (atomically: a temporary file renamed into place).
-    pub fn save(&self, path: &Path, header: &str) -> Result<()> {
+    /// Writes the file under a temporary name and syncs it; it replaces `path` on
+    /// [`AtomicFile::commit`], so a caller can fail before replacing any output.
+    pub fn stage(&self, path: &Path, header: &str) -> Result<AtomicFile> {
         let text = format!("# {header}\n{}", toml::to_string(self).context("learned coefficients")?);
-        let mut tmp = path.as_os_str().to_owned();
-        tmp.push(".partial");
-        let tmp = std::path::PathBuf::from(tmp);
-        std::fs::write(&tmp, text).with_context(|| format!("{}", path.display()))?;
-        std::fs::rename(&tmp, path).with_context(|| format!("{}", path.display()))
+        let mut file = AtomicFile::create(path)?;
+        file.write_all(text.as_bytes()).with_context(|| format!("{}", path.display()))?;
+        file.sync()?;
+        Ok(file)
+    }
+
+    /// Writes the file (atomically: a temporary file synced and renamed into place).
+    pub fn save(&self, path: &Path, header: &str) -> Result<()> {
+        Ok(self.stage(path, header)?.commit()?)
     }
 
     /// Reads a file.
     pub fn load(path: &Path) -> Result<Self> {
         let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
-        toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {}", path.display(), e.message()))
+        toml::from_str(&text).map_err(|e| {
+            anyhow::anyhow!("{}: {}", path.display(), strainwave_analysis::calibration::toml_error_line(&text, &e))
+        })
     }
 
     /// `model` with these coefficients as its priors; the orders must match one to one.

@@ -81,6 +81,23 @@ impl RowCheck {
         }
     }
 
+    /// Data row `n` has a finite torque reading that the calibration makes infinite
+    /// (e.g. 1e308 V times the gain): an error naming the row and column, or with
+    /// `--lenient` a skipped sample like a NaN in the file.
+    pub fn calibration_overflow(&self, row: &[f64], n: u64) -> Result<()> {
+        if self.lenient {
+            return Ok(());
+        }
+        let (key, column, value) = match self.channels.iter().find(|(k, ..)| *k == "torque") {
+            Some((k, column, c)) => (*k, column.as_str(), row[c.index]),
+            None => ("torque", "torque", f64::NAN),
+        };
+        bail!(
+            "data row {n}: column `{column}` (`channels.{key}`) is {value}, which the calibration makes infinite; \
+             fix the recording or the calibration, or pass --lenient to skip such rows with a flag"
+        )
+    }
+
     /// Records the canceller's flags for data row `n`.
     pub fn flags(&mut self, flags: StepFlags, n: u64) {
         if flags.contains(StepFlags::MEASUREMENT_SKIPPED) || flags.contains(StepFlags::ANGLE_SKIPPED) {

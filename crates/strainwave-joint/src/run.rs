@@ -116,7 +116,8 @@ pub fn filter_recording<S: RowSource, W: RowSink>(
         PhaseChoice::Angle => PhaseSource::Angle,
         PhaseChoice::Velocity => PhaseSource::Velocity,
     };
-    let core = |e: strainwave_core::Error| anyhow!("{config}: filter: {e}");
+    let orders_model = cfg.filter.model == ModelChoice::Orders;
+    let core = |e: strainwave_core::Error| anyhow!("{config}: {}", in_config_terms(e, orders_model, fs));
     let noise = |model: &str| {
         cfg.filter.noise_nm.with_context(|| format!("{config}: `filter.noise_nm` is needed by the {model} model"))
     };
@@ -188,6 +189,32 @@ pub fn filter_recording<S: RowSource, W: RowSink>(
     Ok(summary)
 }
 
+/// A core error in the words of the config file: a parameter the user did not write
+/// is named by the key it comes from (`noise_nm`, not the variance `r_nm2` made of it).
+fn in_config_terms(e: strainwave_core::Error, orders_model: bool, sample_rate_hz: f64) -> String {
+    use strainwave_core::Error as E;
+    let key = |p: &'static str| match p {
+        "r_nm2" if orders_model => "filter.r_nm2",
+        "r_nm2" => "filter.noise_nm",
+        "sample_rate_hz" => "filter.sample_rate_hz",
+        "q_per_sample_nm2" | "q_per_rad_nm2" | "multiple" => p,
+        "q_nm2" if orders_model => "filter.bias_q_nm2",
+        other => other,
+    };
+    match e {
+        E::OutOfRange("bandwidth_hz") => {
+            format!("`filter.sample_rate_hz` = {sample_rate_hz} is too low for the model's tracking bandwidth")
+        }
+        E::NotPositiveDefinite("ripple covariance") => "the filter's uncertainty became invalid (a glitch in the \
+             torque or the angles, or a `filter.noise_nm` far from the recording's noise?)"
+            .into(),
+        E::NonPositive(p) => format!("`{}` must be positive", key(p)),
+        E::NonFinite(p) => format!("`{}` must be finite", key(p)),
+        E::OutOfRange(p) => format!("`{}` is out of range", key(p)),
+        other => other.to_string(),
+    }
+}
+
 /// The channels bound to the input's columns.
 pub(crate) struct Bound {
     pub(crate) time: BoundChannel,
@@ -242,12 +269,14 @@ impl Bound {
         cal: &strainwave_core::calibration::Calibration<f64, MAX_TABLE_LEN>,
         row: &[f64],
         velocity: bool,
-    ) -> (RippleInput<f64>, bool) {
+    ) -> (RippleInput<f64>, bool, bool) {
         let speed = self.motor_velocity.map_or(0.0, |c| c.get(row));
-        let (torque, extrapolated) = match cal.apply_flagged(self.torque.get(row), speed) {
-            Ok(a) => (a.torque_nm, a.extrapolated),
+        let (torque, extrapolated, overflow) = match cal.apply_flagged(self.torque.get(row), speed) {
+            Ok(a) => (a.torque_nm, a.extrapolated, false),
+            // A finite reading the calibration makes infinite: as a NaN in the file.
+            Err(strainwave_core::Error::NonFinite("torque_nm")) => (f64::NAN, false, true),
             // A non-finite sample or a speed the policy rejects: the filter skips it.
-            Err(_) => (f64::NAN, false),
+            Err(_) => (f64::NAN, false, false),
         };
         let refs = if velocity {
             let w = speed;
@@ -261,7 +290,7 @@ impl Bound {
         if let Some(e) = self.expected {
             input = input.with_expected_torque(e.get(row));
         }
-        (input, extrapolated)
+        (input, extrapolated, overflow)
     }
 }
 
@@ -327,7 +356,10 @@ impl Run<'_> {
             let n = r.rows_read();
             check.row(&row, n, n - 1).with_context(|| input.to_string())?;
             let t = ch.time.get(&row);
-            let (mut sample, extra) = ch.input(&gear, &cal, &row, velocity);
+            let (mut sample, extra, overflow) = ch.input(&gear, &cal, &row, velocity);
+            if overflow {
+                check.calibration_overflow(&row, n).with_context(|| input.to_string())?;
+            }
             extrapolated += u64::from(extra);
             if let Some(t0) = last_t.filter(|t0| t.is_finite() && t > *t0) {
                 sample = sample.with_dt(t - t0);
@@ -336,9 +368,20 @@ impl Run<'_> {
                 first_t.get_or_insert(t);
                 last_t = Some(t);
             }
-            let o: RippleOutput<f64> =
-                step(model, &mut state, &sample).map_err(|e| anyhow!("{input}: data row {n}: filter: {e}"))?;
+            let o: RippleOutput<f64> = step(model, &mut state, &sample).map_err(|e| {
+                let why = in_config_terms(e, cfg.filter.model == ModelChoice::Orders, cfg.filter.sample_rate_hz);
+                anyhow!("{input}: data row {n}: {why}")
+            })?;
             check.flags(o.flags, n);
+            // NaN marks a skipped sample; an infinity is an overflow the filter made.
+            let outputs = [o.torque_nm, o.ripple_nm, o.misalignment_nm, o.innovation_nm, o.nis];
+            if let Some(v) = outputs.iter().find(|v| v.is_infinite()) {
+                bail!(
+                    "{input}: data row {n}: the filter's output overflows ({v}) from a torque of {} N·m; \
+                     check the calibration and `filter.noise_nm` in {config}",
+                    sample.torque_nm
+                );
+            }
             row.extend_from_slice(&[
                 o.torque_nm,
                 o.ripple_nm,
@@ -358,10 +401,19 @@ impl Run<'_> {
         if r.rows_read() == 0 {
             bail!("{input}: no data rows");
         }
+        // The learned file is written and synced before the output replaces anything:
+        // a `--learn` that cannot be written leaves `--out` as it was.
+        let rows = r.rows_read();
+        let learned = match &opts.learn {
+            Some(path) => Some(
+                LearnedFile::from_state(model, &state)
+                    .stage(path, &format!("learned by strainwave filter from {input} ({rows} rows)"))?,
+            ),
+            None => None,
+        };
         let rows = w.finish()?;
-        if let Some(path) = &opts.learn {
-            let file = LearnedFile::from_state(model, &state);
-            file.save(path, &format!("learned by strainwave filter from {input} ({rows} rows)"))?;
+        if let Some(file) = learned {
+            file.commit()?;
         }
         let span = first_t.zip(last_t).map(|(t0, t1)| t1 - t0);
         Ok(FilterSummary { rows, notes: Vec::new(), extrapolated, warnings: check.warnings(input, rows, span) })

@@ -20,11 +20,11 @@ pub enum CalibrationError {
         got: usize,
     },
     /// A NaN or infinite value in a row.
-    #[error("{what}: row {row} has a non-finite `{column}`")]
+    #[error("{what}: row {} has a non-finite `{column}`", .row + 1)]
     NonFiniteRow {
         /// Which input.
         what: String,
-        /// Row index (0-based).
+        /// Row index (0-based; shown 1-based, as users count).
         row: usize,
         /// Column name.
         column: &'static str,

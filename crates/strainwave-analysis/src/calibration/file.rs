@@ -155,7 +155,7 @@ impl CalibrationFile {
 
     /// Parses and validates TOML text (NaN/∞ refused with the key named).
     pub fn from_toml_str(text: &str) -> Result<Self, CalibrationError> {
-        let f: Self = toml::from_str(text).map_err(|e| CalibrationError::Toml(e.to_string()))?;
+        let f: Self = toml::from_str(text).map_err(|e| CalibrationError::Toml(toml_error_line(text, &e)))?;
         f.validate()?;
         Ok(f)
     }
@@ -170,7 +170,9 @@ impl CalibrationFile {
     pub fn load(path: &Path) -> Result<Self, CalibrationError> {
         let text = std::fs::read_to_string(path)
             .map_err(|e| CalibrationError::Io { path: path.display().to_string(), message: e.to_string() })?;
+        // The file named in front of what is wrong in it.
         Self::from_toml_str(&text)
+            .map_err(|e| CalibrationError::Io { path: path.display().to_string(), message: e.to_string() })
     }
 
     /// Writes a file.
@@ -377,6 +379,18 @@ impl CalibrationFile {
         }
         Ok(out)
     }
+}
+
+/// A TOML error on one line: `line L, column C: message` (the `toml` crate's own text
+/// draws the offending line over several).
+pub fn toml_error_line(text: &str, e: &toml::de::Error) -> String {
+    let at = e.span().map_or(String::new(), |s| {
+        let before = text.get(..s.start).unwrap_or(text);
+        let line = before.matches('\n').count() + 1;
+        let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+        format!("line {line}, column {column}: ")
+    });
+    format!("{at}{}", e.message().trim().replace('\n', "; "))
 }
 
 #[cfg(test)]

@@ -215,10 +215,10 @@ pub fn fit_speed_dependent(
 
 fn fit_speed_poly(x: &[f64], t: &[f64], w: &[f64], degree: usize) -> Result<SpeedFit, CalibrationError> {
     let what = "speed polynomial fit";
-    let k = degree + 1;
-    if k > MAX_TABLE_LEN {
+    if degree >= MAX_TABLE_LEN {
         return Err(invalid(what, format!("degree {degree} exceeds {}", MAX_TABLE_LEN - 1)));
     }
+    let k = degree + 1;
     let lo = w.iter().copied().fold(f64::INFINITY, f64::min);
     let hi = w.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     // Even at degree 0 a speed model needs data at two speeds (its range must be an interval).
@@ -260,6 +260,9 @@ fn fit_speed_table(x: &[f64], t: &[f64], w: &[f64], bins: &SpeedBins) -> Result<
             if e.len() < 3 {
                 return Err(invalid("speed bin edges", "a table needs at least two bins (three edges)"));
             }
+            if e.len() > MAX_TABLE_LEN {
+                return Err(invalid("speed bin edges", format!("at most {MAX_TABLE_LEN} edges, got {}", e.len())));
+            }
             for (i, v) in e.iter().enumerate() {
                 if !v.is_finite() {
                     return Err(CalibrationError::NonFiniteRow {
@@ -277,6 +280,9 @@ fn fit_speed_table(x: &[f64], t: &[f64], w: &[f64], bins: &SpeedBins) -> Result<
         SpeedBins::EqualWidth(nb) => {
             if *nb < 2 {
                 return Err(invalid("speed bins", "a table needs at least two bins"));
+            }
+            if *nb >= MAX_TABLE_LEN {
+                return Err(invalid("speed bins", format!("at most {} bins, got {nb}", MAX_TABLE_LEN - 1)));
             }
             require_two_values(what, "speed_rad_s", w)?;
             let lo = w.iter().copied().fold(f64::INFINITY, f64::min);

@@ -3,4 +3,5 @@
 pub mod heatmap;
 pub mod html;
 pub mod plot;
+pub mod streaming;
 pub mod text;

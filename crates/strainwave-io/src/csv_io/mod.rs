@@ -16,10 +16,14 @@ use std::path::{Path, PathBuf};
 use std::sync::mpsc::{self, Receiver, Sender, SyncSender};
 
 use crate::error::IoError;
+use crate::output::AtomicFile;
 
 /// Rows per chunk when streaming.
 pub const DEFAULT_CHUNK_ROWS: usize = 8192;
 
+/// Longest line (record) accepted: a recording's rows are a few hundred bytes, and a
+/// longer line is almost always a file that is not a recording. It bounds the input buffer.
+pub const MAX_RECORD_BYTES: usize = 64 << 20;
 /// Bytes asked of the input per read.
 const READ_BUFFER_BYTES: usize = 1 << 20;
 /// Bytes gathered before a write to an output file.

@@ -129,8 +129,19 @@ impl Parser {
             self.start = 0;
         }
         if self.end == self.buf.len() {
-            // One record longer than the buffer.
-            self.buf.resize(2 * self.buf.len(), 0);
+            // One record longer than the buffer: it may grow up to the limit.
+            if self.buf.len() >= MAX_RECORD_BYTES {
+                let at = if self.rows == 0 && self.columns.is_empty() {
+                    "the header line".to_string()
+                } else {
+                    format!("row {}", self.rows + 1)
+                };
+                return Err(IoError::Csv {
+                    path: self.path.clone(),
+                    msg: format!("{at} is longer than {} MiB (not a recording?)", MAX_RECORD_BYTES >> 20),
+                });
+            }
+            self.buf.resize((2 * self.buf.len()).min(MAX_RECORD_BYTES), 0);
         }
         loop {
             match self.input.read(&mut self.buf[self.end..]) {

@@ -438,3 +438,32 @@ fn writer_output_is_byte_for_byte_the_std_text() {
     assert!(std::fs::read_to_string(&path).unwrap() == want, "output differs from std's text");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn header_names_with_commas_quotes_and_line_breaks_read_back_as_written() {
+    let dir = std::env::temp_dir().join(format!("sw-hdr-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("h.csv");
+    let cols = ["time", "a,b", "say \"hi\"", "two\nlines"];
+    let mut w = CsvWriter::create(&path, &cols).unwrap();
+    w.write_row(&[0.0, 1.0, 2.0, 3.0]).unwrap();
+    w.finish().unwrap();
+    let t = read_table(&path).unwrap();
+    assert_eq!(t.columns, cols);
+    assert_eq!(t.data[3], [3.0]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_line_longer_than_the_limit_is_an_error_not_an_allocation() {
+    let dir = std::env::temp_dir().join(format!("sw-long-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("long.csv");
+    let mut text = b"time,x\n0,1\n1,".to_vec();
+    text.resize(text.len() + MAX_RECORD_BYTES + 10, b'7');
+    text.push(b'\n');
+    std::fs::write(&path, &text).unwrap();
+    let e = read_table(&path).unwrap_err().to_string();
+    assert!(e.contains("long.csv: row 2 is longer than 64 MiB"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -77,7 +77,7 @@ impl Drop for FileWriter {
 }
 
 pub(super) enum Sink {
-    File { tmp: PathBuf, out: FileWriter },
+    File { tmp: AtomicFile, out: FileWriter },
     Stdout(std::io::Stdout),
 }
 
@@ -104,22 +104,13 @@ impl CsvWriter {
             if path.is_dir() {
                 return Err(IoError::IsDirectory(path.to_path_buf()));
             }
-            let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
-            let tmp = path.with_file_name(format!(".{name}.partial"));
-            let file = File::create(&tmp).map_err(os)?;
-            let out = match FileWriter::spawn(file) {
-                Ok(out) => out,
-                Err(e) => {
-                    let _ = std::fs::remove_file(&tmp);
-                    return Err(os(e));
-                }
-            };
+            let tmp = AtomicFile::create(path)?;
+            let out = FileWriter::spawn(tmp.try_clone_file()?).map_err(os)?;
             (Sink::File { tmp, out }, FILE_WRITE_BUFFER_BYTES)
         };
         // Room for the last row past the limit, so the buffer never grows.
         let mut buf = Vec::with_capacity(limit + 4096);
-        buf.extend_from_slice(columns.join(",").as_bytes());
-        buf.push(b'\n');
+        write_header(columns, &mut buf);
         let mut w = Self { path: path.to_path_buf(), sink: Some(sink), n_cols: columns.len(), buf, limit, rows: 0 };
         if w.buf.len() >= w.limit {
             w.write_out()?;
@@ -184,7 +175,7 @@ impl CsvWriter {
         }
         if let Some(Sink::File { tmp, out }) = self.sink.take() {
             drop(out);
-            std::fs::rename(&tmp, &self.path).map_err(|source| IoError::Os { path: self.path.clone(), source })?;
+            tmp.commit()?;
         }
         Ok(self.rows)
     }
@@ -193,9 +184,10 @@ impl CsvWriter {
 impl Drop for CsvWriter {
     fn drop(&mut self) {
         match self.sink.take() {
+            // Dropping the temporary file removes it.
             Some(Sink::File { tmp, out }) => {
                 drop(out);
-                let _ = std::fs::remove_file(tmp);
+                drop(tmp);
             }
             // Rows already written stay written, as with a buffered writer dropped.
             Some(Sink::Stdout(mut out)) => {
@@ -204,4 +196,26 @@ impl Drop for CsvWriter {
             None => {}
         }
     }
+}
+
+/// The header line, each name quoted when CSV requires it (a comma, quote or line break), so that the reader gets back the names as written.
+pub(super) fn write_header(columns: &[&str], buf: &mut Vec<u8>) {
+    for (i, c) in columns.iter().enumerate() {
+        if i > 0 {
+            buf.push(b',');
+        }
+        if c.bytes().any(|b| matches!(b, b',' | b'"' | b'\n' | b'\r')) {
+            buf.push(b'"');
+            for b in c.bytes() {
+                if b == b'"' {
+                    buf.push(b'"');
+                }
+                buf.push(b);
+            }
+            buf.push(b'"');
+        } else {
+            buf.extend_from_slice(c.as_bytes());
+        }
+    }
+    buf.push(b'\n');
 }

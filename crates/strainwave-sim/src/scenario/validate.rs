@@ -9,6 +9,9 @@ impl Scenario {
     pub fn validate(&self) -> Result<(), SimError> {
         pos(self.sample_rate_hz, "sample_rate_hz")?;
         pos(self.duration_s, "duration_s")?;
+        if self.duration_s * self.sample_rate_hz > 1e9 {
+            return Err(SimError::invalid("duration_s", "more than 10⁹ samples at sample_rate_hz".into()));
+        }
         let g = &self.gear;
         pos(g.ratio, "gear.ratio")?;
         pos(g.rated_torque_nm, "gear.rated_torque_nm")?;

@@ -1,0 +1,224 @@
+//! What `report` keeps of a recording while it streams through it once, in memory that
+//! does not grow with its length: per-column sums, a min/max decimation of each plotted
+//! signal and averaged amplitude spectra.
+
+use strainwave_analysis::spectrum::amplitude_spectrum;
+
+/// Count, non-finite count, sum, sum of squares and largest magnitude of a column.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ColumnStats {
+    /// Finite values.
+    pub finite: u64,
+    /// Non-finite values.
+    pub non_finite: u64,
+    sum: f64,
+    sum_sq: f64,
+    /// Largest |x|.
+    pub max_abs: f64,
+}
+
+impl ColumnStats {
+    /// Adds one value.
+    pub fn push(&mut self, v: f64) {
+        if v.is_finite() {
+            self.finite += 1;
+            self.sum += v;
+            self.sum_sq += v * v;
+            self.max_abs = self.max_abs.max(v.abs());
+        } else {
+            self.non_finite += 1;
+        }
+    }
+
+    /// Mean of the finite values (0 for none).
+    pub fn mean(&self) -> f64 {
+        if self.finite == 0 {
+            0.0
+        } else {
+            self.sum / self.finite as f64
+        }
+    }
+
+    /// RMS of the finite values (0 for none).
+    pub fn rms(&self) -> f64 {
+        if self.finite == 0 {
+            0.0
+        } else {
+            (self.sum_sq / self.finite as f64).sqrt()
+        }
+    }
+}
+
+/// Min/max decimation for a line plot: consecutive rows are grouped into at most
+/// `2 · columns` bins, each drawn as its minimum and maximum (in time order), so the
+/// envelope of every spike survives. When the bins fill, neighbours merge and each
+/// bin takes twice as many rows: memory stays at `2 · columns` bins.
+#[derive(Debug, Clone)]
+pub struct MinMaxDecimator {
+    capacity: usize,
+    rows_per_bin: u64,
+    bins: Vec<Bin>,
+    current: Option<Bin>,
+    in_current: u64,
+}
+
+/// The extremes of a group of rows: `(time, value)` of the minimum and the maximum.
+#[derive(Debug, Clone, Copy)]
+struct Bin {
+    min: (f64, f64),
+    max: (f64, f64),
+}
+
+impl Bin {
+    fn merge(self, o: Bin) -> Bin {
+        Bin {
+            min: if o.min.1 < self.min.1 { o.min } else { self.min },
+            max: if o.max.1 > self.max.1 { o.max } else { self.max },
+        }
+    }
+}
+
+impl MinMaxDecimator {
+    /// A decimator for a plot `columns` pixels wide.
+    pub fn new(columns: usize) -> Self {
+        let capacity = 2 * columns.max(1);
+        Self { capacity, rows_per_bin: 1, bins: Vec::with_capacity(capacity), current: None, in_current: 0 }
+    }
+
+    /// Adds the value `y` at time `t` (non-finite values are left out of the plot).
+    pub fn push(&mut self, t: f64, y: f64) {
+        if y.is_finite() && t.is_finite() {
+            let b = Bin { min: (t, y), max: (t, y) };
+            self.current = Some(self.current.map_or(b, |c| c.merge(b)));
+        }
+        self.in_current += 1;
+        if self.in_current == self.rows_per_bin {
+            self.close();
+        }
+    }
+
+    fn close(&mut self) {
+        if let Some(b) = self.current.take() {
+            self.bins.push(b);
+        }
+        self.in_current = 0;
+        if self.bins.len() == self.capacity {
+            let merged: Vec<Bin> = self.bins.chunks(2).map(|p| p.iter().copied().reduce(Bin::merge).unwrap()).collect();
+            self.bins = merged;
+            self.rows_per_bin *= 2;
+        }
+    }
+
+    /// The points to draw, in time order.
+    pub fn points(&self) -> (Vec<f64>, Vec<f64>) {
+        let (mut x, mut y) = (Vec::new(), Vec::new());
+        for b in self.bins.iter().chain(&self.current) {
+            let (a, c) = if b.min.0 <= b.max.0 { (b.min, b.max) } else { (b.max, b.min) };
+            x.extend([a.0, c.0]);
+            y.extend([a.1, c.1]);
+        }
+        (x, y)
+    }
+}
+
+/// Averaged amplitude spectrum over Hann segments of `segment` samples with half
+/// overlap (Welch), streaming; a recording shorter than one segment is taken whole.
+/// Non-finite samples count as 0.
+#[derive(Debug, Clone)]
+pub struct WelchAmplitude {
+    segment: usize,
+    buf: Vec<f64>,
+    /// Sum of squared amplitudes per bin, and the segments summed.
+    power: Vec<f64>,
+    segments: u64,
+    /// Samples per segment summed.
+    len: usize,
+}
+
+impl WelchAmplitude {
+    /// Segments of `segment` samples.
+    pub fn new(segment: usize) -> Self {
+        Self { segment, buf: Vec::with_capacity(segment), power: Vec::new(), segments: 0, len: 0 }
+    }
+
+    /// Adds one sample.
+    pub fn push(&mut self, v: f64) {
+        self.buf.push(if v.is_finite() { v } else { 0.0 });
+        if self.buf.len() == self.segment {
+            self.add(self.segment);
+            self.buf.drain(..self.segment / 2);
+        }
+    }
+
+    fn add(&mut self, n: usize) {
+        // The sample rate only scales the frequency axis: 1 here, the real one at the end.
+        if let Ok(s) = amplitude_spectrum(&self.buf[..n], 1.0) {
+            if self.power.is_empty() {
+                self.power = vec![0.0; s.amplitude.len()];
+            }
+            for (p, a) in self.power.iter_mut().zip(&s.amplitude) {
+                *p += a * a;
+            }
+            self.segments += 1;
+            self.len = n;
+        }
+    }
+
+    /// Frequencies (Hz, for `sample_rate_hz`) and RMS-averaged amplitudes; `None` for
+    /// fewer than 8 samples.
+    pub fn finish(mut self, sample_rate_hz: f64) -> Option<(Vec<f64>, Vec<f64>)> {
+        if self.segments == 0 {
+            let n = self.buf.len();
+            self.add(n);
+        }
+        if self.segments == 0 {
+            return None;
+        }
+        let freqs = (0..self.power.len()).map(|k| k as f64 * sample_rate_hz / self.len as f64).collect();
+        let amp = self.power.iter().map(|p| (p / self.segments as f64).sqrt()).collect();
+        Some((freqs, amp))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn decimation_keeps_a_single_spike_and_stays_bounded() {
+        let mut d = MinMaxDecimator::new(100);
+        for k in 0..1_000_000u64 {
+            d.push(k as f64, if k == 777_777 { 5.0 } else { (k as f64 * 1e-3).sin() });
+        }
+        let (x, y) = d.points();
+        assert!(x.len() <= 400, "{}", x.len());
+        assert!(x.windows(2).all(|w| w[0] <= w[1]));
+        assert_eq!(y.iter().cloned().fold(f64::MIN, f64::max), 5.0);
+        assert_eq!(x[y.iter().position(|v| *v == 5.0).unwrap()], 777_777.0);
+    }
+
+    #[test]
+    fn welch_finds_the_amplitude_of_a_sine() {
+        let fs = 1000.0;
+        let mut w = WelchAmplitude::new(4096);
+        for k in 0..100_000 {
+            w.push(0.5 * (std::f64::consts::TAU * 125.0 * k as f64 / fs).sin());
+        }
+        let (f, a) = w.finish(fs).unwrap();
+        let k = a.iter().enumerate().max_by(|x, y| x.1.total_cmp(y.1)).unwrap().0;
+        assert!((f[k] - 125.0).abs() < 0.25, "{}", f[k]);
+        assert!((a[k] - 0.5).abs() < 0.01, "{}", a[k]);
+    }
+
+    #[test]
+    fn a_short_recording_is_one_whole_segment() {
+        let mut w = WelchAmplitude::new(4096);
+        for k in 0..1000 {
+            w.push((std::f64::consts::TAU * 50.0 * k as f64 / 1000.0).cos());
+        }
+        let (f, a) = w.finish(1000.0).unwrap();
+        let k = a.iter().enumerate().max_by(|x, y| x.1.total_cmp(y.1)).unwrap().0;
+        assert_eq!(f[k], 50.0);
+        assert!((a[k] - 1.0).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,470 @@
+//! Nothing lost, nothing crashes: each case of the safety issue as a run of the binary.
+//! Outputs appear whole or not at all, an output naming an input is refused, bounds and
+//! glitches are one-line errors (exit 1, never a panic's 101), interrupts leave no
+//! temporary files and closed pipes end quietly.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_strainwave"))
+}
+
+fn run(args: &[&str]) -> Output {
+    bin().args(args).output().expect("run strainwave")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("sw-safety-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// The names in a directory, sorted.
+fn names(d: &Path) -> Vec<String> {
+    let mut v: Vec<String> =
+        std::fs::read_dir(d).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    v.sort();
+    v
+}
+
+/// Exit 1 with one line on stderr that contains every needle.
+fn assert_error(o: &Output, needles: &[&str]) {
+    let e = stderr(o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert_eq!(e.trim_end().lines().count(), 1, "not one line: {e}");
+    for n in needles {
+        assert!(e.contains(n), "`{n}` not in: {e}");
+    }
+}
+
+/// A CSV of `n` rows at 1 kHz: time, a sine signal and a speed of 600 rpm; `edit` changes
+/// row `k` (0-based) before it is written.
+fn recording(path: &Path, n: usize, edit: impl Fn(usize, &mut [f64; 3])) {
+    let mut text = String::from("time,signal,speed\n");
+    for k in 0..n {
+        let t = k as f64 * 1e-3;
+        let mut r = [t, (std::f64::consts::TAU * 60.0 * t).sin(), 600.0];
+        edit(k, &mut r);
+        text += &format!("{},{},{}\n", r[0], r[1], r[2]);
+    }
+    std::fs::write(path, text).unwrap();
+}
+
+fn simulate(out: &Path, duration: &str) -> Output {
+    run(&["simulate", "--preset", "taghirad", "--duration", duration, "--out", s(out), "--quiet"])
+}
+
+#[test]
+fn two_runs_writing_one_output_leave_one_whole_file() {
+    let d = tmp("race");
+    let out = d.join("run.csv");
+    let spawn = |seed: &str| {
+        bin()
+            .args(["simulate", "--preset", "taghirad", "--duration", "3", "--seed", seed, "--out", s(&out), "--quiet"])
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap()
+    };
+    let (a, b) = (spawn("1"), spawn("2"));
+    for c in [a, b] {
+        let o = c.wait_with_output().unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    // Whole: every row has the header's cells, and it converts without error.
+    let text = std::fs::read_to_string(&out).unwrap();
+    let cells = text.lines().next().unwrap().split(',').count();
+    assert!(text.lines().all(|l| l.split(',').count() == cells));
+    assert_eq!(text.lines().count(), 3001);
+    assert_eq!(names(&d), ["run.csv"]);
+}
+
+#[test]
+fn an_output_naming_an_input_is_refused_and_the_input_kept() {
+    let d = tmp("same");
+    let rec = d.join("rec.csv");
+    recording(&rec, 4096, |_, _| {});
+    let before = std::fs::read(&rec).unwrap();
+    let other_spelling = format!("{}/./rec.csv", s(&d));
+    let cases: Vec<Vec<&str>> = vec![
+        vec!["convert", "--in", s(&rec), "--out", &other_spelling],
+        vec!["report", "--in", s(&rec), "--out", s(&rec)],
+        vec!["spectrogram", "--in", s(&rec), "--signal", "signal", "--out", s(&rec)],
+        vec!["campbell", "--in", s(&rec), "--signal", "signal", "--speed", "speed", "--out", s(&rec)],
+        vec!["orders", "--in", s(&rec), "--signal", "signal", "--speed", "speed", "--order", "6", "--out", s(&rec)],
+        vec!["filter", "--config", "../../examples/joint-taghirad.toml", "--in", s(&rec), "--out", s(&rec)],
+    ];
+    for args in cases {
+        let o = run(&args);
+        assert_error(&o, &["is also an input"]);
+        assert_eq!(std::fs::read(&rec).unwrap(), before, "{args:?}");
+    }
+    #[cfg(unix)]
+    {
+        let link = d.join("link.csv");
+        std::os::unix::fs::symlink(&rec, &link).unwrap();
+        assert_error(&run(&["convert", "--in", s(&rec), "--out", s(&link)]), &["is also an input"]);
+    }
+    assert_eq!(std::fs::read(&rec).unwrap(), before);
+}
+
+#[test]
+fn report_to_standard_output_creates_no_file_named_dash() {
+    let d = tmp("dash");
+    let rec = d.join("rec.csv");
+    recording(&rec, 2048, |_, _| {});
+    let o = bin().current_dir(&d).args(["report", "--in", "rec.csv", "--out", "-"]).output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).to_lowercase().contains("<html"));
+    assert_eq!(names(&d), ["rec.csv"]);
+}
+
+#[test]
+fn a_learn_file_that_cannot_be_written_leaves_the_output_as_it_was() {
+    let d = tmp("learn");
+    let rec = d.join("rec.csv");
+    assert!(simulate(&rec, "2").status.success());
+    let out = d.join("out.csv");
+    std::fs::write(&out, "previous content\n").unwrap();
+    let learn = d.join("no-such-dir").join("learned.toml");
+    let o = run(&[
+        "filter",
+        "--config",
+        "../../examples/joint-taghirad.toml",
+        "--in",
+        s(&rec),
+        "--out",
+        s(&out),
+        "--learn",
+        s(&learn),
+        "--quiet",
+    ]);
+    assert_error(&o, &["learned.toml"]);
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), "previous content\n");
+    assert_eq!(names(&d), ["out.csv", "rec.csv"]);
+}
+
+#[test]
+fn sigterm_and_sigint_remove_the_temporary_file_and_exit_128_plus_the_signal() {
+    for (sig, code) in [("TERM", 143), ("INT", 130)] {
+        let d = tmp(&format!("sig{sig}"));
+        let out = d.join("long.csv");
+        let mut child = bin()
+            .args(["simulate", "--preset", "taghirad", "--duration", "3000", "--out", s(&out), "--quiet"])
+            .spawn()
+            .unwrap();
+        // Wait until the temporary file exists, then interrupt.
+        let t0 = std::time::Instant::now();
+        while names(&d).is_empty() && t0.elapsed().as_secs() < 60 {
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        assert_eq!(names(&d).len(), 1);
+        assert!(names(&d)[0].starts_with(".long.csv."), "{:?}", names(&d));
+        let kill = Command::new("kill").args([&format!("-{sig}"), &child.id().to_string()]).status().unwrap();
+        assert!(kill.success());
+        let status = child.wait().unwrap();
+        assert_eq!(status.code(), Some(code), "SIG{sig}");
+        assert!(names(&d).is_empty(), "SIG{sig} left {:?}", names(&d));
+    }
+}
+
+#[test]
+fn after_sigkill_the_left_temporary_is_hidden_and_taken_for_no_recording() {
+    let d = tmp("kill");
+    let out = d.join("long.csv");
+    let mut child = bin()
+        .args(["simulate", "--preset", "taghirad", "--duration", "3000", "--out", s(&out), "--quiet"])
+        .spawn()
+        .unwrap();
+    let t0 = std::time::Instant::now();
+    while names(&d).is_empty() && t0.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let left = names(&d);
+    assert_eq!(left.len(), 1);
+    assert!(left[0].starts_with('.') && left[0].ends_with(".strainwave-tmp"), "{left:?}");
+    assert!(!out.exists());
+    // No reader takes it for a recording, and the next run writes its own file.
+    let stale = d.join(&left[0]);
+    assert_error(&run(&["convert", "--in", s(&stale), "--out", s(&d.join("x.csv"))]), &["unknown format"]);
+    assert!(simulate(&out, "0.2").status.success());
+    assert!(out.exists());
+}
+
+#[test]
+fn a_closed_output_pipe_ends_quietly_with_141() {
+    let d = tmp("pipe");
+    let rec = d.join("rec.csv");
+    recording(&rec, 200_000, |_, _| {});
+    let mut child = bin()
+        .args(["convert", "--in", s(&rec), "--out", "-", "--quiet"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(141), "{}", stderr(&o));
+    assert_eq!(stderr(&o), "");
+}
+
+#[test]
+fn csv_headers_with_commas_and_line_breaks_survive_a_round_trip() {
+    let d = tmp("quote");
+    let rec = d.join("q.csv");
+    std::fs::write(&rec, "time,\"a,b\",\"two\nlines\"\n0,1,2\n0.001,3,4\n").unwrap();
+    let out = d.join("out.csv");
+    let o = run(&["convert", "--in", s(&rec), "--out", s(&out), "--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let back = d.join("back.csv");
+    let o = run(&["convert", "--in", s(&out), "--out", s(&back), "--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&out).unwrap(), std::fs::read(&back).unwrap());
+    assert!(std::fs::read_to_string(&out).unwrap().starts_with("time,\"a,b\",\"two\nlines\"\n"));
+}
+
+#[test]
+fn a_crafted_mcap_record_length_is_an_error_not_a_panic() {
+    let d = tmp("mcap");
+    let p = d.join("evil.mcap");
+    let mut bytes = b"\x89MCAP0\r\n".to_vec();
+    // A header record claiming u64::MAX - 3 bytes, then padding to 38 bytes.
+    bytes.push(0x01);
+    bytes.extend_from_slice(&(u64::MAX - 3).to_le_bytes());
+    bytes.resize(38, 0);
+    std::fs::write(&p, &bytes).unwrap();
+    assert_error(&run(&["convert", "--in", s(&p), "--out", s(&d.join("o.csv"))]), &["evil.mcap", "record at byte 8"]);
+    // A chunk whose uncompressed size is absurd.
+    let mut bytes = b"\x89MCAP0\r\n".to_vec();
+    let mut chunk = Vec::new();
+    chunk.extend_from_slice(&[0; 16]);
+    chunk.extend_from_slice(&(1u64 << 60).to_le_bytes());
+    chunk.extend_from_slice(&[0; 4]);
+    chunk.extend_from_slice(&4u32.to_le_bytes());
+    chunk.extend_from_slice(b"zstd");
+    chunk.extend_from_slice(&0u64.to_le_bytes());
+    bytes.push(0x06);
+    bytes.extend_from_slice(&(chunk.len() as u64).to_le_bytes());
+    bytes.extend_from_slice(&chunk);
+    std::fs::write(&p, &bytes).unwrap();
+    assert_error(&run(&["convert", "--in", s(&p), "--out", s(&d.join("o.csv"))]), &["evil.mcap", "unpacks to"]);
+    assert!(!d.join("o.csv").exists());
+}
+
+#[test]
+fn one_glitched_speed_sample_or_a_tiny_speed_bin_is_an_error_naming_it() {
+    let d = tmp("campbell");
+    let rec = d.join("glitch.csv");
+    recording(&rec, 8192, |k, r| {
+        if k == 4000 {
+            r[2] = 1e20;
+        }
+    });
+    let out = d.join("c.svg");
+    let base = ["--in", s(&rec), "--signal", "signal", "--speed", "speed", "--out", s(&out)];
+    let campbell = |extra: &[&str]| run(&[&["campbell", "--nperseg", "512"][..], &base, extra].concat());
+    assert_error(&campbell(&[]), &["row 4001", "`speed`", "--speed-bin"]);
+    let orders = run(&[&["orders", "--order", "6"][..], &base].concat());
+    assert_error(&orders, &["row 4001", "`speed`"]);
+    let clean = d.join("clean.csv");
+    recording(&clean, 8192, |_, _| {});
+    let o = run(&[
+        "campbell",
+        "--in",
+        s(&clean),
+        "--signal",
+        "signal",
+        "--speed",
+        "speed",
+        "--nperseg",
+        "512",
+        "--speed-bin",
+        "1e-20",
+        "--out",
+        s(&out),
+    ]);
+    assert_error(&o, &["--speed-bin"]);
+    assert!(!out.exists());
+}
+
+#[test]
+fn a_huge_time_step_or_backwards_time_is_an_error_naming_the_row() {
+    let d = tmp("time");
+    let step = d.join("step.csv");
+    recording(&step, 8192, |k, r| r[0] += if k >= 5000 { 1e6 } else { 0.0 });
+    let back = d.join("back.csv");
+    recording(&back, 8192, |k, r| {
+        if k == 300 {
+            r[0] = 0.0;
+        }
+    });
+    let out = d.join("o.svg");
+    let orders = |p: &Path| {
+        run(&["orders", "--in", s(p), "--signal", "signal", "--speed", "speed", "--order", "6", "--out", s(&out)])
+    };
+    assert_error(&orders(&step), &["row 5001", "`time`"]);
+    assert_error(&orders(&back), &["row 301", "`time`"]);
+    let spectrogram = run(&["spectrogram", "--in", s(&back), "--signal", "signal", "--out", s(&out)]);
+    assert_error(&spectrogram, &["row 301", "`time`"]);
+    assert!(!out.exists());
+}
+
+#[test]
+fn resampling_one_absurd_time_stamp_is_an_error_before_writing() {
+    let d = tmp("resample");
+    let rec = d.join("rec.csv");
+    recording(&rec, 1000, |k, r| {
+        if k == 500 {
+            r[0] = 1e308;
+        }
+    });
+    let out = d.join("out.csv");
+    let o = run(&["convert", "--in", s(&rec), "--out", s(&out), "--resample-hz", "1000", "--quiet"]);
+    assert_error(&o, &["rec.csv", "row 501", "--resample-hz"]);
+    assert_eq!(names(&d), ["rec.csv"]);
+}
+
+#[test]
+fn option_values_beyond_the_limits_are_one_line_errors() {
+    let d = tmp("limits");
+    let o = run(&["simulate", "--preset", "taghirad", "--duration", "1e12", "--out", s(&d.join("x.csv"))]);
+    assert_error(&o, &["--duration", "duration_s"]);
+    // A calibration table of u64::MAX bins.
+    let rec = d.join("speed.csv");
+    let mut text = String::from("reference,sensor,w\n");
+    for k in 0..200 {
+        let w = k as f64 * 0.5;
+        text += &format!("{},{},{w}\n", k as f64 * 0.1, k as f64 * 0.05 + 1e-3 * w);
+    }
+    std::fs::write(&rec, text).unwrap();
+    let o = run(&[
+        "calibrate",
+        "--in",
+        s(&rec),
+        "--reference",
+        "reference",
+        "--sensor",
+        "sensor",
+        "--speed",
+        "w",
+        "--model",
+        "speed-table",
+        "--bins",
+        "18446744073709551615",
+        "--quiet",
+    ]);
+    assert_error(&o, &["speed bins"]);
+    // FIR taps of a bench config.
+    let cfg = std::fs::read_to_string("../../examples/bench-kit.toml").unwrap();
+    let cfg = if cfg.contains("fir_taps") {
+        cfg.lines()
+            .map(|l| if l.trim_start().starts_with("fir_taps") { "fir_taps = 100000001" } else { l })
+            .collect::<Vec<_>>()
+            .join("\n")
+    } else {
+        cfg.replace("[model]\n", "[model]\nfir_taps = 100000001\n")
+    };
+    let cfg_path = d.join("bench.toml");
+    std::fs::write(&cfg_path, cfg).unwrap();
+    let bench = d.join("bench.csv");
+    let o = run(&["simulate", "--preset", "kit-bench", "--duration", "2", "--out", s(&bench), "--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run(&[
+        "fuse",
+        "--config",
+        s(&cfg_path),
+        "--in",
+        s(&bench),
+        "--method",
+        "corrected",
+        "--out",
+        s(&d.join("f.csv")),
+    ]);
+    assert_error(&o, &["fir_taps"]);
+}
+
+#[test]
+fn fuse_refuses_accelerometer_values_that_overflow_and_backwards_time() {
+    let d = tmp("fuse");
+    let bench = d.join("bench.csv");
+    let o = run(&["simulate", "--preset", "kit-bench", "--duration", "1", "--out", s(&bench), "--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&bench).unwrap();
+    let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    let at = |name: &str| header.iter().position(|c| *c == name).unwrap();
+    let (a1, a2) = (at("accel_1"), at("accel_2"));
+    let edit = |row: usize, cols: &[usize], v: &str| -> String {
+        let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+        let mut cells: Vec<String> = lines[row].split(',').map(str::to_string).collect();
+        for &c in cols {
+            cells[c] = v.to_string();
+        }
+        lines[row] = cells.join(",");
+        lines.join("\n") + "\n"
+    };
+    let bad = d.join("bad.csv");
+    std::fs::write(&bad, edit(101, &[a1, a2], "1.7e308")).unwrap();
+    let out = d.join("f.csv");
+    let cfg_path = "../../examples/bench-kit.toml";
+    let o = run(&["fuse", "--config", cfg_path, "--in", s(&bad), "--out", s(&out)]);
+    assert_error(&o, &["row 101"]);
+    std::fs::write(&bad, edit(201, &[0], "0")).unwrap();
+    let o = run(&["fuse", "--config", cfg_path, "--in", s(&bad), "--out", s(&out)]);
+    assert_error(&o, &["row 201", "time"]);
+    assert!(!out.exists());
+}
+
+#[test]
+fn standard_input_is_never_taken_for_the_same_file_as_the_output() {
+    let d = tmp("stdin");
+    let rec = d.join("rec.csv");
+    recording(&rec, 100, |_, _| {});
+    let mut child = bin()
+        .args(["convert", "--in", "-", "--out", "-", "--quiet"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    child.stdin.take().unwrap().write_all(&std::fs::read(&rec).unwrap()).unwrap();
+    let o = child.wait_with_output().unwrap();
+    assert!(o.status.success());
+    assert_eq!(String::from_utf8_lossy(&o.stdout).lines().count(), 101);
+}
+
+#[test]
+fn a_reading_the_calibration_makes_infinite_stops_filter_or_is_skipped_with_lenient() {
+    let d = tmp("calinf");
+    let rec = d.join("rec.csv");
+    assert!(simulate(&rec, "1").status.success());
+    let text = std::fs::read_to_string(&rec).unwrap();
+    let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    let v = header.iter().position(|c| *c == "bridge_voltage").unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let mut cells: Vec<String> = lines[400].split(',').map(str::to_string).collect();
+    cells[v] = "1e308".into();
+    lines[400] = cells.join(",");
+    let bad = d.join("bad.csv");
+    std::fs::write(&bad, lines.join("\n") + "\n").unwrap();
+    let out = d.join("out.csv");
+    let cfg = "../../examples/joint-taghirad.toml";
+    let o = run(&["filter", "--config", cfg, "--in", s(&bad), "--out", s(&out), "--quiet"]);
+    assert_error(&o, &["bad.csv", "data row 400", "`bridge_voltage`", "calibration makes infinite", "--lenient"]);
+    assert!(!out.exists());
+    let o = run(&["filter", "--config", cfg, "--in", s(&bad), "--out", s(&out), "--lenient"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("skipped, the first at data row 400"), "{}", stderr(&o));
+    let written = std::fs::read_to_string(&out).unwrap();
+    assert!(!written.contains("inf"), "an infinity was written");
+}
