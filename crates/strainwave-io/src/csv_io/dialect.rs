@@ -54,19 +54,50 @@ pub fn detect_delimiter(header: &[u8]) -> u8 {
 /// Reads the start of `input` to find the header line (after a byte-order mark, empty
 /// and `#` lines) and its delimiter; returns the input whole again.
 pub(super) fn sniff(path: &Path, mut input: Box<dyn Read + Send>) -> Result<(Box<dyn Read + Send>, u8), IoError> {
-    let mut head = Vec::with_capacity(SNIFF_BYTES);
-    (&mut input)
-        .take(SNIFF_BYTES as u64)
-        .read_to_end(&mut head)
-        .map_err(|source| IoError::Os { path: path.to_path_buf(), source })?;
-    let text = head.strip_prefix(b"\xef\xbb\xbf").unwrap_or(&head);
-    let header = text
-        .split(|&b| b == b'\n')
-        .map(|l| l.strip_suffix(b"\r").unwrap_or(l))
-        .find(|l| !l.iter().all(u8::is_ascii_whitespace) && l.first() != Some(&b'#'))
-        .unwrap_or(b"");
-    let d = detect_delimiter(header);
+    // Reads only until the header line is whole: a live pipe sends no more yet.
+    let mut head = Vec::with_capacity(4096);
+    let mut chunk = [0u8; 4096];
+    let header = loop {
+        if let Some(line) = header_line(&head) {
+            break line;
+        }
+        let n = match input.read(&mut chunk) {
+            Ok(n) => n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(source) => return Err(IoError::Os { path: path.to_path_buf(), source }),
+        };
+        head.extend_from_slice(&chunk[..n]);
+        if n == 0 || head.len() >= SNIFF_BYTES {
+            // The last line without its end, or a header longer than we look at.
+            let text = head.strip_prefix(b"\xef\xbb\xbf").unwrap_or(&head);
+            let last = text.split(|&b| b == b'\n' || b == b'\r').find(|l| is_header(l)).unwrap_or(b"");
+            break last.to_vec();
+        }
+    };
+    let d = detect_delimiter(&header);
     Ok((Box::new(Cursor::new(head).chain(input)), d))
+}
+
+fn is_header(line: &[u8]) -> bool {
+    !line.iter().all(u8::is_ascii_whitespace) && line.first() != Some(&b'#')
+}
+
+/// The first complete line that is not empty or a comment.
+fn header_line(head: &[u8]) -> Option<Vec<u8>> {
+    let text = head.strip_prefix(b"\xef\xbb\xbf").unwrap_or(head);
+    let mut lines = text.split(|&b| b == b'\n' || b == b'\r');
+    let mut complete = text.iter().filter(|&&b| b == b'\n' || b == b'\r').count();
+    for line in lines.by_ref() {
+        if complete == 0 {
+            return None;
+        }
+        complete -= 1;
+        let line = line.strip_suffix(b"\r").unwrap_or(line);
+        if is_header(line) {
+            return Some(line.to_vec());
+        }
+    }
+    None
 }
 
 /// A unit in parentheses: short, and no characters a unit does not have (so

@@ -129,6 +129,13 @@ fn bare_names(special: Special, naming: &Naming) -> Vec<(String, bool)> {
         .collect()
 }
 
+/// `(joint index, field)` of a JointState value path (`effort.2` → (2, 2)).
+fn joint_state_rank(path: &str) -> (usize, usize) {
+    let (field, index) = path.split_once('.').unwrap_or((path, ""));
+    let field = ["position", "velocity", "effort"].iter().position(|f| *f == field).unwrap_or(3);
+    (index.parse().unwrap_or(usize::MAX), field)
+}
+
 /// One message waiting in the reorder buffer.
 struct Held {
     t_ns: i64,
@@ -319,8 +326,12 @@ impl BagReader {
             }
             Kind::Cdr { def, special, layouts } => {
                 let type_name = def.root().name.clone();
-                walk(def, &msg.data, &mut self.decoded, None)
-                    .map_err(|e| bad(&format!("does not match its schema `{type_name}`"), &e))?;
+                if walk(def, &msg.data, &mut self.decoded, None).is_err() {
+                    // Again with field paths, for the message.
+                    let e = walk(def, &msg.data, &mut Decoded::default(), Some(&mut Naming::default()));
+                    let e = e.err().map(|e| e.to_string()).unwrap_or_default();
+                    return Err(bad(&format!("does not match its schema `{type_name}`"), &e));
+                }
                 if self.use_header {
                     if let Some(s) = self.decoded.stamp_ns.filter(|&s| s > 0) {
                         t = s;
@@ -331,8 +342,15 @@ impl BagReader {
                     let mut again = Decoded::default();
                     walk(def, &msg.data, &mut again, Some(&mut naming))
                         .map_err(|e| bad(&format!("does not match its schema `{type_name}`"), &e))?;
-                    let mut ids = Vec::with_capacity(naming.paths.len());
-                    for (name, joint) in bare_names(*special, &naming) {
+                    let names = bare_names(*special, &naming);
+                    // New JointState columns go in joint by joint (wire order is field by field).
+                    let mut order: Vec<usize> = (0..names.len()).collect();
+                    if *special == Special::JointState {
+                        order.sort_by_key(|&k| joint_state_rank(&naming.paths[k]));
+                    }
+                    let mut ids = vec![0; names.len()];
+                    for k in order {
+                        let (name, joint) = names[k].clone();
                         let key = (topic, name);
                         let id = match self.names.ids.get(&key) {
                             Some(&id) => id,
@@ -343,7 +361,7 @@ impl BagReader {
                             }
                             None => return Err(changed(&self.path, &key.1)),
                         };
-                        ids.push(id);
+                        ids[k] = id;
                     }
                     if first {
                         for a in naming.long_arrays {

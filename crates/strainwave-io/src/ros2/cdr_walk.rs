@@ -27,7 +27,7 @@ pub enum WalkError {
     #[error("CDR representation 0x{0:04x} is not supported (plain CDR only: 0x0000, 0x0001)")]
     Representation(u16),
     /// The message ends inside a field.
-    #[error("ends at byte {len} inside `{field}` (the message is shorter than its schema says)")]
+    #[error("truncated: the message ends at byte {len}, inside `{field}` (shorter than its schema says)")]
     Truncated {
         /// Body length.
         len: usize,
