@@ -14,7 +14,10 @@ fn temp(name: &str, bytes: &[u8]) -> PathBuf {
     p
 }
 
-fn read(path: &Path, options: &ReadOptions) -> Result<(Vec<String>, Vec<Option<String>>, Vec<Vec<f64>>), IoError> {
+/// Columns, units and rows.
+type Read = (Vec<String>, Vec<Option<String>>, Vec<Vec<f64>>);
+
+fn read(path: &Path, options: &ReadOptions) -> Result<Read, IoError> {
     let mut r = RecordingReader::open_with(path, options)?;
     let mut rows = Vec::new();
     let mut row = Vec::new();
