@@ -273,6 +273,8 @@ impl RecordingWriter {
                     .iter()
                     .enumerate()
                     .map(|(i, c)| match unit(i) {
+                        // `time` is in s by definition: its header stays `time`.
+                        Some("s") if *c == "time" => (*c).to_string(),
                         Some(u) => format!("{c} [{u}]"),
                         None => (*c).to_string(),
                     })
