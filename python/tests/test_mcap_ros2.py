@@ -104,7 +104,9 @@ def converted(tmp_path_factory):
         w.finish()
 
     out = tmp / "ros2.csv"
+    # One row per message at its log time (the default aligns topics on one clock).
     cmd = ["cargo", "run", "-q", "-p", "strainwave-cli", "--", "convert", "--in", str(log), "--out", str(out)]
+    cmd += ["--align", "none", "--time", "log"]
     res = subprocess.run(cmd, cwd=ROOT, env=os.environ.copy(), capture_output=True, text=True, timeout=1800)
     if res.returncode != 0:
         pytest.fail(f"strainwave convert failed ({res.returncode}):\n{res.stderr}")

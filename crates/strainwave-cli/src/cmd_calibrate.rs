@@ -101,7 +101,7 @@ pub struct Args {
     #[arg(long, value_name = "NM", requires = "held")]
     pub held_band: Option<f64>,
     /// Time column for `--held`, s.
-    #[arg(long, value_name = "COL", default_value = "time")]
+    #[arg(long = "time-column", value_name = "COL", default_value = "time")]
     pub time: String,
     /// Speed table: this many equal-width bins between the smallest and largest speed.
     #[arg(long, value_name = "N", conflicts_with = "speed_edges")]
@@ -184,7 +184,7 @@ fn load(a: &Args, need_speed: bool, mounting: Option<&str>) -> Result<Vec<Experi
             (None, false) => None,
         };
         let time = match a.held {
-            Some(_) => Some(column(&t, path, &a.time, "--time (needed by --held)")?),
+            Some(_) => Some(column(&t, path, &a.time, "--time-column (needed by --held)")?),
             None => None,
         };
         let mount = match mounting {

@@ -1,24 +1,24 @@
-//! `strainwave convert`: recordings between formats, streaming; time-axis problems are
-//! reported, and resampling happens only when asked.
+//! `strainwave convert`: recordings between formats, streaming. Any input the readers
+//! take (text, Parquet, MCAP, rosbag2) goes to any output the writers take (text,
+//! Parquet, MCAP), with the global read options (`--topic`, `--align`, `--resample-hz`,
+//! `--delimiter`, …); units found in the input go with the columns. Time-axis problems
+//! of a table are reported; resampling happens only when asked.
 
 use std::path::PathBuf;
 
-use anyhow::{bail, Context, Result};
-use strainwave_io::resample::LinearResampler;
+use anyhow::{bail, Result};
 use strainwave_io::{RecordingReader, RecordingWriter, TimeMonitor};
 
 /// Arguments of `convert`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Input recording (.csv, .parquet, .mcap; `-` for CSV on standard input).
+    /// Input recording (.csv/.tsv/.txt, .parquet, .mcap, .db3, a rosbag2 folder; `-` for
+    /// text on standard input).
     #[arg(long = "in")]
     pub input: PathBuf,
-    /// Output recording (.csv or .parquet; `-` for CSV on standard output).
+    /// Output recording (.csv, .parquet or .mcap; `-` for CSV on standard output).
     #[arg(long)]
     pub out: PathBuf,
-    /// Resample to this uniform rate by linear interpolation (needs a `time` column).
-    #[arg(long)]
-    pub resample_hz: Option<f64>,
     /// Name of the time column.
     #[arg(long, default_value = "time")]
     pub time_column: String,
@@ -27,66 +27,33 @@ pub struct Args {
     pub quiet: bool,
 }
 
-/// Writes `row` to `w`, through `resampler` when resampling; `false` when the resampler
-/// left it out (its time is not finite or does not increase). `n` is the 1-based data row,
-/// for messages.
-pub fn write_row(
-    w: &mut RecordingWriter,
-    resampler: Option<&mut LinearResampler>,
-    row: &[f64],
-    n: u64,
-) -> Result<bool> {
-    let Some(rs) = resampler else {
-        w.write_row(row)?;
-        return Ok(true);
-    };
-    let mut err = None;
-    let kept = rs.push(row, |o| match w.write_row(o) {
-        Ok(()) => true,
-        Err(e) => {
-            err = Some(e);
-            false
-        }
-    });
-    let kept =
-        kept.map_err(|e| anyhow::anyhow!("row {n}: {e}; fix the time column, or convert without --resample-hz"))?;
-    match err {
-        Some(e) => Err(e.into()),
-        None => Ok(kept),
-    }
-}
-
 /// Runs `convert`.
 pub fn run(a: &Args) -> Result<()> {
     strainwave_io::output::refuse_input_as_output(&a.out, [a.input.as_path()])?;
-    if strainwave_io::format_of(&a.input)? == strainwave_io::Format::Mcap {
-        return crate::cmd_mcap::convert(a);
+    let options = strainwave_io::default_read_options();
+    let log = matches!(
+        strainwave_io::format_of(&a.input)?,
+        strainwave_io::Format::Mcap | strainwave_io::Format::Db3 | strainwave_io::Format::RosbagFolder
+    );
+    if log && a.time_column != "time" {
+        bail!("{}: --time-column does not apply to a log (its time column is `time`)", a.input.display());
     }
     let mut r = RecordingReader::open(&a.input)?;
     let columns: Vec<String> = r.columns().to_vec();
     let refs: Vec<&str> = columns.iter().map(String::as_str).collect();
+    let units: Vec<Option<&str>> = r.units().iter().map(Option::as_deref).collect();
     let time_index = columns.iter().position(|c| *c == a.time_column);
-    let mut resampler = match a.resample_hz {
-        None => None,
-        Some(hz) => {
-            let Some(ti) = time_index else {
-                bail!("{}: --resample-hz needs a `{}` column (set --time-column)", a.input.display(), a.time_column)
-            };
-            Some(LinearResampler::new(ti, hz).context("--resample-hz must be positive")?)
-        }
-    };
-    let mut w = RecordingWriter::create(&a.out, &refs)?;
+    if options.resample_hz.is_some() && time_index.is_none() {
+        bail!("{}: --resample-hz needs a `{}` column (set --time-column)", a.input.display(), a.time_column)
+    }
+    let mut w = RecordingWriter::create_with_units(&a.out, &refs, &units)?;
     let mut monitor = TimeMonitor::new(None);
     let mut row = Vec::with_capacity(columns.len());
-    let mut skipped = 0u64;
     while r.read_row(&mut row)? {
         if let Some(ti) = time_index {
             monitor.push(row[ti]);
         }
-        skipped += u64::from(
-            !write_row(&mut w, resampler.as_mut(), &row, r.rows_read())
-                .with_context(|| a.input.display().to_string())?,
-        );
+        w.write_row(&row)?;
         if a.out.as_os_str() == "-" && r.rows_read() % strainwave_io::DEFAULT_CHUNK_ROWS as u64 == 0 {
             w.flush()?;
         }
@@ -96,16 +63,33 @@ pub fn run(a: &Args) -> Result<()> {
     }
     let rows = w.finish()?;
     if !a.quiet {
-        eprintln!("converted {} rows of {} -> {} rows in {}", r.rows_read(), a.input.display(), rows, a.out.display());
-        if let Some(msg) = monitor.report() {
-            eprintln!(
-                "warning: {}: {msg}{}",
-                a.input.display(),
-                if a.resample_hz.is_none() { " (kept as is; --resample-hz makes the rate uniform)" } else { "" }
-            );
+        let what = if log { "messages" } else { "rows" };
+        eprintln!(
+            "converted {} {what} of {} -> {} rows, {} columns in {}",
+            r.input_rows(),
+            a.input.display(),
+            rows,
+            columns.len(),
+            a.out.display()
+        );
+        if !log {
+            if let Some(msg) = monitor.report() {
+                eprintln!(
+                    "warning: {}: {msg}{}",
+                    a.input.display(),
+                    if options.resample_hz.is_none() {
+                        " (kept as is; --resample-hz makes the rate uniform)"
+                    } else {
+                        ""
+                    }
+                );
+            }
         }
-        if skipped > 0 {
-            eprintln!("warning: {skipped} rows with non-increasing time were left out of the resampling");
+        if r.resample_skipped() > 0 {
+            eprintln!(
+                "warning: {} rows with non-increasing time were left out of the resampling",
+                r.resample_skipped()
+            );
         }
     }
     Ok(())

@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
-use strainwave_io::CsvWriter;
+use strainwave_io::RecordingWriter;
 use strainwave_sim::{presets, Scenario, Simulator};
 
 /// Arguments of `simulate`.
@@ -120,7 +120,7 @@ pub fn run(a: &Args) -> Result<()> {
     let Some(out) = a.out.as_deref() else { bail!("--out FILE is required") };
     if a.procedure.is_some() {
         let run = strainwave_sim::calibration_rig::LockedWgProcedure::default().run(&scenario)?;
-        let mut w = CsvWriter::create(out, strainwave_sim::calibration_rig::COLUMNS)?;
+        let mut w = RecordingWriter::create(out, strainwave_sim::calibration_rig::COLUMNS)?;
         for r in &run.rows {
             w.write_row(r)?;
         }
@@ -140,7 +140,7 @@ pub fn run(a: &Args) -> Result<()> {
     }
     let mut sim = Simulator::new(&scenario)?;
     let columns = sim.columns();
-    let mut w = CsvWriter::create(out, &columns)?;
+    let mut w = RecordingWriter::create(out, &columns)?;
     let mut row = Vec::with_capacity(columns.len());
     while sim.next_row(&mut row) {
         w.write_row(&row)?;

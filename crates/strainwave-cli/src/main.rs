@@ -13,7 +13,6 @@ mod cmd_estimate;
 mod cmd_filter;
 mod cmd_fuse;
 mod cmd_identify;
-mod cmd_mcap;
 mod cmd_orders;
 mod cmd_report;
 mod cmd_simulate;
@@ -39,6 +38,8 @@ use clap::{Parser, Subcommand};
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    #[command(flatten)]
+    read: recording_args::ReadArgs,
 }
 
 #[derive(Subcommand, Debug)]
@@ -48,9 +49,9 @@ enum Command {
         after_help = "Examples:\n  strainwave simulate --preset taghirad --procedure locked-wg --out locked.csv\n  strainwave calibrate --in locked.csv --experiment-column experiment --reference reference_torque --sensor bridge_voltage --model gain --out calibration.toml"
     )]
     Calibrate(cmd_calibrate::Args),
-    /// Convert recordings between CSV, Parquet and MCAP (in), streaming.
+    /// Convert recordings between text, Parquet, MCAP and ROS 2 bags (in), streaming.
     #[command(
-        after_help = "Examples:\n  strainwave convert --in log.csv --out log.parquet\n  strainwave convert --in run.mcap --out run.csv\n  strainwave convert --in jittery.csv --out uniform.csv --resample-hz 1000"
+        after_help = "Examples:\n  strainwave convert --in log.csv --out log.parquet\n  strainwave convert --in robot.mcap --topic /dynamic_joint_states --out run.csv\n  strainwave convert --in rosbag2_folder --align hold --resample-hz 500 --out run.parquet\n  strainwave convert --in daq_export.txt --out run.csv   # tab or semicolon, decimal comma\n  strainwave convert --in jittery.csv --out uniform.csv --resample-hz 1000"
     )]
     Convert(cmd_convert::Args),
     /// Cancel torque ripple and misalignment in a recording (real time, no added delay).
@@ -126,6 +127,15 @@ fn main() -> ExitCode {
             default_hook(info);
         }
     }));
+    match cli.read.options() {
+        Ok(options) => {
+            strainwave_io::set_default_read_options(options);
+        }
+        Err(e) => {
+            eprintln!("error: {}", one_line(&e));
+            return ExitCode::from(2);
+        }
+    }
     let result = match cli.command {
         Command::Calibrate(a) => cmd_calibrate::run(&a),
         Command::Convert(a) => cmd_convert::run(&a),

@@ -142,3 +142,74 @@ pub fn check_window(n: usize, nperseg: usize) -> Result<()> {
     }
     Ok(())
 }
+
+/// How every command reads its recordings (global options: they go before or after the
+/// command name). Logs: `--topic`, `--time`, `--align`, `--max-gap`, `--resample-hz`;
+/// text: `--delimiter`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct ReadArgs {
+    /// Log topic to read (repeatable; default: every topic).
+    #[arg(long = "topic", global = true, value_name = "TOPIC")]
+    pub topics: Vec<String>,
+    /// Log message time: `header` (header.stamp where a message has one) or `log` (receive time).
+    #[arg(long, global = true, value_name = "CLOCK", value_parser = ["header", "log"])]
+    pub time: Option<String>,
+    /// How log topics at different rates meet on one clock: linear, hold, nearest, or none
+    /// (one row per message).
+    #[arg(long, global = true, value_name = "MODE", value_parser = ["linear", "hold", "nearest", "none"])]
+    pub align: Option<String>,
+    /// A column's value is NaN where its own samples are further apart than this, s
+    /// [default: 4 mean periods of its topic, at most 10 s].
+    #[arg(long, global = true, value_name = "S")]
+    pub max_gap: Option<f64>,
+    /// Put every column on a uniform clock at this rate, Hz (logs: default the fastest
+    /// topic's message times; tables: linear between rows).
+    #[arg(long, global = true, value_name = "HZ")]
+    pub resample_hz: Option<f64>,
+    /// Delimiter of text tables: comma, semicolon, tab, or one character [default: detected].
+    #[arg(long, global = true, value_name = "D")]
+    pub delimiter: Option<String>,
+}
+
+impl ReadArgs {
+    /// The reader options these flags ask for.
+    pub fn options(&self) -> Result<strainwave_io::ReadOptions> {
+        use strainwave_io::read_options::Align;
+        let delimiter = match self.delimiter.as_deref() {
+            None => None,
+            Some("comma" | ",") => Some(b','),
+            Some("semicolon" | ";") => Some(b';'),
+            Some("tab" | "\\t" | "\t") => Some(b'\t'),
+            Some("space" | " ") => Some(b' '),
+            Some(d) if d.len() == 1 && d.is_ascii() && d != "\"" && d != "#" => Some(d.as_bytes()[0]),
+            Some(d) => bail!("--delimiter: `{d}` is not one ASCII character (comma, semicolon, tab, space)"),
+        };
+        if let Some(g) = self.max_gap {
+            if !(g.is_finite() && g >= 0.0) {
+                bail!("--max-gap: must be zero or a positive number of seconds, got {g}");
+            }
+        }
+        if let Some(hz) = self.resample_hz {
+            if !(hz.is_finite() && hz > 0.0) {
+                bail!("--resample-hz: must be a positive rate, got {hz}");
+            }
+        }
+        Ok(strainwave_io::ReadOptions {
+            topics: self.topics.clone(),
+            time: match self.time.as_deref() {
+                Some("log") => strainwave_io::TimeSource::Log,
+                _ => strainwave_io::TimeSource::Header,
+            },
+            align: match self.align.as_deref() {
+                Some("hold") => Align::Hold,
+                Some("nearest") => Align::Nearest,
+                Some("none") => Align::None,
+                _ => Align::Linear,
+            },
+            max_gap_s: self.max_gap,
+            resample_hz: self.resample_hz,
+            delimiter,
+            print_warnings: true,
+        })
+    }
+}

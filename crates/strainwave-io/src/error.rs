@@ -79,7 +79,7 @@ pub enum IoError {
         found: String,
     },
     /// An extension we do not know.
-    #[error("{0}: unknown format (use .csv, .parquet or .mcap)")]
+    #[error("{0}: unknown format (use .csv, .tsv, .txt, .parquet, .mcap, .db3 or a rosbag2 folder)")]
     UnknownFormat(PathBuf),
     /// A format compiled out.
     #[error("{path}: this build has no `{feature}` support")]
@@ -92,8 +92,8 @@ pub enum IoError {
     /// MCAP is converted first, not read as a table.
     #[error("{0}: MCAP logs are read by `strainwave convert --in LOG.mcap --out REC.csv|.parquet` first")]
     McapNotARecording(PathBuf),
-    /// MCAP cannot be written.
-    #[error("{0}: MCAP output is not supported; write .csv or .parquet")]
+    /// A format that is read but not written.
+    #[error("{0}: this format is read, not written; write .csv, .parquet or .mcap")]
     McapOutput(PathBuf),
     /// A cell that is not a number.
     #[error("{path}: row {row}, column `{}`: `{}` is not a number", shown(column), shown(value))]
@@ -126,6 +126,14 @@ pub enum IoError {
         path: PathBuf,
         /// Parser message.
         msg: String,
+    },
+    /// A row error, with the delimiter the file was read with.
+    #[error("{inner} ({note})")]
+    Dialect {
+        /// The row error.
+        inner: Box<IoError>,
+        /// Delimiter and column count.
+        note: String,
     },
     /// Duplicate column names in a header.
     #[error("{path}: column `{}` appears twice in the header", shown(column))]

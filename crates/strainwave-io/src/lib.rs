@@ -11,14 +11,19 @@ pub mod guard;
 #[cfg(feature = "mcap")]
 pub mod mcap_in;
 pub mod output;
+#[cfg(feature = "mcap")]
+pub mod mcap_out;
 #[cfg(feature = "parquet")]
 pub mod parquet_io;
+pub mod read_options;
 pub mod recording;
 pub mod resample;
+pub mod ros2;
 pub mod time_axis;
 
 pub use channels::{BoundChannel, Channel, ChannelTable};
 pub use csv_io::{read_table, CsvReader, CsvWriter, Table, DEFAULT_CHUNK_ROWS};
 pub use error::IoError;
+pub use read_options::{default_read_options, set_default_read_options, ReadOptions, TimeSource};
 pub use recording::{format_of, read_all, Format, RecordingReader, RecordingWriter};
 pub use time_axis::{TimeEvent, TimeMonitor};

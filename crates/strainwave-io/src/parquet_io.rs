@@ -2,7 +2,9 @@
 //! columns are widened; nulls become NaN; any other type is an error naming the column),
 //! written as non-nullable `Float64` columns with snappy compression, in row groups
 //! of [`crate::DEFAULT_CHUNK_ROWS`] rows, so both directions stream in constant memory.
+//! A column's unit is its field's metadata `unit` (both ways).
 
+use std::collections::HashMap;
 use std::fs::File;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -19,6 +21,9 @@ use parquet::basic::Compression;
 use parquet::file::properties::WriterProperties;
 
 use crate::error::IoError;
+
+/// The field metadata key of a column's unit.
+pub const UNIT_KEY: &str = "unit";
 
 fn pq_err(path: &Path, e: impl std::fmt::Display) -> IoError {
     IoError::Csv { path: path.to_path_buf(), msg: format!("parquet: {e}") }
@@ -85,6 +90,7 @@ fn check_byte_ranges(meta: &parquet::file::metadata::ParquetMetaData, file_bytes
 pub struct ParquetReader {
     path: PathBuf,
     columns: Vec<String>,
+    units: Vec<Option<String>>,
     batches: ParquetRecordBatchReader,
     batch: Option<RecordBatch>,
     row_in_batch: usize,
@@ -122,15 +128,21 @@ impl ParquetReader {
         if let Some(dup) = columns.iter().find(|c| !seen.insert(c.as_str())) {
             return Err(IoError::DuplicateColumn { path: path.to_path_buf(), column: dup.clone() });
         }
+        let units = schema.fields().iter().map(|f| f.metadata().get(UNIT_KEY).cloned()).collect();
         let batches = crate::guard::guarded(|| builder.with_batch_size(crate::DEFAULT_CHUNK_ROWS).build())
             .map_err(|e| pq_err(path, e))?
             .map_err(|e| pq_err(path, e))?;
-        Ok(Self { path: path.to_path_buf(), columns, batches, batch: None, row_in_batch: 0, rows_read: 0 })
+        Ok(Self { path: path.to_path_buf(), columns, units, batches, batch: None, row_in_batch: 0, rows_read: 0 })
     }
 
     /// Column names in file order.
     pub fn columns(&self) -> &[String] {
         &self.columns
+    }
+
+    /// Each column's unit (field metadata `unit`), if it has one.
+    pub fn units(&self) -> &[Option<String>] {
+        &self.units
     }
 
     /// Data rows read so far.
@@ -178,13 +190,29 @@ pub struct ParquetWriter {
 impl ParquetWriter {
     /// Creates the file with `Float64` columns.
     pub fn create(path: &Path, columns: &[&str]) -> Result<Self, IoError> {
+        Self::create_with_units(path, columns, &[])
+    }
+
+    /// Creates the file with `Float64` columns, `units[i]` as column `i`'s field metadata
+    /// `unit` where it is `Some`.
+    pub fn create_with_units(path: &Path, columns: &[&str], units: &[Option<&str>]) -> Result<Self, IoError> {
         if path.is_dir() {
             return Err(IoError::IsDirectory(path.to_path_buf()));
         }
         let tmp = crate::output::AtomicFile::create(path)?;
         let file = tmp.try_clone_file()?;
-        let schema: SchemaRef =
-            Arc::new(Schema::new(columns.iter().map(|c| Field::new(*c, DataType::Float64, false)).collect::<Vec<_>>()));
+        let fields: Vec<Field> = columns
+            .iter()
+            .enumerate()
+            .map(|(i, c)| {
+                let field = Field::new(*c, DataType::Float64, false);
+                match units.get(i).copied().flatten() {
+                    Some(u) => field.with_metadata(HashMap::from([(UNIT_KEY.to_string(), u.to_string())])),
+                    None => field,
+                }
+            })
+            .collect();
+        let schema: SchemaRef = Arc::new(Schema::new(fields));
         let props = WriterProperties::builder()
             .set_compression(Compression::SNAPPY)
             .set_max_row_group_row_count(Some(crate::DEFAULT_CHUNK_ROWS * 16))

@@ -1,11 +1,17 @@
-//! Recordings in any supported format, chosen by the file extension: `.csv` (and `-`
-//! for standard input/output) or `.parquet` (with the `parquet` feature). Commands
-//! read and write through these types, row by row, in constant memory.
+//! Recordings in any supported format, chosen by the path: delimited text (`.csv`,
+//! `.txt`, `.tsv`, `.dat`; `-` for standard input/output), `.parquet` (with the `parquet`
+//! feature), ROS 2 logs in (`.mcap`, `.db3`, a rosbag2 folder) and MCAP out (with the
+//! `mcap` feature; `.db3` with `sqlite`). Commands read and write through these types,
+//! row by row, in bounded memory; [`RecordingReader::open`] takes the process's
+//! [`ReadOptions`] so every command reads every format the same way.
 
+use std::collections::VecDeque;
 use std::path::Path;
 
 use crate::csv_io::{CsvReader, CsvWriter};
 use crate::error::IoError;
+use crate::read_options::{default_read_options, ReadOptions};
+use crate::resample::LinearResampler;
 
 /// File formats.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -14,8 +20,12 @@ pub enum Format {
     Csv,
     /// Apache Parquet.
     Parquet,
-    /// MCAP (input only).
+    /// MCAP.
     Mcap,
+    /// rosbag2 SQLite storage (input only).
+    Db3,
+    /// A rosbag2 folder (input only).
+    RosbagFolder,
 }
 
 /// The format of a path by its extension (`-` is CSV on standard input/output); a
@@ -25,12 +35,17 @@ pub fn format_of(path: &Path) -> Result<Format, IoError> {
         return Ok(Format::Csv);
     }
     if path.is_dir() {
-        return Err(IoError::IsDirectory(path.to_path_buf()));
+        let bag = path.join("metadata.yaml").is_file()
+            || std::fs::read_dir(path).is_ok_and(|d| {
+                d.flatten().any(|e| matches!(e.path().extension().and_then(|x| x.to_str()), Some("mcap" | "db3")))
+            });
+        return if bag { Ok(Format::RosbagFolder) } else { Err(IoError::IsDirectory(path.to_path_buf())) };
     }
     match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
-        Some("csv") | Some("txt") => Ok(Format::Csv),
+        Some("csv") | Some("txt") | Some("tsv") | Some("dat") => Ok(Format::Csv),
         Some("parquet") | Some("pq") => Ok(Format::Parquet),
         Some("mcap") => Ok(Format::Mcap),
+        Some("db3") => Ok(Format::Db3),
         _ => Err(IoError::UnknownFormat(path.to_path_buf())),
     }
 }
@@ -39,38 +54,142 @@ enum Reader {
     Csv(CsvReader),
     #[cfg(feature = "parquet")]
     Parquet(crate::parquet_io::ParquetReader),
+    #[cfg(feature = "mcap")]
+    Bag(Box<crate::ros2::bag::BagReader>),
+}
+
+impl Reader {
+    fn read_row(&mut self, row: &mut Vec<f64>) -> Result<bool, IoError> {
+        match self {
+            Reader::Csv(r) => r.read_row(row),
+            #[cfg(feature = "parquet")]
+            Reader::Parquet(r) => r.read_row(row),
+            #[cfg(feature = "mcap")]
+            Reader::Bag(r) => r.read_row(row),
+        }
+    }
+}
+
+/// A table's rows interpolated onto a uniform clock (`--resample-hz`).
+struct Resampled {
+    resampler: LinearResampler,
+    ready: VecDeque<Vec<f64>>,
+    /// Input rows left out because their time does not increase.
+    skipped: u64,
 }
 
 /// A recording being read.
 pub struct RecordingReader {
     inner: Reader,
     path: std::path::PathBuf,
+    columns: Vec<String>,
+    units: Vec<Option<String>>,
+    warnings: Vec<String>,
+    resampled: Option<Resampled>,
+    input_rows: u64,
+    rows_read: u64,
 }
 
 impl RecordingReader {
-    /// Opens a recording by extension.
+    /// Opens a recording by its path, with the process's read options (see
+    /// [`crate::set_default_read_options`]); warnings go to standard error when the options
+    /// say so.
     pub fn open(path: &Path) -> Result<Self, IoError> {
-        if path.is_dir() {
-            return Err(IoError::IsDirectory(path.to_path_buf()));
+        let options = default_read_options();
+        let r = Self::open_with(path, &options)?;
+        if options.print_warnings {
+            for w in r.warnings() {
+                eprintln!("warning: {}: {w}", path.display());
+            }
         }
-        let inner = match format_of(path)? {
-            Format::Csv => Reader::Csv(CsvReader::open(path)?),
+        Ok(r)
+    }
+
+    /// Opens a recording by its path with these options.
+    pub fn open_with(path: &Path, options: &ReadOptions) -> Result<Self, IoError> {
+        let format = format_of(path)?;
+        let bag = matches!(format, Format::Mcap | Format::Db3 | Format::RosbagFolder);
+        let (inner, columns, units, warnings) = match format {
+            Format::Csv => {
+                let r = CsvReader::open_with(path, options.delimiter)?;
+                let (columns, units) = (r.columns().to_vec(), r.units().to_vec());
+                (Reader::Csv(r), columns, units, Vec::new())
+            }
             #[cfg(feature = "parquet")]
-            Format::Parquet => Reader::Parquet(crate::parquet_io::ParquetReader::open(path)?),
+            Format::Parquet => {
+                let r = crate::parquet_io::ParquetReader::open(path)?;
+                let (columns, units) = (r.columns().to_vec(), r.units().to_vec());
+                (Reader::Parquet(r), columns, units, Vec::new())
+            }
             #[cfg(not(feature = "parquet"))]
             Format::Parquet => return Err(IoError::FeatureOff { path: path.to_path_buf(), feature: "parquet" }),
-            Format::Mcap => return Err(IoError::McapNotARecording(path.to_path_buf())),
+            #[cfg(feature = "mcap")]
+            Format::Mcap | Format::Db3 | Format::RosbagFolder => {
+                let r = crate::ros2::bag::BagReader::open(path, options)?;
+                let columns = r.columns().to_vec();
+                let warnings = r.warnings().to_vec();
+                let units = vec![None; columns.len()];
+                if columns.len() < 2 {
+                    let mut msg = "no messages with numeric values on the selected topics".to_string();
+                    if !warnings.is_empty() {
+                        msg.push_str(&format!(" ({})", warnings.join("; ")));
+                    }
+                    return Err(IoError::Csv { path: path.to_path_buf(), msg });
+                }
+                (Reader::Bag(Box::new(r)), columns, units, warnings)
+            }
+            #[cfg(not(feature = "mcap"))]
+            Format::Mcap | Format::Db3 | Format::RosbagFolder => {
+                return Err(IoError::FeatureOff { path: path.to_path_buf(), feature: "mcap" })
+            }
         };
-        Ok(Self { inner, path: path.to_path_buf() })
+        // Logs resample in the aligner; tables here, between neighbouring rows.
+        let resampled = match options.resample_hz {
+            Some(hz) if !bag => {
+                let Some(ti) = columns.iter().position(|c| c == "time") else {
+                    return Err(IoError::MissingColumn {
+                        path: path.to_path_buf(),
+                        column: "time".into(),
+                        available: format!("{} (needed by --resample-hz)", columns.join(", ")),
+                    });
+                };
+                let Some(resampler) = LinearResampler::new(ti, hz) else {
+                    return Err(IoError::Csv {
+                        path: path.to_path_buf(),
+                        msg: format!("--resample-hz must be positive, got {hz}"),
+                    });
+                };
+                Some(Resampled { resampler, ready: VecDeque::new(), skipped: 0 })
+            }
+            _ => None,
+        };
+        Ok(Self { inner, path: path.to_path_buf(), columns, units, warnings, resampled, input_rows: 0, rows_read: 0 })
     }
 
     /// Column names in file order.
     pub fn columns(&self) -> &[String] {
-        match &self.inner {
-            Reader::Csv(r) => r.columns(),
-            #[cfg(feature = "parquet")]
-            Reader::Parquet(r) => r.columns(),
-        }
+        &self.columns
+    }
+
+    /// The unit of each column where the file gives one (a text header's `[unit]` or
+    /// `(unit)`, a Parquet field's `unit` metadata).
+    pub fn units(&self) -> &[Option<String>] {
+        &self.units
+    }
+
+    /// Warnings of the reader (skipped log channels, …).
+    pub fn warnings(&self) -> &[String] {
+        &self.warnings
+    }
+
+    /// Input rows (log: messages aligned; table: rows) read so far.
+    pub fn input_rows(&self) -> u64 {
+        self.input_rows
+    }
+
+    /// Table rows left out of `--resample-hz` because their time does not increase.
+    pub fn resample_skipped(&self) -> u64 {
+        self.resampled.as_ref().map_or(0, |r| r.skipped)
     }
 
     /// The path, for messages.
@@ -89,19 +208,48 @@ impl RecordingReader {
 
     /// Data rows read so far.
     pub fn rows_read(&self) -> u64 {
-        match &self.inner {
-            Reader::Csv(r) => r.rows_read(),
-            #[cfg(feature = "parquet")]
-            Reader::Parquet(r) => r.rows_read(),
-        }
+        self.rows_read
     }
 
     /// Reads the next row; `Ok(false)` at the end.
     pub fn read_row(&mut self, row: &mut Vec<f64>) -> Result<bool, IoError> {
-        match &mut self.inner {
-            Reader::Csv(r) => r.read_row(row),
-            #[cfg(feature = "parquet")]
-            Reader::Parquet(r) => r.read_row(row),
+        let Some(rs) = self.resampled.as_mut() else {
+            let more = self.inner.read_row(row)?;
+            self.rows_read += u64::from(more);
+            self.input_rows = self.rows_read;
+            return Ok(more);
+        };
+        loop {
+            if let Some(r) = rs.ready.pop_front() {
+                *row = r;
+                self.rows_read += 1;
+                return Ok(true);
+            }
+            if !self.inner.read_row(row)? {
+                return Ok(false);
+            }
+            self.input_rows += 1;
+            let ready = &mut rs.ready;
+            let kept = rs
+                .resampler
+                .push(row, |o| {
+                    ready.push_back(o.to_vec());
+                    true
+                })
+                .map_err(|e| IoError::Csv {
+                    path: self.path.clone(),
+                    msg: format!(
+                        "data row {}: time {} s after a gap of {} s would need more than {} resampled rows; \
+                         fix the time column, or read without --resample-hz",
+                        self.input_rows,
+                        e.time_s,
+                        e.gap_s,
+                        crate::resample::MAX_ROWS_PER_GAP
+                    ),
+                })?;
+            if !kept {
+                rs.skipped += 1;
+            }
         }
     }
 }
@@ -112,6 +260,8 @@ enum Writer {
     Csv(CsvWriter),
     #[cfg(feature = "parquet")]
     Parquet(crate::parquet_io::ParquetWriter),
+    #[cfg(feature = "mcap")]
+    Mcap(crate::mcap_out::McapWriter),
 }
 
 /// A recording being written; it appears under its name only on [`RecordingWriter::finish`].
@@ -120,18 +270,48 @@ pub struct RecordingWriter {
 }
 
 impl RecordingWriter {
-    /// Creates a recording by extension.
+    /// Creates a recording by extension (no units but the `time` column's s).
     pub fn create(path: &Path, columns: &[&str]) -> Result<Self, IoError> {
+        Self::create_with_units(path, columns, &[])
+    }
+
+    /// Creates a recording by extension: `.csv` and other text (`-`: standard output),
+    /// `.parquet`, `.mcap`. `units[i]` is column `i`'s unit (missing or `None`: none):
+    /// a text header writes it as `name [unit]`, Parquet as the field's `unit` metadata
+    /// (`time` is `s` there by default); MCAP leaves units out (`std_msgs/msg/Float64`).
+    pub fn create_with_units(path: &Path, columns: &[&str], units: &[Option<&str>]) -> Result<Self, IoError> {
         if path.is_dir() {
             return Err(IoError::IsDirectory(path.to_path_buf()));
         }
+        let unit = |i: usize| units.get(i).copied().flatten().filter(|u| !u.is_empty());
         let inner = match format_of(path)? {
-            Format::Csv => Writer::Csv(CsvWriter::create(path, columns)?),
+            Format::Csv => {
+                let header: Vec<String> = columns
+                    .iter()
+                    .enumerate()
+                    .map(|(i, c)| match unit(i) {
+                        // `time` is in s by definition: its header stays `time`.
+                        Some("s") if *c == "time" => (*c).to_string(),
+                        Some(u) => format!("{c} [{u}]"),
+                        None => (*c).to_string(),
+                    })
+                    .collect();
+                let refs: Vec<&str> = header.iter().map(String::as_str).collect();
+                Writer::Csv(CsvWriter::create(path, &refs)?)
+            }
             #[cfg(feature = "parquet")]
-            Format::Parquet => Writer::Parquet(crate::parquet_io::ParquetWriter::create(path, columns)?),
+            Format::Parquet => {
+                let units: Vec<Option<&str>> =
+                    (0..columns.len()).map(|i| unit(i).or((columns[i] == "time").then_some("s"))).collect();
+                Writer::Parquet(crate::parquet_io::ParquetWriter::create_with_units(path, columns, &units)?)
+            }
             #[cfg(not(feature = "parquet"))]
             Format::Parquet => return Err(IoError::FeatureOff { path: path.to_path_buf(), feature: "parquet" }),
-            Format::Mcap => return Err(IoError::McapOutput(path.to_path_buf())),
+            #[cfg(feature = "mcap")]
+            Format::Mcap => Writer::Mcap(crate::mcap_out::McapWriter::create(path, columns)?),
+            #[cfg(not(feature = "mcap"))]
+            Format::Mcap => return Err(IoError::FeatureOff { path: path.to_path_buf(), feature: "mcap" }),
+            Format::Db3 | Format::RosbagFolder => return Err(IoError::McapOutput(path.to_path_buf())),
         };
         Ok(Self { inner })
     }
@@ -142,6 +322,8 @@ impl RecordingWriter {
             Writer::Csv(w) => w.write_row(row),
             #[cfg(feature = "parquet")]
             Writer::Parquet(w) => w.write_row(row),
+            #[cfg(feature = "mcap")]
+            Writer::Mcap(w) => w.write_row(row),
         }
     }
 
@@ -151,6 +333,8 @@ impl RecordingWriter {
             Writer::Csv(w) => w.flush(),
             #[cfg(feature = "parquet")]
             Writer::Parquet(w) => w.flush(),
+            #[cfg(feature = "mcap")]
+            Writer::Mcap(_) => Ok(()),
         }
     }
 
@@ -160,6 +344,8 @@ impl RecordingWriter {
             Writer::Csv(w) => w.finish(),
             #[cfg(feature = "parquet")]
             Writer::Parquet(w) => w.finish(),
+            #[cfg(feature = "mcap")]
+            Writer::Mcap(w) => w.finish(),
         }
     }
 }

@@ -8,7 +8,7 @@ use std::io::Cursor;
 use std::path::PathBuf;
 
 use mcap::records::MessageHeader;
-use strainwave_io::mcap_in::{read_mcap, McapReader};
+use strainwave_io::mcap_in::{read_mcap, Align, BagReader, ReadOptions, TimeSource};
 use strainwave_io::IoError;
 
 const JOINT_STATE_MSG: &[u8] =
@@ -163,9 +163,9 @@ fn streaming_reader_counts_rows_and_keeps_epoch_times() {
         .map(|k| Msg { channel: 0, log_time_ns: t0 + k * 1_000_000, data: joint_state_cdr(&["a"], &[k as f64], &[]) })
         .collect();
     let path = write_log("long.mcap", &msgs, mcap::WriteOptions::new().chunk_size(Some(4096)));
-    let mut r = McapReader::open(&path).unwrap();
+    let options = ReadOptions { align: Align::None, time: TimeSource::Log, ..ReadOptions::default() };
+    let mut r = BagReader::open(&path, &options).unwrap();
     assert_eq!(r.columns(), ["time", "a.position"]);
-    assert_eq!(r.rows(), 1000);
     assert!(r.warnings().is_empty());
     let mut row = Vec::new();
     let mut k = 0u64;

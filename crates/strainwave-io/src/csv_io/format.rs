@@ -115,3 +115,18 @@ pub(super) fn round_tie_away(x: f64, start: usize, out: &mut [u8]) {
 pub(super) fn parse_cell(cell: &str) -> Option<f64> {
     cell.trim_ascii().parse().ok()
 }
+
+/// Parses a cell written with a decimal comma (`-1,25e3`): the comma read as a point.
+#[cold]
+pub(super) fn parse_decimal_comma(cell: &str) -> Option<f64> {
+    let cell = cell.trim();
+    let mut buf = [0u8; 64];
+    let bytes = cell.as_bytes();
+    if bytes.len() > buf.len() || bytes.iter().filter(|&&b| b == b',').count() > 1 {
+        return None;
+    }
+    for (o, &b) in buf.iter_mut().zip(bytes) {
+        *o = if b == b',' { b'.' } else { b };
+    }
+    std::str::from_utf8(&buf[..bytes.len()]).ok()?.parse().ok()
+}

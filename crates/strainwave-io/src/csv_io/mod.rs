@@ -35,9 +35,12 @@ const BATCH_CELLS: usize = 1 << 16;
 /// Batches the parsing thread may have ready ahead of the reader.
 const BATCHES_AHEAD: usize = 2;
 
+mod dialect;
 mod format;
 mod parser;
 mod writer;
+
+pub use dialect::{delimiter_name, detect_delimiter, split_unit};
 
 use format::*;
 pub use format::{format_f64, format_row};
@@ -51,6 +54,10 @@ pub use writer::CsvWriter;
 pub struct CsvReader {
     path: PathBuf,
     columns: Vec<String>,
+    units: Vec<Option<String>>,
+    delimiter: u8,
+    /// The delimiter was detected, not set.
+    detected: bool,
     rows_read: u64,
     batches: Receiver<Batch>,
     spent: Sender<Vec<f64>>,
@@ -60,8 +67,15 @@ pub struct CsvReader {
 }
 
 impl CsvReader {
-    /// Opens a file (or standard input for `-`) and reads its header.
+    /// Opens a file (or standard input for `-`) and reads its header; the delimiter is
+    /// detected.
     pub fn open(path: &Path) -> Result<Self, IoError> {
+        Self::open_with(path, None)
+    }
+
+    /// Opens a file (or standard input for `-`) with this delimiter (`None`: detected
+    /// from the header line, see [`detect_delimiter`]) and reads its header.
+    pub fn open_with(path: &Path, delimiter: Option<u8>) -> Result<Self, IoError> {
         let input: Box<dyn Read + Send> = if path == Path::new("-") {
             Box::new(std::io::stdin())
         } else {
@@ -70,20 +84,30 @@ impl CsvReader {
             }
             Box::new(File::open(path).map_err(|source| IoError::Os { path: path.to_path_buf(), source })?)
         };
-        Self::from_reader(path, input)
+        Self::from_reader_with(path, input, delimiter)
     }
 
     /// Reads from any byte source; `path` is used in messages.
     pub fn from_reader(path: &Path, input: Box<dyn Read + Send>) -> Result<Self, IoError> {
+        Self::from_reader_with(path, input, None)
+    }
+
+    /// Reads from any byte source with this delimiter (`None`: detected).
+    pub fn from_reader_with(path: &Path, input: Box<dyn Read + Send>, delimiter: Option<u8>) -> Result<Self, IoError> {
         let path = path.to_path_buf();
+        let detected = delimiter.is_none();
+        let (input, delimiter) = match delimiter {
+            Some(d) => (input, d),
+            None => dialect::sniff(&path, input)?,
+        };
         let (out, batches) = mpsc::sync_channel(BATCHES_AHEAD);
         let (spent, spent_rx) = mpsc::channel();
-        let mut parser = Parser::new(path.clone(), input, out, spent_rx);
+        let mut parser = Parser::new(path.clone(), input, out, spent_rx, delimiter);
         let header = parser.header()?;
         if header.is_empty() || (header.len() == 1 && header[0].is_empty()) {
             return Err(IoError::Empty(path));
         }
-        let columns: Vec<String> = header.iter().map(str::to_string).collect();
+        let (columns, units): (Vec<String>, Vec<Option<String>>) = header.iter().map(split_unit).unzip();
         let mut seen = std::collections::HashSet::with_capacity(columns.len());
         if let Some(c) = columns.iter().find(|c| !seen.insert(c.as_str())) {
             return Err(IoError::DuplicateColumn { path, column: c.clone() });
@@ -93,12 +117,34 @@ impl CsvReader {
             .name("csv-parse".into())
             .spawn(move || parser.run())
             .map_err(|source| IoError::Os { path: path.clone(), source })?;
-        Ok(Self { path, columns, rows_read: 0, batches, spent, cells: Vec::new(), next: 0, done: false })
+        Ok(Self {
+            path,
+            columns,
+            units,
+            delimiter,
+            detected,
+            rows_read: 0,
+            batches,
+            spent,
+            cells: Vec::new(),
+            next: 0,
+            done: false,
+        })
     }
 
-    /// Column names in file order.
+    /// Column names in file order (units taken off, see [`split_unit`]).
     pub fn columns(&self) -> &[String] {
         &self.columns
+    }
+
+    /// Each column's unit from the header, if it has one.
+    pub fn units(&self) -> &[Option<String>] {
+        &self.units
+    }
+
+    /// The delimiter in use.
+    pub fn delimiter(&self) -> u8 {
+        self.delimiter
     }
 
     /// The file name used in messages.
@@ -154,12 +200,31 @@ impl CsvReader {
             Ok(Batch::End { rows, result }) => {
                 self.done = true;
                 self.rows_read = rows;
-                result.map(|()| false)
+                result.map(|()| false).map_err(|e| self.with_dialect(e))
             }
             Err(_) => {
                 self.done = true;
                 Err(IoError::Csv { path: self.path.clone(), msg: "the CSV parsing thread stopped".into() })
             }
+        }
+    }
+
+    /// A row error of a file read with another delimiter than a comma, or as one column,
+    /// names the delimiter it was read with.
+    fn with_dialect(&self, e: IoError) -> IoError {
+        let row_error = matches!(e, IoError::NotANumber { .. } | IoError::RowLength { .. });
+        let one_column = self.detected && self.columns.len() == 1;
+        if !row_error || (self.delimiter == b',' && !one_column) {
+            return e;
+        }
+        let decimal = if self.delimiter == b',' { "" } else { ", decimal comma accepted" };
+        IoError::Dialect {
+            inner: Box::new(e),
+            note: format!(
+                "read as {}-delimited{decimal}, {} column(s); set --delimiter if that is wrong",
+                delimiter_name(self.delimiter),
+                self.columns.len()
+            ),
         }
     }
 

@@ -38,6 +38,9 @@ pub(super) struct Parser {
     /// Cells of quoted records, as `csv_core` writes them.
     field_bytes: Vec<u8>,
     field_ends: Vec<usize>,
+    /// The cell delimiter, and whether a comma in a cell is a decimal point.
+    delimiter: u8,
+    decimal_comma: bool,
     /// The rows being gathered, and where they go.
     batch: Vec<f64>,
     out: SyncSender<Batch>,
@@ -51,6 +54,7 @@ impl Parser {
         input: Box<dyn Read + Send>,
         out: SyncSender<Batch>,
         spent: Receiver<Vec<f64>>,
+        delimiter: u8,
     ) -> Self {
         Self {
             path,
@@ -61,12 +65,14 @@ impl Parser {
             end: 0,
             eof: false,
             starved: false,
-            core: csv_core::Reader::new(),
+            core: csv_core::ReaderBuilder::new().delimiter(delimiter).comment(Some(b'#')).build(),
             consumed: 0,
             line: 1,
             rows: 0,
             field_bytes: vec![0; 1024],
             field_ends: vec![0; 64],
+            delimiter,
+            decimal_comma: delimiter != b',',
             batch: Vec::with_capacity(BATCH_CELLS),
             out,
             spent,
@@ -81,7 +87,12 @@ impl Parser {
         while self.end < 4 && self.fill()? {}
         let (first, _) = self.next_quoted_record()?;
         let bytes = &self.buf[first..self.start];
-        let mut csv = csv::ReaderBuilder::new().has_headers(true).trim(csv::Trim::Headers).from_reader(bytes);
+        let mut csv = csv::ReaderBuilder::new()
+            .has_headers(true)
+            .trim(csv::Trim::Headers)
+            .delimiter(self.delimiter)
+            .comment(Some(b'#'))
+            .from_reader(bytes);
         csv.headers().cloned().map_err(|e| csv_error(&self.path, e))
     }
 
@@ -175,7 +186,21 @@ impl Parser {
                 self.line += u64::from(c == b'\n');
                 self.consume(1);
             }
-            if self.start < self.end {
+            // A comment line: up to its line end.
+            if self.buf[self.start..self.end].first() == Some(&b'#') {
+                match memchr::memchr(b'\n', &self.buf[self.start..self.end]) {
+                    Some(i) => {
+                        self.line += 1;
+                        self.consume(i + 1);
+                        continue;
+                    }
+                    None if self.eof => {
+                        self.consume(self.end - self.start);
+                    }
+                    None => {}
+                }
+            }
+            if self.start < self.end && self.buf[self.start] != b'#' {
                 break;
             }
             if !self.fill()? {
@@ -221,9 +246,13 @@ impl Parser {
         let mut cells = 0;
         if let Ok(text) = std::str::from_utf8(line) {
             let mut a = 0;
-            for b in memchr::memchr_iter(b',', line).chain(std::iter::once(line.len())) {
+            let decimal_comma = self.decimal_comma;
+            for b in memchr::memchr_iter(self.delimiter, line).chain(std::iter::once(line.len())) {
                 cells += 1;
-                match parse_cell(&text[a..b]) {
+                let cell = &text[a..b];
+                let value =
+                    if decimal_comma && cell.contains(',') { parse_decimal_comma(cell) } else { parse_cell(cell) };
+                match value {
                     Some(v) if cells <= n => self.batch.push(v),
                     _ => {
                         cells = 0;
@@ -239,7 +268,7 @@ impl Parser {
         }
         self.batch.truncate(before);
         let mut record = csv::ByteRecord::new();
-        for cell in line.split(|&c| c == b',') {
+        for cell in line.split(|&c| c == self.delimiter) {
             record.push_field(cell);
         }
         record.set_position(Some(pos));
@@ -312,7 +341,12 @@ impl Parser {
         let before = self.batch.len();
         for (i, cell) in record.iter().enumerate() {
             let cell = std::str::from_utf8(cell).unwrap_or_default().trim();
-            match cell.parse() {
+            let value = if self.decimal_comma && cell.contains(',') {
+                parse_decimal_comma(cell).ok_or(())
+            } else {
+                cell.parse().map_err(|_| ())
+            };
+            match value {
                 Ok(v) => self.batch.push(v),
                 Err(_) => {
                     self.batch.truncate(before);

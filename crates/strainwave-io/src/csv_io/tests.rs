@@ -267,7 +267,8 @@ fn reference(data: &[u8]) -> Outcome {
 
 fn ours(data: &[u8], seed: u64) -> Outcome {
     let input = Trickle { data: data.to_vec(), at: 0, rng: Rng(seed) };
-    let mut r = match CsvReader::from_reader(Path::new("rec.csv"), Box::new(input)) {
+    // The `csv` crate reads commas: the same delimiter, set.
+    let mut r = match CsvReader::from_reader_with(Path::new("rec.csv"), Box::new(input), Some(b',')) {
         Ok(r) => r,
         Err(e) => return (Err(e.to_string()), Vec::new()),
     };

@@ -134,7 +134,7 @@ fn check_inner(path: &Path, r: &mut BufReader<std::fs::File>, chunk_at: u64, byt
 }
 
 /// Walks the top-level records of the file at `path` (after its 8-byte magic).
-pub(super) fn check_record_lengths(path: &Path) -> Result<(), IoError> {
+pub(crate) fn check_record_lengths(path: &Path) -> Result<(), IoError> {
     let os = |source| IoError::Os { path: path.to_path_buf(), source };
     let file = std::fs::File::open(path).map_err(os)?;
     let size = file.metadata().map_err(os)?.len();

@@ -1,0 +1,220 @@
+//! Messages of a log, in file order: an MCAP file, a rosbag2 SQLite file (`.db3`, with the
+//! `sqlite` feature) or a rosbag2 folder (its `.mcap` or `.db3` files in the order its
+//! `metadata.yaml` lists them). One message is held at a time (MCAP: one decompressed
+//! chunk; SQLite: a page of [`DB3_PAGE_ROWS`] rows).
+
+use std::borrow::Cow;
+use std::collections::HashMap;
+use std::fs::File;
+use std::io::{BufReader, Read, Seek, SeekFrom};
+use std::path::{Path, PathBuf};
+
+use crate::error::IoError;
+
+/// Largest MCAP record (or decompressed chunk) read, bytes.
+pub const MAX_RECORD_BYTES: usize = 1 << 28;
+/// Rows fetched per SQLite query.
+pub const DB3_PAGE_ROWS: i64 = 2048;
+
+/// What a channel carries (the same topic and type in several files is one channel).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ChannelInfo {
+    /// Topic name.
+    pub topic: String,
+    /// Message type (`sensor_msgs/msg/JointState`), empty without a schema.
+    pub type_name: String,
+    /// Schema encoding (`ros2msg`, `ros2idl`, `jsonschema`, `protobuf`, …).
+    pub schema_encoding: String,
+    /// Schema text.
+    pub schema: Vec<u8>,
+    /// Message encoding (`cdr`, `json`, …).
+    pub message_encoding: String,
+}
+
+/// Channels by index, shared by the passes over a log.
+#[derive(Debug, Default)]
+pub struct Registry {
+    /// Every channel seen.
+    pub channels: Vec<ChannelInfo>,
+    index: HashMap<(String, String, String), usize>,
+}
+
+impl Registry {
+    pub(crate) fn intern(&mut self, info: ChannelInfo) -> usize {
+        let key = (info.topic.clone(), info.type_name.clone(), info.message_encoding.clone());
+        *self.index.entry(key).or_insert_with(|| {
+            self.channels.push(info);
+            self.channels.len() - 1
+        })
+    }
+}
+
+/// One message.
+pub struct RawMessage {
+    /// Index into [`Registry::channels`].
+    pub channel: usize,
+    /// Log (receive) time, ns.
+    pub log_time_ns: u64,
+    /// Serialized message.
+    pub data: Cow<'static, [u8]>,
+}
+
+/// The files of a log, by the path the user gave.
+pub fn log_files(path: &Path) -> Result<Vec<PathBuf>, IoError> {
+    if !path.is_dir() {
+        return Ok(vec![path.to_path_buf()]);
+    }
+    let os = |source| IoError::Os { path: path.to_path_buf(), source };
+    // rosbag2's metadata.yaml lists the files in order under `relative_file_paths:`.
+    let mut files = Vec::new();
+    if let Ok(text) = std::fs::read_to_string(path.join("metadata.yaml")) {
+        let mut inside = false;
+        for line in text.lines() {
+            let t = line.trim();
+            if t.starts_with("relative_file_paths:") {
+                inside = true;
+                continue;
+            }
+            match t.strip_prefix("- ") {
+                Some(name) if inside => files.push(path.join(name.trim().trim_matches(|c| c == '"' || c == '\''))),
+                _ if inside => inside = false,
+                _ => {}
+            }
+        }
+    }
+    files.retain(|f| f.is_file());
+    if files.is_empty() {
+        for e in std::fs::read_dir(path).map_err(os)? {
+            let p = e.map_err(os)?.path();
+            if matches!(p.extension().and_then(|e| e.to_str()), Some("mcap" | "db3")) {
+                files.push(p);
+            }
+        }
+        // bag_2 before bag_10.
+        files.sort_by(|a, b| (a.as_os_str().len(), a).cmp(&(b.as_os_str().len(), b)));
+    }
+    if files.is_empty() {
+        return Err(IoError::Csv {
+            path: path.to_path_buf(),
+            msg: "a folder without .mcap or .db3 files (expected a rosbag2 folder)".into(),
+        });
+    }
+    Ok(files)
+}
+
+fn mcap_error(path: &Path, e: mcap::McapError) -> IoError {
+    match e {
+        mcap::McapError::Io(source) => IoError::Os { path: path.to_path_buf(), source },
+        mcap::McapError::BadMagic => {
+            IoError::Csv { path: path.to_path_buf(), msg: "not an MCAP file (bad magic)".into() }
+        }
+        e => IoError::Csv { path: path.to_path_buf(), msg: format!("MCAP: {e}") },
+    }
+}
+
+fn open_mcap(path: &Path) -> Result<mcap::io::MessageReader<BufReader<File>>, IoError> {
+    // Record lengths checked against the file before the mcap crate allocates for them.
+    crate::mcap_in::bounds::check_record_lengths(path)?;
+    let os = |source| IoError::Os { path: path.to_path_buf(), source };
+    let mut file = File::open(path).map_err(os)?;
+    let mut magic = Vec::with_capacity(mcap::MAGIC.len());
+    (&mut file).take(mcap::MAGIC.len() as u64).read_to_end(&mut magic).map_err(os)?;
+    if magic != mcap::MAGIC {
+        return Err(IoError::Csv {
+            path: path.to_path_buf(),
+            msg: "not an MCAP file (no MCAP magic at the start)".into(),
+        });
+    }
+    file.seek(SeekFrom::Start(0)).map_err(os)?;
+    let options = mcap::sans_io::LinearReaderOptions::default().with_record_length_limit(MAX_RECORD_BYTES);
+    Ok(mcap::io::MessageReader::new_with_options(BufReader::with_capacity(1 << 16, file), options))
+}
+
+enum FileStream {
+    Mcap {
+        path: PathBuf,
+        reader: Box<mcap::io::MessageReader<BufReader<File>>>,
+        ids: HashMap<u16, usize>,
+    },
+    #[cfg(feature = "sqlite")]
+    Db3(super::db3::Db3Stream),
+}
+
+/// Every message of a log's files, in file order.
+pub struct MessageStream {
+    files: Vec<PathBuf>,
+    next_file: usize,
+    current: Option<FileStream>,
+}
+
+impl MessageStream {
+    /// Opens the log at `path` (a file or a rosbag2 folder).
+    pub fn open(path: &Path) -> Result<Self, IoError> {
+        Ok(Self { files: log_files(path)?, next_file: 0, current: None })
+    }
+
+    fn open_next(&mut self, registry: &mut Registry) -> Result<bool, IoError> {
+        let Some(path) = self.files.get(self.next_file).cloned() else { return Ok(false) };
+        self.next_file += 1;
+        let is_db3 = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("db3"));
+        self.current = Some(if is_db3 {
+            #[cfg(feature = "sqlite")]
+            {
+                FileStream::Db3(super::db3::Db3Stream::open(&path, registry)?)
+            }
+            #[cfg(not(feature = "sqlite"))]
+            {
+                let _ = registry;
+                return Err(IoError::FeatureOff { path, feature: "sqlite" });
+            }
+        } else {
+            FileStream::Mcap { reader: Box::new(open_mcap(&path)?), path, ids: HashMap::new() }
+        });
+        Ok(true)
+    }
+
+    /// The next message; `Ok(None)` at the end of the last file.
+    pub fn next(&mut self, registry: &mut Registry) -> Result<Option<RawMessage>, IoError> {
+        loop {
+            match self.current.as_mut() {
+                None => {
+                    if !self.open_next(registry)? {
+                        return Ok(None);
+                    }
+                }
+                Some(FileStream::Mcap { path, reader, ids }) => match reader.next() {
+                    None => self.current = None,
+                    Some(Err(e)) => return Err(mcap_error(path, e)),
+                    Some(Ok(m)) => {
+                        let ch = &m.channel;
+                        let channel = match ids.get(&ch.id) {
+                            Some(&c) => c,
+                            None => {
+                                let (type_name, schema_encoding, schema) = match &ch.schema {
+                                    Some(s) => (s.name.clone(), s.encoding.clone(), s.data.to_vec()),
+                                    None => (String::new(), String::new(), Vec::new()),
+                                };
+                                let info = ChannelInfo {
+                                    topic: ch.topic.clone(),
+                                    type_name,
+                                    schema_encoding,
+                                    schema,
+                                    message_encoding: ch.message_encoding.clone(),
+                                };
+                                let c = registry.intern(info);
+                                ids.insert(ch.id, c);
+                                c
+                            }
+                        };
+                        return Ok(Some(RawMessage { channel, log_time_ns: m.log_time, data: m.data }));
+                    }
+                },
+                #[cfg(feature = "sqlite")]
+                Some(FileStream::Db3(s)) => match s.next()? {
+                    None => self.current = None,
+                    Some(m) => return Ok(Some(m)),
+                },
+            }
+        }
+    }
+}

@@ -1,0 +1,381 @@
+"""ROS 2 bags written by an independent library (`rosbags`), in both rosbag2 storages
+(MCAP and SQLite 3), read by the built `strainwave` binary.
+
+The bag holds what a ros2_control robot records, interleaved at three rates:
+`sensor_msgs/msg/JointState` at 500 Hz, `control_msgs/msg/DynamicJointState` at 1 kHz
+(interfaces position, motor_position, torque_sensor), `geometry_msgs/msg/WrenchStamped`
+at 250 Hz, and a custom nested message (fixed array of a nested type holding a
+`geometry_msgs/Vector3`, a sequence, an integer) at 100 Hz. Header stamps are the sample
+times; log times lag them by a varying delay.
+
+Checks: every value comes back exactly at its own message time (`--align none`); after
+alignment on the 1 kHz clock each column equals its own samples interpolated (linear,
+hold); `--topic` and `--time log`; `filter --in bag.mcap --out filtered.mcap` end to end,
+read back with the `mcap` reader; bad bags give one-line errors.
+"""
+
+import csv
+import math
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+np = pytest.importorskip("numpy", reason="pip install numpy")
+rosbag2 = pytest.importorskip("rosbags.rosbag2", reason="pip install rosbags")
+typesys = pytest.importorskip("rosbags.typesys", reason="pip install rosbags")
+
+ROOT = Path(__file__).resolve().parents[2]
+
+INTERFACE_VALUE = "string[] interface_names\nfloat64[] values\n"
+DYNAMIC_JOINT_STATE = "std_msgs/Header header\nstring[] joint_names\ncontrol_msgs/InterfaceValue[] interface_values\n"
+STAGE = "float64 torque\ngeometry_msgs/Vector3 accel\n"
+GEARBOX = "std_msgs/Header header\nstrainwave_test/Stage[2] stages\nfloat32[] temps\nint32 mode\n"
+
+JOINTS = ["j1", "j2"]
+T0_NS = 1_700_000_000_000_000_000  # epoch-like stamps
+DURATION_S = 0.2
+RATES = {"/dynamic_joint_states": 1000, "/joint_states": 500, "/wrench": 250, "/gearbox": 100}
+
+
+def truth(name, t):
+    """The value of a signal at time t (s since T0)."""
+    k = {"pos": 1.0, "mpos": 2.0, "torq": 3.0, "vel": 4.0, "eff": 5.0, "fx": 6.0, "tz": 7.0, "st": 8.0}[name[0]]
+    j = name[1]
+    return math.sin(2 * math.pi * (3 + k) * t + j) * (10 + k) + 0.1 * j
+
+
+def strainwave():
+    """The built binary (CARGO_TARGET_DIR honoured), built once with cargo."""
+    if shutil.which("cargo") is None:
+        pytest.skip("cargo not found")
+    res = subprocess.run(
+        ["cargo", "build", "-q", "-p", "strainwave-cli"], cwd=ROOT, capture_output=True, text=True, timeout=3600
+    )
+    if res.returncode != 0:
+        pytest.fail(f"cargo build failed:\n{res.stderr}")
+    target = Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target"))
+    if not target.is_absolute():
+        target = ROOT / target
+    return target / "debug" / "strainwave"
+
+
+@pytest.fixture(scope="module")
+def binary():
+    return strainwave()
+
+
+def run(binary, *args, ok=True):
+    res = subprocess.run([str(binary), *map(str, args)], capture_output=True, text=True, timeout=600)
+    if ok and res.returncode != 0:
+        pytest.fail(f"strainwave {' '.join(map(str, args))} failed ({res.returncode}):\n{res.stderr}")
+    return res
+
+
+def read_csv(path):
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    return rows[0], np.array([[float(x) for x in r] for r in rows[1:]])
+
+
+def typestore():
+    store = typesys.get_typestore(typesys.Stores.ROS2_HUMBLE)
+    types = {}
+    types.update(typesys.get_types_from_msg(INTERFACE_VALUE, "control_msgs/msg/InterfaceValue"))
+    types.update(typesys.get_types_from_msg(DYNAMIC_JOINT_STATE, "control_msgs/msg/DynamicJointState"))
+    types.update(typesys.get_types_from_msg(STAGE, "strainwave_test/msg/Stage"))
+    types.update(typesys.get_types_from_msg(GEARBOX, "strainwave_test/msg/Gearbox"))
+    store.register(types)
+    return store
+
+
+def messages(store):
+    """(topic, type, stamp_ns, log_ns, msg, {column: value}) in log-time order."""
+    t = store.types
+    Header, Time = t["std_msgs/msg/Header"], t["builtin_interfaces/msg/Time"]
+    out = []
+    for topic, rate in RATES.items():
+        period_ns = 1_000_000_000 // rate
+        for k in range(int(DURATION_S * rate)):
+            ts = k * period_ns * 1e-9
+            stamp = T0_NS + k * period_ns
+            log = stamp + 150_000 + (k * 37_000) % 300_000  # 0.15–0.45 ms late
+            header = Header(stamp=Time(sec=stamp // 10**9, nanosec=stamp % 10**9), frame_id="base")
+            if topic == "/joint_states":
+                pos = [truth(("pos", j), ts) for j in range(2)]
+                vel = [truth(("vel", j), ts) for j in range(2)]
+                eff = [truth(("eff", j), ts) for j in range(2)]
+                msg = t["sensor_msgs/msg/JointState"](
+                    header=header, name=JOINTS, position=np.array(pos), velocity=np.array(vel), effort=np.array(eff)
+                )
+                cols = {}
+                for j, n in enumerate(JOINTS):
+                    cols[f"/joint_states/{n}.position"] = pos[j]
+                    cols[f"{n}.velocity"] = vel[j]
+                    cols[f"{n}.effort"] = eff[j]
+                mtype = "sensor_msgs/msg/JointState"
+            elif topic == "/dynamic_joint_states":
+                ifaces = ["position", "motor_position", "torque_sensor"]
+                vals = [[truth((s, j), ts) for s in ("pos", "mpos", "torq")] for j in range(2)]
+                msg = t["control_msgs/msg/DynamicJointState"](
+                    header=header,
+                    joint_names=JOINTS,
+                    interface_values=[
+                        t["control_msgs/msg/InterfaceValue"](interface_names=ifaces, values=np.array(v)) for v in vals
+                    ],
+                )
+                cols = {}
+                for j, n in enumerate(JOINTS):
+                    cols[f"/dynamic_joint_states/{n}.position"] = vals[j][0]
+                    cols[f"{n}.motor_position"] = vals[j][1]
+                    cols[f"{n}.torque_sensor"] = vals[j][2]
+                mtype = "control_msgs/msg/DynamicJointState"
+            elif topic == "/wrench":
+                V3 = t["geometry_msgs/msg/Vector3"]
+                f = V3(x=truth(("fx", 0), ts), y=truth(("fx", 1), ts), z=-1.5)
+                tq = V3(x=0.25, y=-0.5, z=truth(("tz", 0), ts))
+                msg = t["geometry_msgs/msg/WrenchStamped"](header=header, wrench=t["geometry_msgs/msg/Wrench"](force=f, torque=tq))
+                cols = {
+                    "/wrench/wrench.force.x": f.x,
+                    "/wrench/wrench.force.y": f.y,
+                    "/wrench/wrench.force.z": -1.5,
+                    "/wrench/wrench.torque.x": 0.25,
+                    "/wrench/wrench.torque.y": -0.5,
+                    "/wrench/wrench.torque.z": tq.z,
+                }
+                mtype = "geometry_msgs/msg/WrenchStamped"
+            else:
+                V3 = t["geometry_msgs/msg/Vector3"]
+                stages = [
+                    t["strainwave_test/msg/Stage"](torque=truth(("st", i), ts), accel=V3(x=i, y=0.5 * k, z=-k)) for i in range(2)
+                ]
+                temps = np.array([30.0 + 0.5 * k, 31.25], dtype=np.float32)
+                msg = t["strainwave_test/msg/Gearbox"](header=header, stages=stages, temps=temps, mode=k % 3 - 1)
+                cols = {"/gearbox/mode": float(k % 3 - 1), "/gearbox/temps.0": float(temps[0]), "/gearbox/temps.1": 31.25}
+                for i in range(2):
+                    cols[f"/gearbox/stages.{i}.torque"] = stages[i].torque
+                    cols[f"/gearbox/stages.{i}.accel.x"] = float(i)
+                    cols[f"/gearbox/stages.{i}.accel.y"] = 0.5 * k
+                    cols[f"/gearbox/stages.{i}.accel.z"] = float(-k)
+                mtype = "strainwave_test/msg/Gearbox"
+            out.append((topic, mtype, stamp, log, msg, cols))
+    out.sort(key=lambda m: (m[3], m[0]))
+    return out
+
+
+def write_bag(path, storage, extra=None):
+    store = typestore()
+    msgs = messages(store)
+    with rosbag2.Writer(path, version=9, storage_plugin=storage) as w:
+        conns = {}
+        for topic, mtype, _, _, _, _ in msgs:
+            if topic not in conns:
+                conns[topic] = w.add_connection(topic, mtype, typestore=store)
+        for topic, mtype, _, log, msg, _ in msgs:
+            w.write(conns[topic], log, store.serialize_cdr(msg, mtype))
+        if extra:
+            extra(w, store, conns)
+    return msgs
+
+
+STORAGES = {"mcap": "MCAP", "sqlite3": "SQLITE3"}
+
+
+@pytest.fixture(scope="module", params=sorted(STORAGES))
+def bag(request, tmp_path_factory):
+    storage = getattr(rosbag2.StoragePlugin, STORAGES[request.param])
+    path = tmp_path_factory.mktemp(request.param) / "robot"
+    msgs = write_bag(path, storage)
+    files = sorted(p for p in path.iterdir() if p.suffix in (".mcap", ".db3"))
+    assert len(files) == 1, list(path.iterdir())
+    return {"folder": path, "file": files[0], "messages": msgs, "storage": request.param}
+
+
+def test_every_value_exactly_at_its_own_message_time(binary, bag, tmp_path):
+    # The folder and the bare file read the same.
+    for source in (bag["folder"], bag["file"]):
+        out = tmp_path / "none.csv"
+        run(binary, "convert", "--in", source, "--align", "none", "--out", out)
+        header, rows = read_csv(out)
+        msgs = sorted(bag["messages"], key=lambda m: m[2])
+        assert len(rows) == len(msgs)
+        expected_cols = set().union(*(m[5].keys() for m in msgs))
+        assert set(header[1:]) == expected_cols, set(header[1:]) ^ expected_cols
+        index = {c: i for i, c in enumerate(header)}
+        for row, (topic, _, stamp, _, _, cols) in zip(rows, msgs):
+            assert row[0] == stamp / 1e9, (topic, row[0], stamp)
+            for name, i in index.items():
+                if name == "time":
+                    continue
+                if name in cols:
+                    assert row[i] == cols[name], (topic, name, row[i], cols[name])
+                else:
+                    assert math.isnan(row[i]), (topic, name, row[i])
+
+
+def own_samples(msgs, column):
+    pts = sorted((m[2], m[5][column]) for m in msgs if column in m[5])
+    return np.array([p[0] for p in pts], dtype=np.int64), np.array([p[1] for p in pts])
+
+
+def test_aligned_columns_equal_their_own_samples_interpolated(binary, bag, tmp_path):
+    out = tmp_path / "linear.csv"
+    res = run(binary, "convert", "--in", bag["folder"], "--out", out)
+    header, rows = read_csv(out)
+    clock_ns = np.array(sorted(m[2] for m in bag["messages"] if m[0] == "/dynamic_joint_states"), dtype=np.int64)
+    assert len(rows) == len(clock_ns) == 200, res.stderr
+    assert np.array_equal(rows[:, 0], clock_ns / 1e9)
+    t_rel = (clock_ns - T0_NS).astype(float)
+    checked = 0
+    for i, name in enumerate(header[1:], start=1):
+        ts, vs = own_samples(bag["messages"], name)
+        rel = (ts - T0_NS).astype(float)
+        inside = (t_rel >= rel[0]) & (t_rel <= rel[-1])
+        want = np.interp(t_rel, rel, vs)
+        got = rows[:, i]
+        assert np.all(np.isnan(got[~inside])), name
+        err = np.abs(got[inside] - want[inside])
+        assert np.all(err <= 1e-12 * (1 + np.abs(want[inside]))), (name, err.max())
+        # At its own times, exactly its own value.
+        own = np.isin(clock_ns, ts)
+        assert np.array_equal(got[own], vs[np.searchsorted(ts, clock_ns[own])]), name
+        checked += 1
+    assert checked == len(header) - 1 > 20
+
+
+def test_hold_on_a_uniform_clock_and_max_gap(binary, bag, tmp_path):
+    out = tmp_path / "hold.csv"
+    run(binary, "convert", "--in", bag["file"], "--align", "hold", "--resample-hz", "400", "--max-gap", "0.006", "--out", out)
+    header, rows = read_csv(out)
+    assert len(rows) == 80  # 0.2 s from the first stamp minus the last step, at 400 Hz
+    grid = T0_NS + np.round(np.arange(len(rows)) * 1e9 / 400).astype(np.int64)
+    assert np.array_equal(rows[:, 0], grid / 1e9)
+    for name in ("j1.velocity", "/wrench/wrench.force.x", "/gearbox/stages.1.torque"):
+        ts, vs = own_samples(bag["messages"], name)
+        got = rows[:, header.index(name)]
+        for g, v in zip(grid, got):
+            k = np.searchsorted(ts, g, side="right") - 1
+            if k >= 0 and g - ts[k] <= 6_000_000:
+                assert v == vs[k], (name, g, v, vs[k])
+            else:
+                assert math.isnan(v), (name, g, v)
+    # /gearbox is 100 Hz: of the 4 grid rows per sample (0, 2.5, 5, 7.5 ms after it) the
+    # last is beyond the 6 ms gap.
+    assert np.isnan(rows[:, header.index("/gearbox/stages.1.torque")]).sum() == 20
+
+
+def test_topic_selection_and_log_time(binary, bag, tmp_path):
+    out = tmp_path / "wrench.csv"
+    run(binary, "convert", "--in", bag["file"], "--topic", "/wrench", "--time", "log", "--out", out)
+    header, rows = read_csv(out)
+    assert all(c == "time" or c.startswith("/wrench/") for c in header), header
+    logs = sorted(m[3] for m in bag["messages"] if m[0] == "/wrench")
+    assert np.array_equal(rows[:, 0], np.array(logs) / 1e9)
+    # Without a clash, positions are not prefixed.
+    out = tmp_path / "djs.csv"
+    run(binary, "convert", "--in", bag["file"], "--topic", "/dynamic_joint_states", "--out", out)
+    header, _ = read_csv(out)
+    assert header == ["time"] + [f"{j}.{i}" for j in JOINTS for i in ("position", "motor_position", "torque_sensor")]
+    res = run(binary, "convert", "--in", bag["file"], "--topic", "/nope", "--out", tmp_path / "x.csv", ok=False)
+    assert res.returncode == 1 and "/nope" in res.stderr and "/wrench" in res.stderr, res.stderr
+
+
+JOINT_CONFIG = """
+[gear]
+ratio = 100.0
+fixed = "circular_spline"
+
+[channels]
+time = "time"
+torque = "j1.torque_sensor"
+motor_angle = "j1.motor_position"
+output_angle = "j1.position"
+
+[filter]
+model = "product"
+sample_rate_hz = 1000.0
+noise_nm = 0.02
+phase = "angle"
+"""
+
+
+def test_filter_bag_to_mcap_end_to_end(binary, bag, tmp_path):
+    mcap_reader = pytest.importorskip("mcap.reader", reason="pip install mcap")
+    decoder = pytest.importorskip("mcap_ros2.decoder", reason="pip install mcap-ros2-support")
+    config = tmp_path / "joint.toml"
+    config.write_text(JOINT_CONFIG)
+    out = tmp_path / "filtered.mcap"
+    run(binary, "filter", "--config", config, "--in", bag["file"], "--topic", "/dynamic_joint_states", "--out", out)
+    csv_out = tmp_path / "filtered.csv"
+    run(binary, "filter", "--config", config, "--in", bag["file"], "--topic", "/dynamic_joint_states", "--out", csv_out)
+    header, rows = read_csv(csv_out)
+    topics = {}
+    with open(out, "rb") as f:
+        reader = mcap_reader.make_reader(f, decoder_factories=[decoder.DecoderFactory()])
+        for schema, channel, message, ros in reader.iter_decoded_messages():
+            assert schema.name == "std_msgs/msg/Float64"
+            topics.setdefault(channel.topic, []).append((message.log_time, ros.data))
+    for i, name in enumerate(header[1:], start=1):
+        topic = "/strainwave/" + name.replace(".", "/")
+        got = topics[topic]
+        finite = ~np.isnan(rows[:, i])
+        assert len(got) == finite.sum(), name
+        assert [g[1] for g in got] == list(rows[finite, i]), name
+        assert [g[0] for g in got] == [round(t * 1e9) for t in rows[finite, 0]], name
+    # Reading the written MCAP back gives the filter's columns again.
+    back = tmp_path / "back.csv"
+    run(binary, "convert", "--in", out, "--align", "none", "--time", "log", "--out", back)
+    bh, _ = read_csv(back)
+    assert len(bh) == len(header)
+
+
+def test_damaged_bags_are_one_line_errors(binary, tmp_path):
+    mcap_writer = pytest.importorskip("mcap.writer", reason="pip install mcap")
+    path = tmp_path / "robot"
+    write_bag(path, rosbag2.StoragePlugin.MCAP)
+    (file,) = path.glob("*.mcap")
+    data = file.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: len(data) * 2 // 3])
+    res = run(binary, "convert", "--in", cut, "--align", "none", "--out", tmp_path / "cut.csv", ok=False)
+    err = res.stderr.strip().splitlines()
+    assert res.returncode == 1 and len(err) == 1, res.stderr
+    assert "cut.mcap" in err[0] and "stopped after message" in err[0], err[0]
+
+    # A message whose CDR does not match its schema, and an unknown schema encoding.
+    bad = tmp_path / "bad.mcap"
+    with open(bad, "wb") as f:
+        w = mcap_writer.Writer(f)
+        w.start(profile="ros2")
+        s = w.register_schema(name="geometry_msgs/msg/Vector3", encoding="ros2msg", data=b"float64 x\nfloat64 y\nfloat64 z\n")
+        c = w.register_channel(topic="/v", message_encoding="cdr", schema_id=s)
+        p = w.register_schema(name="my.Proto", encoding="protobuf", data=b"\x01")
+        pc = w.register_channel(topic="/proto", message_encoding="protobuf", schema_id=p)
+        body = bytes([0, 1, 0, 0]) + np.array([1.0, 2.0, 3.0]).tobytes()
+        w.add_message(channel_id=c, log_time=1_000_000_000, publish_time=0, data=body)
+        w.add_message(channel_id=pc, log_time=1_100_000_000, publish_time=0, data=b"\x08\x01")
+        w.add_message(channel_id=c, log_time=2_000_000_000, publish_time=0, data=body[:20])
+        w.finish()
+    res = run(binary, "convert", "--in", bad, "--out", tmp_path / "bad.csv", ok=False)
+    assert res.returncode == 1, res.stderr
+    line = [l for l in res.stderr.splitlines() if l.startswith("error:")]
+    assert len(line) == 1 and "/v" in line[0] and "log time 2 s" in line[0] and "schema" in line[0], res.stderr
+    # The unknown encoding alone: a warning, the rest read.
+    good = tmp_path / "good.mcap"
+    with open(good, "wb") as f:
+        w = mcap_writer.Writer(f)
+        w.start(profile="ros2")
+        s = w.register_schema(name="geometry_msgs/msg/Vector3", encoding="ros2msg", data=b"float64 x\nfloat64 y\nfloat64 z\n")
+        c = w.register_channel(topic="/v", message_encoding="cdr", schema_id=s)
+        p = w.register_schema(name="my.Proto", encoding="protobuf", data=b"\x01")
+        pc = w.register_channel(topic="/proto", message_encoding="protobuf", schema_id=p)
+        w.add_message(channel_id=c, log_time=1_000_000_000, publish_time=0, data=body)
+        w.add_message(channel_id=pc, log_time=1_100_000_000, publish_time=0, data=b"\x08\x01")
+        w.finish()
+    res = run(binary, "convert", "--in", good, "--out", tmp_path / "good.csv")
+    warn = [l for l in res.stderr.splitlines() if "/proto" in l]
+    assert len(warn) == 1 and "protobuf" in warn[0] and "my.Proto" in warn[0], res.stderr
+    header, rows = read_csv(tmp_path / "good.csv")
+    assert header == ["time", "/v/x", "/v/y", "/v/z"] and rows.tolist() == [[1.0, 1.0, 2.0, 3.0]]
