@@ -1,5 +1,6 @@
-//! The caller-owned state: fixed-size storage for one joint's [`Instance`], tagged with
-//! a magic word so that a state never given to a successful `sw_init` is refused.
+//! The caller-owned state: fixed-size storage for one joint's canceller (model, filter
+//! state, gear, calibration), tagged with a magic word so that a state never given to a
+//! successful `sw_init` is refused.
 //!
 //! The storage holds the core model and state of the largest order count; its size is a
 //! literal (C needs one) and a compile-time check keeps it large and aligned enough for
