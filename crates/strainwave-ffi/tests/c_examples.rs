@@ -137,14 +137,14 @@ fn c_example_matches_filter_and_cpp_example_builds() {
     // Single precision: the export compiles and its model passes sw32_init.
     let model32 = tmp.join("model32.h");
     run(Command::new(&cli)
-        .args(["export-c", "--precision", "f32", "--name", "JOINT_F32", "--config"])
+        .args(["export-c", "--precision", "f32", "--name", "SW32_MODEL", "--config"])
         .arg(root.join("examples/joint-taghirad.toml"))
         .arg("--out")
         .arg(&model32));
     let check32 = tmp.join("check32.c");
     std::fs::write(
         &check32,
-        "#include \"model32.h\"\nint main(void) {\n    static sw32_state s;\n    return sw32_init(&s, &JOINT_F32);\n}\n",
+        "#include \"model32.h\"\nint main(void) {\n    static sw32_state s;\n    return sw32_init(&s, &SW32_MODEL);\n}\n",
     )
     .unwrap();
     let exe32 = tmp.join("check32");
@@ -160,6 +160,23 @@ fn c_example_matches_filter_and_cpp_example_builds() {
         .arg("-o")
         .arg(&exe32));
     run(&mut Command::new(&exe32));
+
+    // The instruction-count workload (docs/performance.md) builds and runs.
+    std::fs::copy(tmp.join("joint-taghirad_model.h"), tmp.join("model.h")).unwrap();
+    let exe_loop = tmp.join("step_loop");
+    run(Command::new("cc")
+        .args(cc_flags)
+        .arg("-I")
+        .arg(&include)
+        .arg("-I")
+        .arg(&tmp)
+        .arg(root.join("examples/c/step_loop.c"))
+        .arg(&lib)
+        .args(libs)
+        .arg("-o")
+        .arg(&exe_loop));
+    let out = run(Command::new(&exe_loop).arg("2000"));
+    assert!(out.contains("mean clean torque over 2000 steps"), "{out}");
 
     // The ros2_control wrapper, C++17, against the header and an exported model.
     let exe_cpp = tmp.join("hardware_interface_example");
