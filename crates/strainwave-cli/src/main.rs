@@ -10,6 +10,7 @@ mod cmd_convert;
 mod cmd_demo;
 mod cmd_design;
 mod cmd_estimate;
+mod cmd_export_c;
 mod cmd_filter;
 mod cmd_fuse;
 mod cmd_identify;
@@ -64,6 +65,11 @@ enum Command {
         after_help = "Example:\n  strainwave simulate --preset hda-arm --out arm.csv\n  strainwave estimate --config arm-model.toml --in arm.csv --out estimated.csv"
     )]
     Estimate(cmd_estimate::Args),
+    /// Write a joint's canceller as a C initializer for the C ABI (firmware, ros2_control).
+    #[command(
+        after_help = "Example:\n  strainwave export-c --config examples/joint-taghirad.toml --out joint_model.h\n  strainwave export-c --config joint.toml --learned learned.toml --name JOINT3 --precision f32 --out joint3.h"
+    )]
+    ExportC(cmd_export_c::Args),
     /// Identify the kinematic error and the compliance of a gear from recorded runs.
     #[command(
         after_help = "Example:\n  strainwave identify --config examples/arm-hda.toml --no-load noload.csv --loaded loaded.csv --out arm-model.toml"
@@ -142,6 +148,7 @@ fn main() -> ExitCode {
         Command::Demo(a) => cmd_demo::run(&a),
         Command::Design(a) => cmd_design::run(&a),
         Command::Estimate(a) => cmd_estimate::run(&a),
+        Command::ExportC(a) => cmd_export_c::run(&a),
         Command::Identify(a) => cmd_identify::run(&a),
         Command::Fuse(a) => cmd_fuse::run(&a),
         Command::Campbell(a) => cmd_campbell::run(&a),

@@ -6,7 +6,9 @@
 //! so that they read the same files the same way and give the same numbers. Its errors are
 //! the one-line, user-facing messages the command line prints (file, row, key).
 
+pub mod canceller;
 pub mod config;
+pub mod export_c;
 pub mod learned;
 pub mod row_check;
 pub mod run;

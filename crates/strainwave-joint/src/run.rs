@@ -10,11 +10,12 @@ use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Context, Result};
 use strainwave_core::ripple::{
-    step, Order, PhaseSource, ReferenceValues, RippleInput, RippleModel, RippleOutput, RippleState,
+    step, PhaseSource, ReferenceValues, RippleInput, RippleModel, RippleOutput, RippleState,
 };
 use strainwave_io::{BoundChannel, IoError, RecordingReader, RecordingWriter};
 
-use crate::config::{JointConfig, ModelChoice, PhaseChoice, MAX_TABLE_LEN};
+use crate::canceller::{build_model, in_config_terms, ModelVisitor};
+use crate::config::{JointConfig, ModelChoice, MAX_TABLE_LEN};
 use crate::learned::LearnedFile;
 use crate::row_check::RowCheck;
 
@@ -110,109 +111,21 @@ pub fn filter_recording<S: RowSource, W: RowSink>(
     opts: &FilterOptions,
     progress: &mut dyn FnMut(u64),
 ) -> Result<FilterSummary> {
-    let fs = cfg.filter.sample_rate_hz;
     let config = cfg.path.display().to_string();
-    let phase = match cfg.filter.phase {
-        PhaseChoice::Angle => PhaseSource::Angle,
-        PhaseChoice::Velocity => PhaseSource::Velocity,
-    };
-    let orders_model = cfg.filter.model == ModelChoice::Orders;
-    let core = |e: strainwave_core::Error| anyhow!("{config}: {}", in_config_terms(e, orders_model, fs));
-    let noise = |model: &str| {
-        cfg.filter.noise_nm.with_context(|| format!("{config}: `filter.noise_nm` is needed by the {model} model"))
-    };
     let mut notes = Vec::new();
-    let run = Run { cfg, opts };
-    let mut summary = match cfg.filter.model {
-        ModelChoice::Full => {
-            let noise = noise("full")?;
-            // Learning (commissioning, or no learned file yet) or operating from learned priors.
-            let m = match (&opts.learn, &cfg.filter.learned) {
-                (None, Some(_)) => RippleModel::<f64, 5>::full(fs, noise),
-                _ => RippleModel::<f64, 5>::full_commissioning(fs, noise),
-            }
-            .map_err(core)?
-            .with_phase_source(phase);
-            if opts.learn.is_none() && cfg.filter.learned.is_none() {
-                notes.push(format!(
-                    "{config}: no `filter.learned` file, so the full model learns from zero in this run; \
-                     the misalignment needs several output revolutions (see `filter --learn`)"
-                ));
-            }
-            run.stream(&m, source, create, progress)?
-        }
-        ModelChoice::Product => {
-            let m = RippleModel::<f64, 3>::product(fs, noise("product")?).map_err(core)?.with_phase_source(phase);
-            run.stream(&m, source, create, progress)?
-        }
-        ModelChoice::Taghirad4thOrder => {
-            let m = RippleModel::<f64, 2>::seed_4th_order(fs).map_err(core)?.with_phase_source(phase);
-            run.stream(&m, source, create, progress)?
-        }
-        ModelChoice::Taghirad6thOrder => {
-            let m = RippleModel::<f64, 3>::seed_6th_order(fs).map_err(core)?.with_phase_source(phase);
-            run.stream(&m, source, create, progress)?
-        }
-        ModelChoice::Orders => {
-            let orders: Vec<Order<f64>> = cfg
-                .filter
-                .orders
-                .iter()
-                .map(|o| -> Result<Order<f64>> {
-                    Order::new(o.reference.into(), o.multiple)
-                        .and_then(|x| x.with_noise(o.q_per_sample_nm2, o.q_per_rad_nm2))
-                        .map_err(core)
-                })
-                .collect::<Result<_>>()?;
-            let r =
-                cfg.filter.r_nm2.with_context(|| format!("{config}: `filter.r_nm2` is needed by the orders model"))?;
-            macro_rules! with_m {
-                ($($m:literal)*) => {
-                    match orders.len() {
-                        $($m => {
-                            let arr: [Order<f64>; $m] = orders.clone().try_into().map_err(|_| anyhow!("orders"))?;
-                            let mut model = RippleModel::new(arr, r, fs).map_err(core)?.with_phase_source(phase);
-                            if let Some(q) = cfg.filter.bias_q_nm2 {
-                                model = model.with_bias_state(q).map_err(core)?;
-                            }
-                            run.stream(&model, source, create, progress)?
-                        })*
-                        n => bail!("{config}: `filter.orders` needs 1 to 8 orders, got {n}"),
-                    }
-                };
-            }
-            with_m!(1 2 3 4 5 6 7 8)
-        }
-    };
+    if cfg.filter.model == ModelChoice::Full && opts.learn.is_none() && cfg.filter.learned.is_none() {
+        notes.push(format!(
+            "{config}: no `filter.learned` file, so the full model learns from zero in this run; \
+             the misalignment needs several output revolutions (see `filter --learn`)"
+        ));
+    }
+    // Learning (commissioning, or no learned file yet) or operating from learned priors.
+    let with_learned_priors = opts.learn.is_none() && cfg.filter.learned.is_some();
+    let run = Run { cfg, opts, source, create, progress };
+    let mut summary = build_model(cfg, with_learned_priors, run)?;
     notes.append(&mut summary.notes);
     summary.notes = notes;
     Ok(summary)
-}
-
-/// A core error in the words of the config file: a parameter the user did not write
-/// is named by the key it comes from (`noise_nm`, not the variance `r_nm2` made of it).
-fn in_config_terms(e: strainwave_core::Error, orders_model: bool, sample_rate_hz: f64) -> String {
-    use strainwave_core::Error as E;
-    let key = |p: &'static str| match p {
-        "r_nm2" if orders_model => "filter.r_nm2",
-        "r_nm2" => "filter.noise_nm",
-        "sample_rate_hz" => "filter.sample_rate_hz",
-        "q_per_sample_nm2" | "q_per_rad_nm2" | "multiple" => p,
-        "q_nm2" if orders_model => "filter.bias_q_nm2",
-        other => other,
-    };
-    match e {
-        E::OutOfRange("bandwidth_hz") => {
-            format!("`filter.sample_rate_hz` = {sample_rate_hz} is too low for the model's tracking bandwidth")
-        }
-        E::NotPositiveDefinite("ripple covariance") => "the filter's uncertainty became invalid (a glitch in the \
-             torque or the angles, or a `filter.noise_nm` far from the recording's noise?)"
-            .into(),
-        E::NonPositive(p) => format!("`{}` must be positive", key(p)),
-        E::NonFinite(p) => format!("`{}` must be finite", key(p)),
-        E::OutOfRange(p) => format!("`{}` is out of range", key(p)),
-        other => other.to_string(),
-    }
 }
 
 /// The channels bound to the input's columns.
@@ -294,21 +207,25 @@ impl Bound {
     }
 }
 
-/// One run's settings, shared by every model size.
-struct Run<'a> {
+/// One run's settings and ends, for whichever model size the config has.
+struct Run<'a, S, C> {
     cfg: &'a JointConfig,
     opts: &'a FilterOptions,
+    source: &'a mut S,
+    create: C,
+    progress: &'a mut dyn FnMut(u64),
 }
 
-impl Run<'_> {
-    fn stream<const M: usize, S: RowSource, W: RowSink>(
-        &self,
-        model: &RippleModel<f64, M>,
-        r: &mut S,
-        create: impl FnOnce(&[&str]) -> Result<W>,
-        progress: &mut dyn FnMut(u64),
-    ) -> Result<FilterSummary> {
-        let (cfg, opts) = (self.cfg, self.opts);
+impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> ModelVisitor for Run<'_, S, C> {
+    type Output = FilterSummary;
+    fn visit<const M: usize>(self, model: RippleModel<f64, M>) -> Result<FilterSummary> {
+        self.stream(&model)
+    }
+}
+
+impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
+    fn stream<const M: usize>(self, model: &RippleModel<f64, M>) -> Result<FilterSummary> {
+        let Run { cfg, opts, source: r, create, progress } = self;
         let config = cfg.path.display().to_string();
         let input = opts.input_name.as_str();
         let learned_model;

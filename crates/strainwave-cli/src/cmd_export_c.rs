@@ -1,0 +1,44 @@
+//! `strainwave export-c`: a joint config's canceller (calibration, orders, tuning, learned
+//! coefficients) as a C initializer for the C ABI, to compile into drive firmware.
+
+use std::io::Write as _;
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use strainwave_joint::export_c::{export_c, Precision};
+use strainwave_joint::JointConfig;
+
+/// Arguments of `export-c`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Joint configuration (TOML), as for `filter`.
+    #[arg(long)]
+    pub config: PathBuf,
+    /// Learned coefficients (from `filter --learn`); default: the config's `filter.learned`.
+    #[arg(long)]
+    pub learned: Option<PathBuf>,
+    /// Output C header, or `-` for standard output.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Name of the `static const` model (a C identifier); the channels get `NAME_CHANNELS`.
+    #[arg(long, default_value = "SW_MODEL")]
+    pub name: String,
+    /// `f64` writes an `sw_model` (the command line's numbers), `f32` an `sw32_model`.
+    #[arg(long, default_value = "f64", value_parser = ["f64", "f32"])]
+    pub precision: String,
+}
+
+/// Runs `export-c`.
+pub fn run(a: &Args) -> Result<()> {
+    let cfg = JointConfig::load(&a.config)?;
+    let precision = if a.precision == "f32" { Precision::F32 } else { Precision::F64 };
+    let text = export_c(&cfg, a.learned.as_deref(), &a.name, precision)?;
+    if a.out.as_os_str() == "-" {
+        let mut out = std::io::stdout().lock();
+        out.write_all(text.as_bytes()).and_then(|()| out.flush()).context("standard output")?;
+    } else {
+        std::fs::write(&a.out, text).with_context(|| format!("{}", a.out.display()))?;
+        eprintln!("wrote {} ({} model of {})", a.out.display(), a.precision, a.config.display());
+    }
+    Ok(())
+}

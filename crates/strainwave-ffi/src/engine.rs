@@ -1,0 +1,319 @@
+//! The canceller behind the C ABI, in either precision: a plain model checked and
+//! converted into the core's `RippleModel`, its `RippleState`, the gear and the
+//! calibration, and one sample's path from the raw channels to the core's `step`.
+//!
+//! The per-sample path is the one `strainwave filter` takes for each row of a recording
+//! (calibration at the motor speed, references from the gear, the time step from the
+//! time channel), so an exported model gives the command line's numbers.
+
+use strainwave_core::calibration::{Calibration, Extrapolation};
+use strainwave_core::gear::{FixedElement, Gear};
+use strainwave_core::ripple::{
+    step, Limits, Order, PhaseSource, Reference, ReferenceValues, RippleInput, RippleModel, RippleState,
+};
+use strainwave_core::Real;
+
+use crate::errors::*;
+use crate::types::*;
+
+/// A model in either precision, field by field as [`sw_model`].
+#[derive(Clone, Copy)]
+pub(crate) struct Plain<T: Real> {
+    pub version: u32,
+    pub order_count: u32,
+    pub gear_fixed: u32,
+    pub phase_source: u32,
+    pub channels: u32,
+    pub has_bias_state: u32,
+    pub gear_ratio: T,
+    pub sample_rate_hz: T,
+    pub r_nm2: T,
+    pub bias_q_nm2: T,
+    pub p0_oscillator_nm2: T,
+    pub p0_bias_nm2: T,
+    pub limits: Limits<T>,
+    pub orders: [PlainOrder<T>; SW_MAX_ORDERS],
+    pub calibration: PlainCalibration<T>,
+}
+
+/// One order, as [`sw_order`].
+#[derive(Clone, Copy)]
+pub(crate) struct PlainOrder<T> {
+    pub reference: u32,
+    pub load_scaled: u32,
+    pub multiple: T,
+    pub q_per_sample_nm2: T,
+    pub q_per_rad_nm2: T,
+    pub prior_nm: [T; 2],
+    pub prior_variance_nm2: T,
+}
+
+/// The calibration, as [`sw_calibration`].
+#[derive(Clone, Copy)]
+pub(crate) struct PlainCalibration<T> {
+    pub kind: u32,
+    pub extrapolation: u32,
+    pub len: u32,
+    pub speed_min_rad_s: T,
+    pub speed_max_rad_s: T,
+    pub speed_rad_s: [T; SW_MAX_CALIBRATION_POINTS],
+    pub alpha: [T; SW_MAX_CALIBRATION_POINTS],
+    pub beta_nm: [T; SW_MAX_CALIBRATION_POINTS],
+}
+
+/// One sample, as [`sw_sample`].
+#[derive(Clone, Copy)]
+pub(crate) struct Sample<T> {
+    pub time: T,
+    pub torque: T,
+    pub motor_angle: T,
+    pub output_angle: T,
+    pub motor_velocity: T,
+    pub expected_torque: T,
+}
+
+/// One result, as [`sw_output`].
+#[derive(Clone, Copy)]
+pub(crate) struct Output<T> {
+    pub torque: T,
+    pub ripple: T,
+    pub misalignment: T,
+    pub innovation: T,
+    pub nis: T,
+    pub flags: u32,
+}
+
+/// The model and state for each order count (the core sizes them at compile time).
+#[derive(Clone, Copy)]
+pub(crate) enum Engine<T: Real> {
+    O1(RippleModel<T, 1>, RippleState<T, 1>),
+    O2(RippleModel<T, 2>, RippleState<T, 2>),
+    O3(RippleModel<T, 3>, RippleState<T, 3>),
+    O4(RippleModel<T, 4>, RippleState<T, 4>),
+    O5(RippleModel<T, 5>, RippleState<T, 5>),
+    O6(RippleModel<T, 6>, RippleState<T, 6>),
+    O7(RippleModel<T, 7>, RippleState<T, 7>),
+    O8(RippleModel<T, 8>, RippleState<T, 8>),
+}
+
+/// Everything one joint needs between steps; lives inside `sw_state` / `sw32_state`.
+#[derive(Clone, Copy)]
+pub(crate) struct Instance<T: Real> {
+    engine: Engine<T>,
+    gear: Gear<T>,
+    calibration: Calibration<T, SW_MAX_CALIBRATION_POINTS>,
+    channels: u32,
+    velocity: bool,
+    last_time_s: Option<T>,
+}
+
+/// Calls `$body` with `$m`, `$s` bound to the model and state of whichever size `$e` is.
+macro_rules! with_engine {
+    ($e:expr, $m:ident, $s:ident => $body:expr) => {
+        match $e {
+            Engine::O1($m, $s) => $body,
+            Engine::O2($m, $s) => $body,
+            Engine::O3($m, $s) => $body,
+            Engine::O4($m, $s) => $body,
+            Engine::O5($m, $s) => $body,
+            Engine::O6($m, $s) => $body,
+            Engine::O7($m, $s) => $body,
+            Engine::O8($m, $s) => $body,
+        }
+    };
+}
+
+fn order<T: Real>(p: &PlainOrder<T>) -> Result<Order<T>, i32> {
+    let reference = match p.reference {
+        SW_REFERENCE_RELATIVE => Reference::Relative,
+        SW_REFERENCE_OUTPUT => Reference::Output,
+        SW_REFERENCE_MOTOR => Reference::Motor,
+        _ => return Err(SW_ERROR_ORDER),
+    };
+    let bad = |_| SW_ERROR_ORDER;
+    let mut o = Order::new(reference, p.multiple).and_then(|o| o.with_noise(p.q_per_sample_nm2, p.q_per_rad_nm2));
+    if p.prior_variance_nm2 != T::ZERO {
+        o = o.and_then(|o| o.with_prior(p.prior_nm, p.prior_variance_nm2));
+    } else if p.prior_nm != [T::ZERO; 2] {
+        return Err(SW_ERROR_ORDER);
+    }
+    let o = o.map_err(bad)?;
+    match p.load_scaled {
+        0 => Ok(o),
+        1 => Ok(o.scaled_by_load()),
+        _ => Err(SW_ERROR_ORDER),
+    }
+}
+
+fn ripple_model<T: Real, const M: usize>(p: &Plain<T>) -> Result<RippleModel<T, M>, i32> {
+    let mut orders = [Order::new(Reference::Relative, T::ONE).map_err(|_| SW_ERROR_ORDER)?; M];
+    for (o, plain) in orders.iter_mut().zip(&p.orders) {
+        *o = order(plain)?;
+    }
+    let phase = match p.phase_source {
+        SW_PHASE_ANGLE => PhaseSource::Angle,
+        SW_PHASE_VELOCITY => PhaseSource::Velocity,
+        _ => return Err(SW_ERROR_MODEL),
+    };
+    let bad = |_| SW_ERROR_MODEL;
+    let mut m = RippleModel::new(orders, p.r_nm2, p.sample_rate_hz)
+        .map_err(bad)?
+        .with_phase_source(phase)
+        .with_initial_variance(p.p0_oscillator_nm2, p.p0_bias_nm2)
+        .and_then(|m| m.with_limits(p.limits))
+        .map_err(bad)?;
+    match p.has_bias_state {
+        0 => {}
+        1 => m = m.with_bias_state(p.bias_q_nm2).map_err(bad)?,
+        _ => return Err(SW_ERROR_MODEL),
+    }
+    Ok(m)
+}
+
+fn engine<T: Real>(p: &Plain<T>) -> Result<Engine<T>, i32> {
+    macro_rules! sized {
+        ($v:ident, $m:literal) => {{
+            let m = ripple_model::<T, $m>(p)?;
+            Engine::$v(m, RippleState::new(&m))
+        }};
+    }
+    Ok(match p.order_count {
+        1 => sized!(O1, 1),
+        2 => sized!(O2, 2),
+        3 => sized!(O3, 3),
+        4 => sized!(O4, 4),
+        5 => sized!(O5, 5),
+        6 => sized!(O6, 6),
+        7 => sized!(O7, 7),
+        8 => sized!(O8, 8),
+        _ => return Err(SW_ERROR_ORDER_COUNT),
+    })
+}
+
+fn calibration<T: Real>(c: &PlainCalibration<T>) -> Result<Calibration<T, SW_MAX_CALIBRATION_POINTS>, i32> {
+    let bad = |_| SW_ERROR_CALIBRATION;
+    let n = usize::try_from(c.len).map_err(|_| SW_ERROR_CALIBRATION)?;
+    if !(1..=SW_MAX_CALIBRATION_POINTS).contains(&n) {
+        return Err(SW_ERROR_CALIBRATION);
+    }
+    let extrapolation = match c.extrapolation {
+        SW_EXTRAPOLATION_CLAMP => Extrapolation::Clamp,
+        SW_EXTRAPOLATION_LINEAR => Extrapolation::Linear,
+        SW_EXTRAPOLATION_REJECT => Extrapolation::Reject,
+        _ => return Err(SW_ERROR_CALIBRATION),
+    };
+    // `n` is within the arrays: checked above.
+    let (speed, alpha, beta) = (&c.speed_rad_s[..n], &c.alpha[..n], &c.beta_nm[..n]);
+    match c.kind {
+        SW_CALIBRATION_GAIN => Calibration::gain(c.alpha[0]),
+        SW_CALIBRATION_AFFINE => Calibration::affine(c.alpha[0], c.beta_nm[0]),
+        SW_CALIBRATION_SPEED_TABLE => Calibration::speed_table(speed, alpha, beta, extrapolation),
+        SW_CALIBRATION_SPEED_POLYNOMIAL => {
+            Calibration::speed_polynomial(alpha, beta, c.speed_min_rad_s, c.speed_max_rad_s, extrapolation)
+        }
+        _ => return Err(SW_ERROR_CALIBRATION),
+    }
+    .map_err(bad)
+}
+
+/// Every channel bit the model may carry.
+const ALL_CHANNELS: u32 =
+    SW_CHANNEL_MOTOR_ANGLE | SW_CHANNEL_OUTPUT_ANGLE | SW_CHANNEL_MOTOR_VELOCITY | SW_CHANNEL_EXPECTED_TORQUE;
+
+impl<T: Real> Instance<T> {
+    /// Checks a plain model and builds the canceller; the error is an `SW_ERROR_*` code.
+    pub(crate) fn new(p: &Plain<T>) -> Result<Self, i32> {
+        if p.version != SW_MODEL_VERSION {
+            return Err(SW_ERROR_VERSION);
+        }
+        let fixed = match p.gear_fixed {
+            SW_GEAR_CIRCULAR_SPLINE_FIXED => FixedElement::CircularSpline,
+            SW_GEAR_FLEXSPLINE_FIXED => FixedElement::Flexspline,
+            _ => return Err(SW_ERROR_GEAR),
+        };
+        let gear = Gear::new(p.gear_ratio, fixed).map_err(|_| SW_ERROR_GEAR)?;
+        let engine = engine(p)?;
+        let calibration = calibration(&p.calibration)?;
+        let velocity = p.phase_source == SW_PHASE_VELOCITY;
+        let needed =
+            if velocity { SW_CHANNEL_MOTOR_VELOCITY } else { SW_CHANNEL_MOTOR_ANGLE | SW_CHANNEL_OUTPUT_ANGLE };
+        if p.channels & !ALL_CHANNELS != 0 || p.channels & needed != needed {
+            return Err(SW_ERROR_CHANNELS);
+        }
+        Ok(Self { engine, gear, calibration, channels: p.channels, velocity, last_time_s: None })
+    }
+
+    /// Back to the state right after `new`.
+    pub(crate) fn reset(&mut self) {
+        self.last_time_s = None;
+        with_engine!(&mut self.engine, m, s => *s = RippleState::new(m));
+    }
+
+    fn has(&self, channel: u32) -> bool {
+        self.channels & channel != 0
+    }
+
+    /// One sample; on a core error (covariance reset) the output is the calibrated torque
+    /// with nothing removed, and the error code.
+    pub(crate) fn step(&mut self, s: &Sample<T>) -> (Output<T>, i32) {
+        let nan = T::from_f64(f64::NAN);
+        let channel = |bit, v: T| if self.has(bit) { v } else { nan };
+        // Speed for the calibration: 0 without a tachometer, as the command line does.
+        let speed = if self.has(SW_CHANNEL_MOTOR_VELOCITY) { s.motor_velocity } else { T::ZERO };
+        let mut flags = 0;
+        let torque = match self.calibration.apply_flagged(s.torque, speed) {
+            Ok(a) => {
+                if a.extrapolated {
+                    flags |= SW_FLAG_CALIBRATION_EXTRAPOLATED;
+                }
+                a.torque_nm
+            }
+            // A non-finite sample or a speed the policy rejects: the filter skips it.
+            Err(_) => nan,
+        };
+        let refs = if self.velocity {
+            let w = s.motor_velocity;
+            ReferenceValues::new(w * self.gear.relative_rate_rigid(T::ONE), self.gear.output_angle(w), w)
+        } else {
+            let motor = channel(SW_CHANNEL_MOTOR_ANGLE, s.motor_angle);
+            let output = channel(SW_CHANNEL_OUTPUT_ANGLE, s.output_angle);
+            ReferenceValues::from_gear(&self.gear, motor, output)
+        };
+        let mut input = RippleInput::new(torque, refs);
+        if self.has(SW_CHANNEL_EXPECTED_TORQUE) {
+            input = input.with_expected_torque(s.expected_torque);
+        }
+        let t = s.time;
+        if let Some(t0) = self.last_time_s.filter(|t0| t.is_finite() && t > *t0) {
+            input = input.with_dt(t - t0);
+        }
+        if t.is_finite() {
+            self.last_time_s = Some(t);
+        }
+        let result = with_engine!(&mut self.engine, m, st => step(m, st, &input));
+        match result {
+            Ok(o) => (
+                Output {
+                    torque: o.torque_nm,
+                    ripple: o.ripple_nm,
+                    misalignment: o.misalignment_nm,
+                    innovation: o.innovation_nm,
+                    nis: o.nis,
+                    flags: flags | u32::from(o.flags.bits()),
+                },
+                SW_OK,
+            ),
+            Err(_) => (
+                Output {
+                    torque,
+                    ripple: T::ZERO,
+                    misalignment: T::ZERO,
+                    innovation: nan,
+                    nis: nan,
+                    flags: flags | SW_FLAG_COVARIANCE_RESET,
+                },
+                SW_ERROR_COVARIANCE,
+            ),
+        }
+    }
+}

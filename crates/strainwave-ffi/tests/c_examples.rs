@@ -1,0 +1,195 @@
+//! The C and C++ examples, built with the system compilers (`cc`, `c++` from PATH) against
+//! `include/strainwave.h` and the static library, on a simulated recording:
+//!
+//! - `examples/c/filter_csv.c` with a model from `strainwave export-c` gives the numbers
+//!   of `strainwave filter` on the same recording and config, to 1e-9 N·m (f64), for the
+//!   learned full model and the seed's 6th-order model;
+//! - an f32 export compiles and passes `sw32_init`;
+//! - `examples/ros2_control` compiles with `c++ -std=c++17` and runs.
+//!
+//! Skipped with a message when a compiler is missing. The library and the command line
+//! are built by a nested `cargo build` (a no-op when they are current).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn workspace() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").canonicalize().unwrap()
+}
+
+fn have(compiler: &str) -> bool {
+    Command::new(compiler).arg("--version").output().is_ok_and(|o| o.status.success())
+}
+
+fn run(cmd: &mut Command) -> String {
+    let out = cmd.output().unwrap_or_else(|e| panic!("{cmd:?}: {e}"));
+    assert!(
+        out.status.success(),
+        "{cmd:?} failed:\n{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// `target/<profile>`, holding this test's binary in `deps/`.
+fn profile_dir() -> PathBuf {
+    let exe = std::env::current_exe().unwrap();
+    exe.parent().and_then(Path::parent).unwrap().to_path_buf()
+}
+
+/// Builds the static library and the command line; their paths.
+fn build() -> (PathBuf, PathBuf) {
+    let dir = profile_dir();
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let mut cmd = Command::new(cargo);
+    cmd.current_dir(workspace()).args(["build", "--quiet", "-p", "strainwave-ffi", "-p", "strainwave-cli"]);
+    if dir.file_name().is_some_and(|n| n == "release") {
+        cmd.arg("--release");
+    }
+    run(&mut cmd);
+    (dir.join("libstrainwave_ffi.a"), dir.join("strainwave"))
+}
+
+/// Columns of a CSV file (no quoting) by name.
+fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap().split(',').map(str::to_string).collect();
+    let rows = lines.filter(|l| !l.is_empty()).map(|l| l.split(',').map(str::to_string).collect()).collect();
+    (header, rows)
+}
+
+fn compare(reference: &Path, ours: &Path) -> (usize, f64) {
+    let (h1, r1) = read_csv(reference);
+    let (h2, r2) = read_csv(ours);
+    assert_eq!(h1, h2, "columns differ");
+    assert_eq!(r1.len(), r2.len(), "row counts differ");
+    let col = |name: &str| h1.iter().rposition(|c| c == name).unwrap();
+    let mut worst = 0.0f64;
+    for (i, (a, b)) in r1.iter().zip(&r2).enumerate() {
+        for name in ["torque", "ripple", "misalignment", "innovation", "nis"] {
+            let j = col(name);
+            let (x, y): (f64, f64) = (a[j].parse().unwrap(), b[j].parse().unwrap());
+            assert!(x.is_finite() && y.is_finite(), "row {}: {name} {x} vs {y}", i + 1);
+            worst = worst.max((x - y).abs());
+        }
+        let j = col("filter_flags");
+        assert_eq!(a[j], b[j], "row {}: flags", i + 1);
+    }
+    (r1.len(), worst)
+}
+
+#[test]
+fn c_example_matches_filter_and_cpp_example_builds() {
+    if !have("cc") || !have("c++") {
+        eprintln!("skipped: no `cc` or `c++` on PATH (install gcc and g++ to run the C examples)");
+        return;
+    }
+    let root = workspace();
+    let (lib, cli) = build();
+    let tmp = std::env::temp_dir().join(format!("strainwave-ffi-c-{}", std::process::id()));
+    std::fs::create_dir_all(&tmp).unwrap();
+    let recording = tmp.join("taghirad.csv");
+    run(Command::new(&cli).args(["simulate", "--preset", "taghirad", "--duration", "5", "--out"]).arg(&recording));
+    let include = root.join("include");
+    // No contraction into fused multiply-adds: the channel scaling stays as Rust does it.
+    let cc_flags = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-ffp-contract=off"];
+    let libs = ["-lm", "-lpthread", "-ldl"];
+
+    for config in ["joint-taghirad.toml", "joint-taghirad-seed-6th.toml"] {
+        let stem = config.trim_end_matches(".toml");
+        let model = tmp.join(format!("{stem}_model.h"));
+        run(Command::new(&cli)
+            .arg("export-c")
+            .arg("--config")
+            .arg(root.join("examples").join(config))
+            .arg("--out")
+            .arg(&model));
+        let reference = tmp.join(format!("{stem}_filter.csv"));
+        run(Command::new(&cli)
+            .arg("filter")
+            .arg("--config")
+            .arg(root.join("examples").join(config))
+            .arg("--in")
+            .arg(&recording)
+            .arg("--out")
+            .arg(&reference));
+        let exe = tmp.join(format!("{stem}_filter_csv"));
+        run(Command::new("cc")
+            .args(cc_flags)
+            .arg("-I")
+            .arg(&include)
+            .arg(format!("-DSW_MODEL_HEADER=\"{}\"", model.display()))
+            .arg(root.join("examples/c/filter_csv.c"))
+            .arg(&lib)
+            .args(libs)
+            .arg("-o")
+            .arg(&exe));
+        let ours = tmp.join(format!("{stem}_c.csv"));
+        run(Command::new(&exe).arg(&recording).arg(&ours));
+        let (rows, worst) = compare(&reference, &ours);
+        eprintln!("{config}: {rows} rows, largest difference C vs filter {worst:e} N·m");
+        assert_eq!(rows, 5000);
+        assert!(worst <= 1e-9, "{config}: C example differs from filter by {worst:e} N·m");
+    }
+
+    // Single precision: the export compiles and its model passes sw32_init.
+    let model32 = tmp.join("model32.h");
+    run(Command::new(&cli)
+        .args(["export-c", "--precision", "f32", "--name", "SW32_MODEL", "--config"])
+        .arg(root.join("examples/joint-taghirad.toml"))
+        .arg("--out")
+        .arg(&model32));
+    let check32 = tmp.join("check32.c");
+    std::fs::write(
+        &check32,
+        "#include \"model32.h\"\nint main(void) {\n    static sw32_state s;\n    return sw32_init(&s, &SW32_MODEL);\n}\n",
+    )
+    .unwrap();
+    let exe32 = tmp.join("check32");
+    run(Command::new("cc")
+        .args(cc_flags)
+        .arg("-I")
+        .arg(&include)
+        .arg("-I")
+        .arg(&tmp)
+        .arg(&check32)
+        .arg(&lib)
+        .args(libs)
+        .arg("-o")
+        .arg(&exe32));
+    run(&mut Command::new(&exe32));
+
+    // The instruction-count workload (docs/performance.md) builds and runs.
+    std::fs::copy(tmp.join("joint-taghirad_model.h"), tmp.join("model.h")).unwrap();
+    let exe_loop = tmp.join("step_loop");
+    run(Command::new("cc")
+        .args(cc_flags)
+        .arg("-I")
+        .arg(&include)
+        .arg("-I")
+        .arg(&tmp)
+        .arg(root.join("examples/c/step_loop.c"))
+        .arg(&lib)
+        .args(libs)
+        .arg("-o")
+        .arg(&exe_loop));
+    let out = run(Command::new(&exe_loop).arg("2000"));
+    assert!(out.contains("mean clean torque over 2000 steps"), "{out}");
+
+    // The ros2_control wrapper, C++17, against the header and an exported model.
+    let exe_cpp = tmp.join("hardware_interface_example");
+    run(Command::new("c++")
+        .args(["-std=c++17", "-O2", "-Wall", "-Wextra", "-Werror", "-I"])
+        .arg(&include)
+        .arg(format!("-DSW_MODEL_HEADER=\"{}\"", tmp.join("joint-taghirad_model.h").display()))
+        .arg(root.join("examples/ros2_control/hardware_interface_example.cpp"))
+        .arg(&lib)
+        .args(["-lpthread", "-ldl"])
+        .arg("-o")
+        .arg(&exe_cpp));
+    let out = run(&mut Command::new(&exe_cpp));
+    assert!(out.contains("effort") && out.contains("after a NaN torque sample: level 1"), "{out}");
+    std::fs::remove_dir_all(&tmp).unwrap();
+}

@@ -1,0 +1,115 @@
+//! The canceller model a joint config describes: `filter.model` (a preset or a list of
+//! orders), the sample rate, the phase source and the bias state. `strainwave filter`
+//! and the C model export (`strainwave export-c`) both build it here, so firmware runs
+//! the model the command line runs.
+
+use anyhow::{anyhow, bail, Context, Result};
+use strainwave_core::ripple::{Order, PhaseSource, RippleModel};
+
+use crate::config::{JointConfig, ModelChoice, PhaseChoice};
+
+/// What to do with the model once built; the order count `M` is a compile-time size in
+/// the core, so the caller gets the model through a generic method.
+pub trait ModelVisitor {
+    /// What the visit returns.
+    type Output;
+    /// Called once with the model.
+    fn visit<const M: usize>(self, model: RippleModel<f64, M>) -> Result<Self::Output>;
+}
+
+/// Builds the model of `cfg` and hands it to `visitor`. `with_learned_priors`: the
+/// learned coefficients will be applied (the `full` model then runs its operating tuning,
+/// else its commissioning tuning, which learns from zero). Errors name the config file
+/// and the key.
+pub fn build_model<V: ModelVisitor>(cfg: &JointConfig, with_learned_priors: bool, visitor: V) -> Result<V::Output> {
+    let fs = cfg.filter.sample_rate_hz;
+    let config = cfg.path.display().to_string();
+    let phase = match cfg.filter.phase {
+        PhaseChoice::Angle => PhaseSource::Angle,
+        PhaseChoice::Velocity => PhaseSource::Velocity,
+    };
+    let orders_model = cfg.filter.model == ModelChoice::Orders;
+    let core = |e: strainwave_core::Error| anyhow!("{config}: {}", in_config_terms(e, orders_model, fs));
+    let noise = |model: &str| {
+        cfg.filter.noise_nm.with_context(|| format!("{config}: `filter.noise_nm` is needed by the {model} model"))
+    };
+    match cfg.filter.model {
+        ModelChoice::Full => {
+            let noise = noise("full")?;
+            let m = if with_learned_priors {
+                RippleModel::<f64, 5>::full(fs, noise)
+            } else {
+                RippleModel::<f64, 5>::full_commissioning(fs, noise)
+            }
+            .map_err(core)?
+            .with_phase_source(phase);
+            visitor.visit(m)
+        }
+        ModelChoice::Product => {
+            let m = RippleModel::<f64, 3>::product(fs, noise("product")?).map_err(core)?.with_phase_source(phase);
+            visitor.visit(m)
+        }
+        ModelChoice::Taghirad4thOrder => {
+            let m = RippleModel::<f64, 2>::seed_4th_order(fs).map_err(core)?.with_phase_source(phase);
+            visitor.visit(m)
+        }
+        ModelChoice::Taghirad6thOrder => {
+            let m = RippleModel::<f64, 3>::seed_6th_order(fs).map_err(core)?.with_phase_source(phase);
+            visitor.visit(m)
+        }
+        ModelChoice::Orders => {
+            let orders: Vec<Order<f64>> = cfg
+                .filter
+                .orders
+                .iter()
+                .map(|o| -> Result<Order<f64>> {
+                    Order::new(o.reference.into(), o.multiple)
+                        .and_then(|x| x.with_noise(o.q_per_sample_nm2, o.q_per_rad_nm2))
+                        .map_err(core)
+                })
+                .collect::<Result<_>>()?;
+            let r = cfg.orders_noise_variance_nm2().with_context(|| config.clone())?;
+            macro_rules! with_m {
+                ($($m:literal)*) => {
+                    match orders.len() {
+                        $($m => {
+                            let arr: [Order<f64>; $m] = orders.clone().try_into().map_err(|_| anyhow!("orders"))?;
+                            let mut model = RippleModel::new(arr, r, fs).map_err(core)?.with_phase_source(phase);
+                            if let Some(q) = cfg.filter.bias_q_nm2 {
+                                model = model.with_bias_state(q).map_err(core)?;
+                            }
+                            visitor.visit(model)
+                        })*
+                        n => bail!("{config}: `filter.orders` needs 1 to 8 orders, got {n}"),
+                    }
+                };
+            }
+            with_m!(1 2 3 4 5 6 7 8)
+        }
+    }
+}
+
+/// A core error in the words of the config file: a parameter the user did not write
+/// is named by the key it comes from (`noise_nm`, not the variance `r_nm2` made of it).
+pub(crate) fn in_config_terms(e: strainwave_core::Error, orders_model: bool, sample_rate_hz: f64) -> String {
+    use strainwave_core::Error as E;
+    let key = |p: &'static str| match p {
+        "r_nm2" => "filter.noise_nm",
+        "sample_rate_hz" => "filter.sample_rate_hz",
+        "q_per_sample_nm2" | "q_per_rad_nm2" | "multiple" => p,
+        "q_nm2" if orders_model => "filter.bias_q_nm2",
+        other => other,
+    };
+    match e {
+        E::OutOfRange("bandwidth_hz") => {
+            format!("`filter.sample_rate_hz` = {sample_rate_hz} is too low for the model's tracking bandwidth")
+        }
+        E::NotPositiveDefinite("ripple covariance") => "the filter's uncertainty became invalid (a glitch in the \
+             torque or the angles, or a `filter.noise_nm` far from the recording's noise?)"
+            .into(),
+        E::NonPositive(p) => format!("`{}` must be positive", key(p)),
+        E::NonFinite(p) => format!("`{}` must be finite", key(p)),
+        E::OutOfRange(p) => format!("`{}` is out of range", key(p)),
+        other => other.to_string(),
+    }
+}

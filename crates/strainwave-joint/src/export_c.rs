@@ -1,0 +1,391 @@
+//! A joint's canceller as a C initializer for the C ABI (`include/strainwave.h`):
+//! `static const sw_model NAME = { … };` with the gear, the channels the sample carries,
+//! the calibration, the orders, the tuning and the learned priors, plus
+//! `NAME_CHANNELS` (the recording columns behind each sample field) for host programs.
+//! Firmware compiles the file in; no parser runs on the target.
+//!
+//! The model is the one `strainwave filter` runs on the same config (see
+//! [`crate::canceller`]), written with round-trip decimal literals, so that the C ABI
+//! gives the command line's numbers in double precision.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use anyhow::{bail, Context, Result};
+use strainwave_core::calibration::{Calibration, Extrapolation, Model};
+use strainwave_core::gear::FixedElement;
+use strainwave_core::ripple::{Limits, PhaseSource, Reference, RippleModel};
+use strainwave_io::Channel;
+
+use crate::canceller::{build_model, ModelVisitor};
+use crate::config::{JointConfig, MAX_TABLE_LEN};
+use crate::learned::LearnedFile;
+
+/// `SW_MAX_ORDERS` of `include/strainwave.h`.
+pub const C_MAX_ORDERS: usize = 8;
+/// `SW_MAX_CALIBRATION_POINTS` of `include/strainwave.h`.
+pub const C_MAX_CALIBRATION_POINTS: usize = 64;
+
+/// The floating-point type of the exported struct.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Precision {
+    /// `sw_model` (double): the command line's numbers.
+    F64,
+    /// `sw32_model` (float), for FPUs without double precision.
+    F32,
+}
+
+/// One order, as plain numbers.
+#[derive(Debug, Clone, PartialEq)]
+struct PlainOrder {
+    reference: Reference,
+    load_scaled: bool,
+    multiple: f64,
+    q_per_sample_nm2: f64,
+    q_per_rad_nm2: f64,
+    prior_nm: [f64; 2],
+    prior_variance_nm2: f64,
+}
+
+/// The core model's fields, read through its public getters.
+#[derive(Debug, Clone, PartialEq)]
+struct PlainModel {
+    orders: Vec<PlainOrder>,
+    r_nm2: f64,
+    sample_rate_hz: f64,
+    bias_q_nm2: Option<f64>,
+    initial_variance_nm2: (f64, f64),
+    velocity: bool,
+    limits: Limits<f64>,
+}
+
+/// Builds the model and applies the learned file, as `filter` does.
+struct Extract<'a> {
+    cfg: &'a JointConfig,
+    learned: Option<&'a Path>,
+}
+
+impl ModelVisitor for Extract<'_> {
+    type Output = PlainModel;
+    fn visit<const M: usize>(self, model: RippleModel<f64, M>) -> Result<PlainModel> {
+        let model = match self.learned {
+            Some(path) => {
+                let field = || format!("{}: `filter.learned`", self.cfg.path.display());
+                LearnedFile::load(path).with_context(field)?.apply(model, path).with_context(field)?
+            }
+            None => model,
+        };
+        let orders = model
+            .orders()
+            .iter()
+            .map(|o| {
+                let (prior_nm, variance) = o.prior();
+                PlainOrder {
+                    reference: o.reference(),
+                    load_scaled: o.is_load_scaled(),
+                    multiple: o.multiple(),
+                    q_per_sample_nm2: o.q_per_sample_nm2(),
+                    q_per_rad_nm2: o.q_per_rad_nm2(),
+                    prior_nm,
+                    prior_variance_nm2: variance.unwrap_or(0.0),
+                }
+            })
+            .collect();
+        Ok(PlainModel {
+            orders,
+            r_nm2: model.r_nm2(),
+            sample_rate_hz: model.sample_rate_hz(),
+            bias_q_nm2: model.bias_q_nm2(),
+            initial_variance_nm2: model.initial_variance_nm2(),
+            velocity: model.phase_source() == PhaseSource::Velocity,
+            limits: *model.limits(),
+        })
+    }
+}
+
+/// Writes the C file for `cfg`: the model named `name` (a C identifier) and
+/// `name_CHANNELS`. `learned` overrides the config's `filter.learned`; with neither, the
+/// model starts from zero as `filter` does without a learned file.
+pub fn export_c(cfg: &JointConfig, learned: Option<&Path>, name: &str, precision: Precision) -> Result<String> {
+    check_identifier(name)?;
+    let config = cfg.path.display().to_string();
+    let learned = learned.or(cfg.filter.learned.as_deref());
+    let model = build_model(cfg, learned.is_some(), Extract { cfg, learned })?;
+    if model.orders.len() > C_MAX_ORDERS {
+        bail!("{config}: the C ABI holds at most {C_MAX_ORDERS} orders, the model has {}", model.orders.len());
+    }
+    let gear = cfg.gear().with_context(|| config.clone())?;
+    let cal = cfg.calibration().with_context(|| config.clone())?;
+    let ch = &cfg.channels;
+    for (key, c) in channels(cfg) {
+        if let Some(c) = c {
+            let (scale, offset) = c.scale_offset();
+            if !(scale.is_finite() && scale != 0.0 && offset.is_finite()) {
+                bail!("{config}: `channels.{key}`: scale must be finite and non-zero, offset finite");
+            }
+        }
+    }
+    if model.velocity && ch.motor_velocity.is_none() {
+        bail!("{config}: `filter.phase = \"velocity\"` needs `channels.motor_velocity`");
+    }
+    if !model.velocity && (ch.motor_angle.is_none() || ch.output_angle.is_none()) {
+        bail!("{config}: the angle phase needs `channels.motor_angle` and `channels.output_angle`");
+    }
+    let mut bits = Vec::new();
+    for (bit, present) in [
+        ("SW_CHANNEL_MOTOR_ANGLE", ch.motor_angle.is_some()),
+        ("SW_CHANNEL_OUTPUT_ANGLE", ch.output_angle.is_some()),
+        ("SW_CHANNEL_MOTOR_VELOCITY", ch.motor_velocity.is_some()),
+        ("SW_CHANNEL_EXPECTED_TORQUE", ch.expected_torque.is_some()),
+    ] {
+        if present {
+            bits.push(bit);
+        }
+    }
+    let bits = if bits.is_empty() { "0".to_string() } else { bits.join(" | ") };
+
+    let mut w = Writer { out: String::new(), precision, config: &config };
+    let (ty, prefix) = match precision {
+        Precision::F64 => ("sw_model", "sw"),
+        Precision::F32 => ("sw32_model", "sw32"),
+    };
+    let file = |p: &Path| p.file_name().map_or_else(|| p.display().to_string(), |f| f.to_string_lossy().into_owned());
+    let source = match learned {
+        Some(l) => format!("{} with {}", file(&cfg.path), file(l)),
+        None => format!("{} (no learned coefficients)", file(&cfg.path)),
+    };
+    let guard = format!("STRAINWAVE_MODEL_{}_H", name.to_ascii_uppercase());
+    let o = &mut w.out;
+    writeln!(o, "/* The canceller of {source}, `filter.model = {:?}`,", cfg.filter.model)?;
+    writeln!(o, " * for the strainwave C ABI: pass &{name} to {prefix}_init(). Written by `strainwave export-c`;")?;
+    writeln!(o, " * regenerate it rather than edit it. {name}_CHANNELS names the recording columns")?;
+    writeln!(o, " * behind each sample field (host programs only). */")?;
+    writeln!(o, "#ifndef {guard}\n#define {guard}\n")?;
+    writeln!(o, "#include \"strainwave.h\"\n")?;
+    writeln!(o, "static const {ty} {name} = {{")?;
+    writeln!(o, "    .version = SW_MODEL_VERSION,")?;
+    writeln!(o, "    .order_count = {},", model.orders.len())?;
+    let fixed = match gear.fixed() {
+        FixedElement::CircularSpline => "SW_GEAR_CIRCULAR_SPLINE_FIXED",
+        FixedElement::Flexspline => "SW_GEAR_FLEXSPLINE_FIXED",
+    };
+    writeln!(o, "    .gear_fixed = {fixed},")?;
+    writeln!(o, "    .phase_source = {},", if model.velocity { "SW_PHASE_VELOCITY" } else { "SW_PHASE_ANGLE" })?;
+    writeln!(o, "    .channels = {bits},")?;
+    writeln!(o, "    .has_bias_state = {},", u8::from(model.bias_q_nm2.is_some()))?;
+    w.real("gear_ratio", gear.ratio(), 4)?;
+    w.real("sample_rate_hz", model.sample_rate_hz, 4)?;
+    w.real("r_nm2", model.r_nm2, 4)?;
+    w.real("bias_q_nm2", model.bias_q_nm2.unwrap_or(0.0), 4)?;
+    w.real("initial_oscillator_variance_nm2", model.initial_variance_nm2.0, 4)?;
+    w.real("initial_bias_variance_nm2", model.initial_variance_nm2.1, 4)?;
+    let limits = match precision {
+        // The f32 defaults differ (the covariance inflation is 16 ε of the type).
+        Precision::F32 if model.limits == Limits::<f64>::default() => {
+            let l = Limits::<f32>::default();
+            Limits {
+                max_angle_step_rad: f64::from(l.max_angle_step_rad),
+                max_step_change_rad: f64::from(l.max_step_change_rad),
+                max_gap_periods: f64::from(l.max_gap_periods),
+                nyquist_fraction: f64::from(l.nyquist_fraction),
+                hold_below_hz: f64::from(l.hold_below_hz),
+                covariance_inflation: f64::from(l.covariance_inflation),
+                load_step_nis: f64::from(l.load_step_nis),
+            }
+        }
+        _ => model.limits,
+    };
+    writeln!(w.out, "    .limits = {{")?;
+    w.real("max_angle_step_rad", limits.max_angle_step_rad, 8)?;
+    w.real("max_step_change_rad", limits.max_step_change_rad, 8)?;
+    w.real("max_gap_periods", limits.max_gap_periods, 8)?;
+    w.real("nyquist_fraction", limits.nyquist_fraction, 8)?;
+    w.real("hold_below_hz", limits.hold_below_hz, 8)?;
+    w.real("covariance_inflation", limits.covariance_inflation, 8)?;
+    w.real("load_step_nis", limits.load_step_nis, 8)?;
+    writeln!(w.out, "    }},")?;
+    writeln!(w.out, "    .orders = {{")?;
+    for (i, ord) in model.orders.iter().enumerate() {
+        let reference = match ord.reference {
+            Reference::Relative => "SW_REFERENCE_RELATIVE",
+            Reference::Output => "SW_REFERENCE_OUTPUT",
+            Reference::Motor => "SW_REFERENCE_MOTOR",
+        };
+        writeln!(w.out, "        {{ /* orders[{i}] */")?;
+        writeln!(w.out, "            .reference = {reference},")?;
+        writeln!(w.out, "            .load_scaled = {},", u8::from(ord.load_scaled))?;
+        w.real("multiple", ord.multiple, 12)?;
+        w.real("q_per_sample_nm2", ord.q_per_sample_nm2, 12)?;
+        w.real("q_per_rad_nm2", ord.q_per_rad_nm2, 12)?;
+        w.array("prior_nm", &ord.prior_nm, 12)?;
+        w.real("prior_variance_nm2", ord.prior_variance_nm2, 12)?;
+        writeln!(w.out, "        }},")?;
+    }
+    writeln!(w.out, "    }},")?;
+    w.calibration(&cal)?;
+    writeln!(w.out, "}};\n")?;
+    writeln!(w.out, "static const sw_channels {name}_CHANNELS = {{")?;
+    for (key, c) in channels(cfg) {
+        match c {
+            Some(c) => {
+                let (scale, offset) = c.scale_offset();
+                let column = c_string(c.column_name());
+                writeln!(w.out, "    .{key} = {{ {column}, {}, {} }},", f64_literal(scale), f64_literal(offset))?;
+            }
+            None => writeln!(w.out, "    .{key} = {{ 0, 1.0, 0.0 }},")?,
+        }
+    }
+    writeln!(w.out, "}};\n\n#endif")?;
+    if w.out.contains("INFINITY") {
+        w.out = w.out.replacen("#include \"strainwave.h\"", "#include <math.h>\n#include \"strainwave.h\"", 1);
+    }
+    Ok(w.out)
+}
+
+/// The channels in `sw_channels` order, with their config keys.
+fn channels(cfg: &JointConfig) -> [(&'static str, Option<&Channel>); 6] {
+    let ch = &cfg.channels;
+    [
+        ("time", Some(&ch.time)),
+        ("torque", Some(&ch.torque)),
+        ("motor_angle", ch.motor_angle.as_ref()),
+        ("output_angle", ch.output_angle.as_ref()),
+        ("motor_velocity", ch.motor_velocity.as_ref()),
+        ("expected_torque", ch.expected_torque.as_ref()),
+    ]
+}
+
+/// `--name`: a C identifier that is not a keyword.
+fn check_identifier(name: &str) -> Result<()> {
+    const KEYWORDS: &[&str] = &[
+        "auto", "break", "case", "char", "const", "continue", "default", "do", "double", "else", "enum", "extern",
+        "float", "for", "goto", "if", "inline", "int", "long", "register", "restrict", "return", "short", "signed",
+        "sizeof", "static", "struct", "switch", "typedef", "union", "unsigned", "void", "volatile", "while",
+    ];
+    let mut chars = name.chars();
+    let ok = chars.next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
+        && name.len() <= 63
+        && !KEYWORDS.contains(&name);
+    if !ok {
+        bail!("--name `{name}`: must be a C identifier (letters, digits, `_`, not starting with a digit, at most 63 characters, not a keyword)");
+    }
+    Ok(())
+}
+
+/// A C string literal: printable ASCII as is, everything else (and `"`, `\`, `?`) escaped.
+fn c_string(s: &str) -> String {
+    let mut out = String::from("\"");
+    for b in s.bytes() {
+        match b {
+            b'"' | b'\\' | b'?' => {
+                out.push('\\');
+                out.push(char::from(b));
+            }
+            0x20..=0x7e => out.push(char::from(b)),
+            _ => out.push_str(&format!("\\{b:03o}")),
+        }
+    }
+    out.push('"');
+    out
+}
+
+/// A double literal that reads back to the same value (Rust's shortest round-trip form,
+/// always with a `.` or an exponent); `INFINITY` (`<math.h>`) for an infinite value.
+fn f64_literal(x: f64) -> String {
+    if x.is_infinite() {
+        return if x > 0.0 { "INFINITY".into() } else { "-INFINITY".into() };
+    }
+    format!("{x:?}")
+}
+
+struct Writer<'a> {
+    out: String,
+    precision: Precision,
+    config: &'a str,
+}
+
+impl Writer<'_> {
+    /// One value in the struct's precision; an f32 export refuses a value that float
+    /// cannot hold (overflow, or a non-zero value that would become 0).
+    fn literal(&self, key: &str, x: f64) -> Result<String> {
+        if x.is_nan() {
+            bail!("{}: `{key}` is not a number", self.config);
+        }
+        match self.precision {
+            Precision::F64 => Ok(f64_literal(x)),
+            Precision::F32 => {
+                let y = x as f32;
+                if (y.is_infinite() && x.is_finite()) || (y == 0.0 && x != 0.0) {
+                    bail!("{}: `{key}` = {x} does not fit a float; export in double precision", self.config);
+                }
+                Ok(if y.is_infinite() { f64_literal(f64::from(y)) } else { format!("{y:?}f") })
+            }
+        }
+    }
+
+    fn real(&mut self, key: &str, x: f64, indent: usize) -> Result<()> {
+        let v = self.literal(key, x)?;
+        writeln!(self.out, "{:indent$}.{key} = {v},", "")?;
+        Ok(())
+    }
+
+    fn array(&mut self, key: &str, xs: &[f64], indent: usize) -> Result<()> {
+        let vals: Vec<String> = xs.iter().map(|&x| self.literal(key, x)).collect::<Result<_>>()?;
+        let vals = if vals.is_empty() { "0".to_string() } else { vals.join(", ") };
+        writeln!(self.out, "{:indent$}.{key} = {{ {vals} }},", "")?;
+        Ok(())
+    }
+
+    fn calibration(&mut self, cal: &Calibration<f64, MAX_TABLE_LEN>) -> Result<()> {
+        let kind = match cal.model() {
+            Model::Gain => "SW_CALIBRATION_GAIN",
+            Model::Affine => "SW_CALIBRATION_AFFINE",
+            Model::SpeedTable => "SW_CALIBRATION_SPEED_TABLE",
+            Model::SpeedPolynomial => "SW_CALIBRATION_SPEED_POLYNOMIAL",
+        };
+        let extrapolation = match cal.extrapolation() {
+            Extrapolation::Clamp => "SW_EXTRAPOLATION_CLAMP",
+            Extrapolation::Linear => "SW_EXTRAPOLATION_LINEAR",
+            Extrapolation::Reject => "SW_EXTRAPOLATION_REJECT",
+        };
+        let (alpha, beta) = (cal.alpha_values(), cal.beta_values_nm());
+        let len = alpha.len();
+        if len > C_MAX_CALIBRATION_POINTS {
+            bail!("{}: the calibration has {len} entries, the C ABI holds {C_MAX_CALIBRATION_POINTS}", self.config);
+        }
+        let (min, max) = match cal.model() {
+            Model::SpeedPolynomial => cal.speed_range_rad_s().unwrap_or((0.0, 0.0)),
+            _ => (0.0, 0.0),
+        };
+        writeln!(self.out, "    .calibration = {{")?;
+        writeln!(self.out, "        .kind = {kind},")?;
+        writeln!(self.out, "        .extrapolation = {extrapolation},")?;
+        writeln!(self.out, "        .len = {len},")?;
+        self.real("speed_min_rad_s", min, 8)?;
+        self.real("speed_max_rad_s", max, 8)?;
+        self.array("speed_rad_s", cal.speed_breakpoints_rad_s(), 8)?;
+        self.array("alpha", alpha, 8)?;
+        self.array("beta_nm", beta, 8)?;
+        writeln!(self.out, "    }},")?;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn identifiers_and_strings() {
+        assert!(check_identifier("SW_MODEL").is_ok());
+        assert!(check_identifier("_joint3").is_ok());
+        for bad in ["", "3joint", "joint-3", "static", "ü"] {
+            assert!(check_identifier(bad).unwrap_err().to_string().contains("--name"), "{bad}");
+        }
+        assert_eq!(c_string("a\"b\\c?d\né"), "\"a\\\"b\\\\c\\?d\\012\\303\\251\"");
+        assert_eq!(f64_literal(f64::INFINITY), "INFINITY");
+        assert_eq!(f64_literal(0.1).parse::<f64>().unwrap(), 0.1);
+        assert_eq!(f64_literal(1e-300).parse::<f64>().unwrap(), 1e-300);
+    }
+}
