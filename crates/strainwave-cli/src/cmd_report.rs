@@ -28,7 +28,8 @@ pub struct Args {
 }
 
 /// Torque-like columns shown when present, in this order.
-const TORQUE_COLUMNS: &[&str] = &["measured_torque", "reference_torque", "torque", "true_torque"];
+const TORQUE_COLUMNS: &[&str] =
+    &["measured_torque", "reference_torque", "torque", "torque_denoised", "torque_smoothed", "true_torque"];
 
 /// Runs `report`.
 pub fn run(a: &Args) -> Result<()> {
@@ -124,6 +125,11 @@ pub fn run(a: &Args) -> Result<()> {
             };
             sections.push(Section { title: "Spectra".into(), body: plot.to_svg() });
         }
+    }
+    // The smoothed and denoised torque, with their band, coverage and delay.
+    let measured = cfg.as_ref().map(|c| c.channels.torque.column_name().to_string());
+    if let Some(s) = crate::report::filter::section(&t, time, measured.as_deref(), cfg.as_ref()) {
+        sections.push(s);
     }
     // Errors against the truth.
     if let Some(truth) = t.column("true_torque") {

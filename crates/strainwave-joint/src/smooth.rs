@@ -16,7 +16,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, bail, Context, Result};
 use strainwave_analysis::smoother::{CheckpointStore, CheckpointedSmoother, SmootherError};
-use strainwave_core::ripple::{ReferenceValues, RippleInput, RippleModel, RippleState};
+use strainwave_core::denoise::TorqueDenoiser;
+use strainwave_core::ripple::{ReferenceValues, RippleInput, RippleModel, RippleState, StepFlags};
 
 use crate::row_check::RowCheck;
 use crate::run::{FilterOptions, FilterSummary, RowSink, RowSource};
@@ -26,10 +27,12 @@ use crate::run::{FilterOptions, FilterSummary, RowSink, RowSource};
 /// filter state at each block's start (about 1.3 kB) goes to a scratch file.
 pub const BLOCK_ROWS: usize = 4096;
 
-/// Values per row the smoother adds: torque, ripple, misalignment, innovation, nis, flags.
-const ADDED: usize = 6;
-/// The canceller's input as stored: torque, expected torque, three references, dt (NaN: none).
-const INPUT: usize = 6;
+/// Values per row the smoother adds: torque, ripple, misalignment, innovation, nis, flags,
+/// smoothed torque state and its 1σ.
+const ADDED: usize = 8;
+/// The canceller's input as stored: torque, expected torque, three references, dt (NaN:
+/// none); then the causal denoised torque of the forward pass (NaN: none).
+const INPUT: usize = 7;
 
 /// A scratch file of `f64` records of one width: unlinked once open (Unix), else
 /// removed when dropped.
@@ -119,9 +122,9 @@ fn get(r: &mut impl Read, values: &mut [f64]) -> std::io::Result<()> {
     Ok(())
 }
 
-fn encode(i: &RippleInput<f64>) -> [f64; INPUT] {
+fn encode(i: &RippleInput<f64>, denoised_nm: f64) -> [f64; INPUT] {
     let r = i.references;
-    [i.torque_nm, i.expected_torque_nm, r.relative, r.output, r.motor, i.dt_s.unwrap_or(f64::NAN)]
+    [i.torque_nm, i.expected_torque_nm, r.relative, r.output, r.motor, i.dt_s.unwrap_or(f64::NAN), denoised_nm]
 }
 
 fn decode(v: &[f64]) -> RippleInput<f64> {
@@ -130,10 +133,12 @@ fn decode(v: &[f64]) -> RippleInput<f64> {
     i
 }
 
-/// Runs the smoother over the whole recording and writes the smoothed columns.
+/// Runs the smoother over the whole recording and writes the smoothed columns (with
+/// `denoiser`, the causal denoised torque of the forward pass before them).
 pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
     opts: &FilterOptions,
     model: &RippleModel<f64, M>,
+    mut denoiser: Option<TorqueDenoiser<f64>>,
     r: &mut S,
     mut w: W,
     check: &mut RowCheck,
@@ -173,7 +178,11 @@ pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
         }
         let o = sm.push(&sample).map_err(smoother_error)?;
         check.flags(o.flags, r.rows_read());
-        put(&mut spool, &row).and_then(|()| put(&mut spool, &encode(&sample))).with_context(|| rows.context())?;
+        let denoised =
+            denoiser.as_mut().map_or(f64::NAN, |d| d.step(o.torque_nm, o.flags.contains(StepFlags::LOAD_STEP)));
+        put(&mut spool, &row)
+            .and_then(|()| put(&mut spool, &encode(&sample, denoised)))
+            .with_context(|| rows.context())?;
     }
     spool.flush().with_context(|| rows.context())?;
     drop(spool);
@@ -193,7 +202,7 @@ pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
         values.clear();
         for (s, f) in s.smoothed.iter().zip(&s.filtered) {
             values.extend_from_slice(&[s.torque_nm, s.ripple_nm, s.misalignment_nm, f.innovation_nm, f.nis]);
-            values.push(f.flags.bits() as f64);
+            values.extend_from_slice(&[f.flags.bits() as f64, s.torque_state_nm, s.torque_state_sd_nm]);
         }
         added.write_rows(range.start, &values)?;
     }
@@ -208,8 +217,13 @@ pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
     for _ in 0..sm.len() {
         get(&mut rows_in, &mut line).with_context(|| rows.context())?;
         get(&mut added_in, &mut extra).with_context(|| added.context())?;
+        let denoised = line[width + INPUT - 1];
         line.truncate(width);
-        line.extend_from_slice(&extra);
+        line.extend_from_slice(&extra[..6]);
+        if denoiser.is_some() {
+            line.push(denoised);
+        }
+        line.extend_from_slice(&extra[6..]);
         w.write_row(&line)?;
         line.resize(width + INPUT, 0.0);
     }

@@ -72,8 +72,9 @@ pub struct CheckpointedSmoother<T: Real, const M: usize, S = Vec<RippleState<T, 
     len: usize,
     /// The block `smooth_block` takes next.
     next_block: Option<usize>,
-    /// The first sample of the block smoothed last: its record and smoothed mean.
-    after: Option<(Record, Vec<f64>)>,
+    /// The first sample of the block smoothed last: its record, smoothed mean and
+    /// smoothed covariance.
+    after: Option<(Record, Vec<f64>, Vec<f64>)>,
     backward_began: bool,
 }
 
@@ -160,11 +161,12 @@ impl<T: Real, const M: usize, S: CheckpointStore<T, M>> CheckpointedSmoother<T, 
         self.backward_began = true;
         let mut state = self.checkpoints.load(b).map_err(|message| SmootherError::Checkpoint { block: b, message })?;
         let (filtered, mut records) = forward(&self.model, &mut state, inputs, expected.start)?;
-        let after = self.after.as_ref().map(|(r, m)| (r, m.as_slice()));
-        let mut means = backward::<M>(self.model.state_len(), &records, after, expected.start)?;
-        let smoothed = samples(&self.model, inputs, &records, &means);
+        let after = self.after.as_ref().map(|(r, m, c)| (r, m.as_slice(), c.as_slice()));
+        let mut back = backward::<M>(self.model.state_len(), &records, after, expected.start)?;
+        let smoothed = samples(&self.model, inputs, &records, &back);
         self.next_block = b.checked_sub(1);
-        self.after = (!records.is_empty()).then(|| (records.swap_remove(0), means.swap_remove(0)));
+        self.after = (!records.is_empty())
+            .then(|| (records.swap_remove(0), back.means.swap_remove(0), core::mem::take(&mut back.first_cov)));
         Ok(Smoothed { filtered, smoothed })
     }
 }
