@@ -25,6 +25,7 @@ use strainwave_core::ripple::{
 
 use crate::error::AnalysisError;
 use crate::smoother::smooth;
+use crate::smoother::torque::{smooth_torque, TorqueTrack};
 use crate::stats::rms;
 
 /// The signals of a run.
@@ -67,8 +68,9 @@ pub enum Method {
     /// The full configuration without commissioning: learning from zero during the run.
     FullCold,
     /// The full configuration (commissioned) run offline: forward filter and
-    /// Rauch–Tung–Striebel pass, its output the smoothed torque state (zero phase, the
-    /// white noise averaged out, detected load steps kept sharp).
+    /// Rauch–Tung–Striebel pass, its output the smoothed torque (`torque_smoothed`: the
+    /// clean torque smoothed as a level-and-rate state, zero phase, steps kept sharp;
+    /// see [`crate::smoother::torque`]).
     Smoothed,
 }
 
@@ -190,11 +192,9 @@ fn run_smoothed(
         .map(|k| RippleInput::new(y[k], ReferenceValues::from_gear(gear, s.motor_angle_rad[k], s.output_angle_rad[k])))
         .collect();
     let out = smooth(&m, &inputs).map_err(|e| AnalysisError::Invalid { what: "smoother", why: e.to_string() })?;
-    Ok(out
-        .smoothed
-        .iter()
-        .map(|o| [o.torque_state_nm, o.torque_state_sd_nm, o.ripple_nm + o.misalignment_nm])
-        .collect())
+    let clean: Vec<f64> = out.smoothed.iter().map(|o| o.torque_nm).collect();
+    let level = smooth_torque(&clean, &[], TorqueTrack::pair(m.r_nm2(), s.sample_rate_hz));
+    Ok(out.smoothed.iter().zip(level).map(|(o, (t, sd))| [t, sd, o.ripple_nm + o.misalignment_nm]).collect())
 }
 
 /// Output of a method on `y`.

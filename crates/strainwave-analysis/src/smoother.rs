@@ -22,6 +22,7 @@ use strainwave_core::ripple::{step_traced, RippleInput, RippleModel, RippleOutpu
 use strainwave_core::Real;
 
 mod checkpointed;
+pub mod torque;
 pub use checkpointed::{CheckpointStore, CheckpointedSmoother};
 
 /// Why the smoother stopped.
@@ -214,12 +215,12 @@ pub(crate) fn rts_step<const M: usize>(
     let mut at = vec![0.0; n * n];
     let (mut col, mut sol) = (vec![0.0; n], vec![0.0; n]);
     for j in 0..n {
-        for i in 0..n {
-            col[i] = if kept(i) { cur.post_cov[i * n + j] } else { 0.0 };
+        for (i, c) in col.iter_mut().enumerate() {
+            *c = if kept(i) { cur.post_cov[i * n + j] } else { 0.0 };
         }
         cholesky_solve(&l, &idx, &col, &mut sol);
-        for i in 0..n {
-            at[i * n + j] = sol[i];
+        for (i, v) in sol.iter().enumerate() {
+            at[i * n + j] = *v;
         }
     }
     // A(i, j) = at(j, i).

@@ -1,5 +1,6 @@
-//! The smoothed torque state (`filter --smooth`'s `torque_smoothed`) against the twin's
-//! truth: below half the white-noise floor, an honest 1σ band, steps kept sharp.
+//! The smoothed torque (`filter --smooth`'s `torque_smoothed`) against the twin's truth:
+//! below half the white-noise floor where the ripple model is right, an honest 1σ band,
+//! steps kept sharp.
 
 use strainwave_analysis::canceller_eval::{
     commission, evaluate, smoothed_accuracy, Method, RunSignals, SmoothedAccuracy,
@@ -73,9 +74,8 @@ fn smoothed_torque_on_the_taghirad_presets() {
     for name in ["taghirad", "taghirad-loaded", "taghirad-standstill"] {
         let (a, floor, causal) = measure(&comm, &presets::preset(name).unwrap());
         show(name, &a, floor, causal);
-        // Measured 0.50–0.55 × floor: the 0.5 is not met (see docs/smoothing.md).
-        assert!(a.rms_error_nm < 0.6 * floor, "{name}: {:.4} vs floor {floor:.4}", a.rms_error_nm);
-        assert!((0.6..0.9).contains(&a.coverage_1sd), "{name}: coverage {:.3}", a.coverage_1sd);
+        assert!(a.rms_error_nm < 0.5 * floor, "{name}: {:.4} vs floor {floor:.4}", a.rms_error_nm);
+        assert!((0.63..0.74).contains(&a.coverage_1sd), "{name}: coverage {:.3}", a.coverage_1sd);
         assert_sharp(name, &a);
     }
 }
@@ -85,8 +85,8 @@ fn smoothed_torque_on_the_flexspline_fixed_preset() {
     let comm = presets::preset("flexspline-fixed-commissioning").unwrap();
     let (a, floor, causal) = measure(&comm, &presets::preset("flexspline-fixed").unwrap());
     show("flexspline-fixed", &a, floor, causal);
-    // The ripple the model leaves (about 0.8 × floor) bounds it here: it is still below
-    // the floor, not below half of it.
+    // The ripple the model leaves bounds it here (the smoothed clean torque is 1.28 ×
+    // the floor): it is below the floor, not below half of it.
     assert!(a.rms_error_nm < floor, "{:.4} vs floor {floor:.4}", a.rms_error_nm);
     assert_sharp("flexspline-fixed", &a);
 }
@@ -147,8 +147,9 @@ fn smoothed_torque_on_random_joints_and_load_profiles() {
         let (comm, test) = random_joint(seed);
         let (a, floor, causal) = measure(&comm, &test);
         show(&test.name, &a, floor, causal);
-        // Not asserted yet: under fast load changes the filter's load-step test fires often
-        // and cuts the smoother (see docs/smoothing.md); the figures are printed.
+        // The ripple the model leaves on some draws (up to 0.55 × floor) bounds it: below
+        // the floor on every draw, below half of it only on some (see docs/smoothing.md).
+        assert!(a.rms_error_nm < 0.8 * floor, "{}: {:.4} vs floor {floor:.4}", test.name, a.rms_error_nm);
         assert_sharp(&test.name, &a);
     }
 }

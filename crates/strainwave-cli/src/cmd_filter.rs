@@ -25,9 +25,9 @@ pub struct Args {
     pub out: PathBuf,
     /// Offline: forward filter plus Rauch–Tung–Striebel smoother (zero phase; reads the whole
     /// recording). `torque` stays the measurement minus the smoothed ripple and misalignment;
-    /// torque_smoothed is the smoothed torque state (white noise averaged out, no delay,
-    /// detected load steps kept sharp), torque_smoothed_sd its 1σ (models with a torque state:
-    /// full, product; otherwise torque_smoothed = torque and its σ 0).
+    /// torque_smoothed is that torque smoothed as a level-and-rate torque state (40 Hz, zero
+    /// phase, white noise averaged out; a jump beyond 4σ restarts it, so load steps stay
+    /// sharp), torque_smoothed_sd its 1σ.
     #[arg(long)]
     pub smooth: bool,
     /// Commissioning: learn the ripple and misalignment coefficients over this run (the

@@ -1,5 +1,7 @@
 //! The offline zero-phase smoother (forward filter plus
-//! Rauch–Tung–Striebel pass) over a whole recording, in constant memory.
+//! Rauch–Tung–Striebel pass) over a whole recording, in constant memory; with it the
+//! smoothed torque (`torque_smoothed`, see `strainwave_analysis::smoother::torque`),
+//! whose backward filter rides on the backward pass and forward filter on the last.
 //!
 //! Three passes: the forward filter reads the recording once, keeping its state every
 //! [`BLOCK_ROWS`] rows and the rows themselves in scratch files; the backward pass
@@ -15,6 +17,7 @@ use std::io::{BufReader, BufWriter, Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, bail, Context, Result};
+use strainwave_analysis::smoother::torque::{LevelEstimate, TorqueTrack};
 use strainwave_analysis::smoother::{CheckpointStore, CheckpointedSmoother, SmootherError};
 use strainwave_core::denoise::TorqueDenoiser;
 use strainwave_core::ripple::{ReferenceValues, RippleInput, RippleModel, RippleState, StepFlags};
@@ -28,7 +31,7 @@ use crate::run::{FilterOptions, FilterSummary, RowSink, RowSource};
 pub const BLOCK_ROWS: usize = 4096;
 
 /// Values per row the smoother adds: torque, ripple, misalignment, innovation, nis, flags,
-/// smoothed torque state and its 1σ.
+/// and the smoothed torque's backward prediction (mean, variance; ∞: none).
 const ADDED: usize = 8;
 /// The canceller's input as stored: torque, expected torque, three references, dt (NaN:
 /// none); then the causal denoised torque of the forward pass (NaN: none).
@@ -193,16 +196,25 @@ pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
     // Backward, block by block from the last.
     let mut added = Scratch::create(&dir, "smoothed", ADDED)?;
     let (mut block, mut inputs, mut values) = (Vec::new(), Vec::new(), Vec::new());
+    // The smoothed torque's two filters: backward here, forward in the last pass.
+    let (mut forward, mut backward) = TorqueTrack::pair(model.r_nm2(), model.sample_rate_hz());
+    let mut predicted = Vec::new();
     for b in (0..sm.blocks()).rev() {
         let range = sm.block_range(b);
         rows.read_rows(range.start, range.len(), &mut block)?;
         inputs.clear();
         inputs.extend(block.chunks_exact(width + INPUT).map(|v| decode(&v[width..])));
         let s = sm.smooth_block(b, &inputs).map_err(smoother_error)?;
+        predicted.clear();
+        for x in s.smoothed.iter().rev() {
+            let p = backward.predicted();
+            // Restarted here: its prediction crossed a step and is dropped.
+            predicted.push(if backward.push(x.torque_nm, false) { LevelEstimate::NONE } else { p });
+        }
         values.clear();
-        for (s, f) in s.smoothed.iter().zip(&s.filtered) {
+        for ((s, f), p) in s.smoothed.iter().zip(&s.filtered).zip(predicted.iter().rev()) {
             values.extend_from_slice(&[s.torque_nm, s.ripple_nm, s.misalignment_nm, f.innovation_nm, f.nis]);
-            values.extend_from_slice(&[f.flags.bits() as f64, s.torque_state_nm, s.torque_state_sd_nm]);
+            values.extend_from_slice(&[f.flags.bits() as f64, p.mean_nm, p.var_nm2]);
         }
         added.write_rows(range.start, &values)?;
     }
@@ -223,7 +235,10 @@ pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
         if denoiser.is_some() {
             line.push(denoised);
         }
-        line.extend_from_slice(&extra[6..]);
+        forward.push(extra[0], false);
+        let back = LevelEstimate { mean_nm: extra[6], var_nm2: extra[7] };
+        let (t, sd) = forward.filtered().combine(back).map_or((extra[0], f64::NAN), |e| (e.mean_nm, e.var_nm2.sqrt()));
+        line.extend_from_slice(&[t, sd]);
         w.write_row(&line)?;
         line.resize(width + INPUT, 0.0);
     }
