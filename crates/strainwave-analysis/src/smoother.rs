@@ -81,7 +81,9 @@ pub struct SmoothedSample<T: Real> {
     /// white noise averaged out (zero phase), steps the filter detected kept sharp; the
     /// clean torque `torque_nm` when the model has no bias state. N·m.
     pub torque_state_nm: T,
-    /// Its standard deviation `√P_bb(k|N)`, N·m (0 without the bias state).
+    /// Its standard deviation `√P_bb(k|N)`, N·m (0 without the bias state; NaN from a
+    /// [`CheckpointedSmoother`] not asked for it, see
+    /// [`with_torque_state_sd`](CheckpointedSmoother::with_torque_state_sd)).
     pub torque_state_sd_nm: T,
 }
 
@@ -204,13 +206,21 @@ pub(crate) fn rts_step<const M: usize>(
     cur: &Record,
     next: &Record,
     next_mean: &[f64],
-    next_cov: &[f64],
-) -> Option<(Vec<f64>, Vec<f64>)> {
+    next_cov: Option<&[f64]>,
+) -> Option<(Vec<f64>, Option<Vec<f64>>)> {
     let bias = (n > 2 * M).then_some(2 * M);
     let skip = if next.load_step { bias } else { None };
     let idx: Vec<usize> = (0..n).filter(|&i| Some(i) != skip).collect();
     let l = cholesky(&next.prior_cov, n, &idx)?;
     let kept = |i: usize| i >= 2 * M || next.kept[i / 2];
+    // Mean: P(k|k) Dᵀ v with v = P(k+1|k)⁻¹ [ẑ(k+1|N) − ẑ(k+1|k)] (one solve).
+    let diff: Vec<f64> = (0..n).map(|i| next_mean[i] - next.prior_mean[i]).collect();
+    let mut v = vec![0.0; n];
+    cholesky_solve(&l, &idx, &diff, &mut v);
+    let dv: Vec<f64> = (0..n).map(|i| if kept(i) { v[i] } else { 0.0 }).collect();
+    let mean: Vec<f64> =
+        (0..n).map(|i| cur.post_mean[i] + (0..n).map(|j| cur.post_cov[i * n + j] * dv[j]).sum::<f64>()).collect();
+    let Some(next_cov) = next_cov else { return Some((mean, None)) };
     // Aᵀ = P(k+1|k)⁻¹ D P(k|k): column j solves against D P(k|k)'s column j.
     let mut at = vec![0.0; n * n];
     let (mut col, mut sol) = (vec![0.0; n], vec![0.0; n]);
@@ -225,9 +235,6 @@ pub(crate) fn rts_step<const M: usize>(
     }
     // A(i, j) = at(j, i).
     let a = |i: usize, j: usize| at[j * n + i];
-    let mean: Vec<f64> = (0..n)
-        .map(|i| cur.post_mean[i] + (0..n).map(|j| a(i, j) * (next_mean[j] - next.prior_mean[j])).sum::<f64>())
-        .collect();
     // ΔP = P(k+1|N) − P(k+1|k); P(k|N) = P(k|k) + A ΔP Aᵀ.
     let dp: Vec<f64> = (0..n * n).map(|ij| next_cov[ij] - next.prior_cov[ij]).collect();
     let mut adp = vec![0.0; n * n];
@@ -246,7 +253,7 @@ pub(crate) fn rts_step<const M: usize>(
             }
         }
     }
-    Some((mean, cov))
+    Some((mean, Some(cov)))
 }
 
 /// Runs the real-time filter over `inputs`, then the RTS backward pass on the same
@@ -274,7 +281,7 @@ pub fn smooth<T: Real, const M: usize>(
 ) -> Result<Smoothed<T>, SmootherError> {
     let mut state = RippleState::new(model);
     let (filtered, records) = forward(model, &mut state, inputs, 0)?;
-    let back = backward::<M>(model.state_len(), &records, None, 0)?;
+    let back = backward::<M>(model.state_len(), &records, None, 0, true)?;
     let smoothed = samples(model, inputs, &records, &back);
     Ok(Smoothed { filtered, smoothed })
 }
@@ -301,41 +308,48 @@ pub(crate) fn forward<T: Real, const M: usize>(
 }
 
 /// What the backward pass gives for a run of records: per sample, the smoothed mean
-/// `ẑ(k|N)` and the bias variance `P_bb(k|N)` (0 without the bias state); and the
-/// smoothed covariance of the first sample, which the block before it needs.
+/// `ẑ(k|N)` and the bias variance `P_bb(k|N)` (0 without the bias state, NaN when the
+/// covariance was not asked for); and the smoothed covariance of the first sample,
+/// which the block before it needs.
 pub(crate) struct Backward {
     pub(crate) means: Vec<Vec<f64>>,
     pub(crate) bias_var: Vec<f64>,
-    pub(crate) first_cov: Vec<f64>,
+    pub(crate) first_cov: Option<Vec<f64>>,
 }
 
 /// The backward pass over `records` (the first being sample `first`), given the record,
 /// smoothed mean and covariance of the sample after the last one (`None`: the last one
-/// is the end of the recording).
+/// is the end of the recording). `with_cov`: also the smoothed covariance (`n` more
+/// solves and two `n³` products per sample).
 pub(crate) fn backward<const M: usize>(
     n: usize,
     records: &[Record],
-    after: Option<(&Record, &[f64], &[f64])>,
+    after: Option<(&Record, &[f64], Option<&[f64]>)>,
     first: usize,
+    with_cov: bool,
 ) -> Result<Backward, SmootherError> {
     let bias = (n > 2 * M).then_some(2 * M);
     let mut out =
-        Backward { means: vec![Vec::new(); records.len()], bias_var: vec![0.0; records.len()], first_cov: vec![] };
+        Backward { means: vec![Vec::new(); records.len()], bias_var: vec![f64::NAN; records.len()], first_cov: None };
     let Some(last) = records.len().checked_sub(1) else {
         return Ok(out);
     };
     let fail = |k: usize| SmootherError::NotPositiveDefinite { index: first + k + 1 };
     let (mut mean, mut cov) = match after {
         Some((next, next_mean, next_cov)) => {
+            let next_cov = next_cov.filter(|_| with_cov);
             rts_step::<M>(n, &records[last], next, next_mean, next_cov).ok_or(fail(last))?
         }
-        None => (records[last].post_mean.clone(), records[last].post_cov.clone()),
+        None => (records[last].post_mean.clone(), with_cov.then(|| records[last].post_cov.clone())),
     };
     for k in (0..=last).rev() {
         if k < last {
-            (mean, cov) = rts_step::<M>(n, &records[k], &records[k + 1], &out.means[k + 1], &cov).ok_or(fail(k))?;
+            (mean, cov) =
+                rts_step::<M>(n, &records[k], &records[k + 1], &out.means[k + 1], cov.as_deref()).ok_or(fail(k))?;
         }
-        out.bias_var[k] = bias.map_or(0.0, |b| cov[b * n + b].max(0.0));
+        if let Some(c) = &cov {
+            out.bias_var[k] = bias.map_or(0.0, |b| c[b * n + b].max(0.0));
+        }
         out.means[k] = core::mem::take(&mut mean);
     }
     out.first_cov = cov;

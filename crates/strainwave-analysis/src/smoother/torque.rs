@@ -179,3 +179,90 @@ pub fn smooth_torque(y_nm: &[f64], cuts: &[bool], (mut fwd, mut back): (TorqueTr
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn gaussians(seed: u64) -> impl FnMut() -> f64 {
+        let mut s = seed;
+        let mut uniform = move || {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((s >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        };
+        move || (-2.0 * uniform().ln()).sqrt() * (std::f64::consts::TAU * uniform()).cos()
+    }
+
+    fn rms(v: impl Iterator<Item = f64>) -> f64 {
+        let (s, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x * x, n + 1));
+        (s / n.max(1) as f64).sqrt()
+    }
+
+    /// Truth drawn from the model itself: the error matches σ and the band covers 68 %.
+    #[test]
+    fn honest_when_the_model_is_right() {
+        let (r_nm2, fs) = (0.02f64.powi(2), 1000.0);
+        let q = TorqueTrack::q_for_bandwidth(20.0, fs, r_nm2);
+        let mut g = gaussians(5);
+        let (mut level, mut rate) = (2.0, 0.0);
+        let (mut truth, mut y) = (Vec::new(), Vec::new());
+        for _ in 0..60_000 {
+            truth.push(level);
+            y.push(level + r_nm2.sqrt() * g());
+            // Q = q [1/3 1/2; 1/2 1]: rate noise w1, level noise w1/2 + w2/√12.
+            let (w1, w2) = (q.sqrt() * g(), q.sqrt() * g());
+            level += rate + w1 / 2.0 + w2 / 12f64.sqrt();
+            rate += w1;
+        }
+        // No restarts wanted: a limit no Gaussian sample reaches here.
+        let tracks = (TorqueTrack::forward(q, r_nm2, 1e9), TorqueTrack::backward(q, r_nm2, 1e9));
+        let out = smooth_torque(&y, &[], tracks);
+        let from = 1000;
+        let err = rms((from..y.len()).map(|k| out[k].0 - truth[k]));
+        let sd = rms((from..y.len()).map(|k| out[k].1));
+        let covered = (from..y.len()).filter(|&k| (out[k].0 - truth[k]).abs() <= out[k].1).count();
+        let coverage = covered as f64 / (y.len() - from) as f64;
+        assert!((err / sd - 1.0).abs() < 0.05, "RMS error {err} vs σ {sd}");
+        assert!((coverage - 0.683).abs() < 0.02, "coverage {coverage}");
+        let mut fwd = TorqueTrack::forward(q, r_nm2, 1e9);
+        let filtered: Vec<f64> = y.iter().map(|v| (fwd.push(*v, false), fwd.filtered().mean_nm).1).collect();
+        let err_f = rms((from..y.len()).map(|k| filtered[k] - truth[k]));
+        assert!(err < 0.85 * err_f, "smoothed {err} vs filtered {err_f}");
+        assert!(err < 0.5 * r_nm2.sqrt(), "smoothed {err} vs noise {}", r_nm2.sqrt());
+    }
+
+    /// A 1 N·m step on a ramp, and a known cut: both sides keep their own level to the
+    /// sample; a non-finite sample is bridged.
+    #[test]
+    fn steps_stay_sharp_and_gaps_are_bridged() {
+        let (r_nm2, fs) = (0.02f64.powi(2), 1000.0);
+        let mut g = gaussians(8);
+        let (k0, k1, n) = (3000, 4500, 6000);
+        let truth: Vec<f64> = (0..n)
+            .map(|k| 0.001 * k as f64 + if k >= k0 { 1.0 } else { 0.0 } + if k >= k1 { 0.05 } else { 0.0 })
+            .collect();
+        let mut y: Vec<f64> = truth.iter().map(|t| t + r_nm2.sqrt() * g()).collect();
+        y[1000] = f64::NAN;
+        let mut cuts = vec![false; n];
+        cuts[k1] = true;
+        let out = smooth_torque(&y, &cuts, TorqueTrack::pair(r_nm2, fs));
+        for k in (k0 - 20..k0 + 20).chain(k1 - 20..k1 + 20).chain(990..1010) {
+            assert!((out[k].0 - truth[k]).abs() < 5.0 * out[k].1, "sample {k}: {:?} vs {}", out[k], truth[k]);
+            assert!((out[k].0 - truth[k]).abs() < 0.04, "sample {k}: {:?} vs {}", out[k], truth[k]);
+        }
+        assert!(out[1000].0.is_finite() && out[1000].1 > out[999].1, "the gap is bridged with less certainty");
+        assert!(smooth_torque(&[], &[], TorqueTrack::pair(r_nm2, fs)).is_empty());
+        let none = smooth_torque(&[f64::NAN; 3], &[], TorqueTrack::pair(r_nm2, fs));
+        assert!(none.iter().all(|(t, sd)| t.is_nan() && sd.is_nan()));
+    }
+
+    #[test]
+    fn combining_weights_by_variance() {
+        let a = LevelEstimate { mean_nm: 1.0, var_nm2: 1.0 };
+        let b = LevelEstimate { mean_nm: 4.0, var_nm2: 2.0 };
+        let c = a.combine(b).unwrap();
+        assert!((c.mean_nm - 2.0).abs() < 1e-12 && (c.var_nm2 - 2.0 / 3.0).abs() < 1e-12);
+        assert_eq!(a.combine(LevelEstimate::NONE), Some(a));
+        assert_eq!(LevelEstimate::NONE.combine(LevelEstimate::NONE), None);
+    }
+}
