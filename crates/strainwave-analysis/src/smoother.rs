@@ -317,6 +317,10 @@ pub(crate) struct Backward {
     pub(crate) first_cov: Option<Vec<f64>>,
 }
 
+/// The sample after a run of records: its record, smoothed mean and (if carried)
+/// smoothed covariance.
+pub(crate) type After<'a> = (&'a Record, &'a [f64], Option<&'a [f64]>);
+
 /// The backward pass over `records` (the first being sample `first`), given the record,
 /// smoothed mean and covariance of the sample after the last one (`None`: the last one
 /// is the end of the recording). `with_cov`: also the smoothed covariance (`n` more
@@ -324,7 +328,7 @@ pub(crate) struct Backward {
 pub(crate) fn backward<const M: usize>(
     n: usize,
     records: &[Record],
-    after: Option<(&Record, &[f64], Option<&[f64]>)>,
+    after: Option<After<'_>>,
     first: usize,
     with_cov: bool,
 ) -> Result<Backward, SmootherError> {
