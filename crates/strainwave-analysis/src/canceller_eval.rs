@@ -24,7 +24,7 @@ use strainwave_core::ripple::{
 };
 
 use crate::error::AnalysisError;
-use crate::smoother::smooth;
+use crate::smoother::smooth_with;
 use crate::smoother::torque::{smooth_torque, TorqueTrack};
 use crate::stats::rms;
 
@@ -191,7 +191,8 @@ fn run_smoothed(
     let inputs: Vec<RippleInput<f64>> = (0..y.len())
         .map(|k| RippleInput::new(y[k], ReferenceValues::from_gear(gear, s.motor_angle_rad[k], s.output_angle_rad[k])))
         .collect();
-    let out = smooth(&m, &inputs).map_err(|e| AnalysisError::Invalid { what: "smoother", why: e.to_string() })?;
+    let out =
+        smooth_with(&m, &inputs, false).map_err(|e| AnalysisError::Invalid { what: "smoother", why: e.to_string() })?;
     let clean: Vec<f64> = out.smoothed.iter().map(|o| o.torque_nm).collect();
     let level = smooth_torque(&clean, &[], TorqueTrack::pair(m.r_nm2(), s.sample_rate_hz));
     Ok(out.smoothed.iter().zip(level).map(|(o, (t, sd))| [t, sd, o.ripple_nm + o.misalignment_nm]).collect())

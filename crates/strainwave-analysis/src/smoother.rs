@@ -279,9 +279,19 @@ pub fn smooth<T: Real, const M: usize>(
     model: &RippleModel<T, M>,
     inputs: &[RippleInput<T>],
 ) -> Result<Smoothed<T>, SmootherError> {
+    smooth_with(model, inputs, true)
+}
+
+/// [`smooth`], with the smoothed covariance (`torque_state_sd_nm`) or without it (NaN;
+/// the rest is the same, and the backward pass much cheaper).
+pub(crate) fn smooth_with<T: Real, const M: usize>(
+    model: &RippleModel<T, M>,
+    inputs: &[RippleInput<T>],
+    state_sd: bool,
+) -> Result<Smoothed<T>, SmootherError> {
     let mut state = RippleState::new(model);
     let (filtered, records) = forward(model, &mut state, inputs, 0)?;
-    let back = backward::<M>(model.state_len(), &records, None, 0, true)?;
+    let back = backward::<M>(model.state_len(), &records, None, 0, state_sd)?;
     let smoothed = samples(model, inputs, &records, &back);
     Ok(Smoothed { filtered, smoothed })
 }
