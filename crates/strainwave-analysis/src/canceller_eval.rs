@@ -178,8 +178,8 @@ fn full_model(fs: f64, noise_nm: f64, learned: Option<&Learned>) -> Result<Rippl
     RippleModel::<f64, 5>::full(fs, noise_nm).and_then(|m| m.with_priors(*learned)).map_err(core_err("full model"))
 }
 
-/// The smoothed full configuration over `y`: per sample, the smoothed torque state, its
-/// standard deviation and the smoothed ripple + misalignment, N·m.
+/// The smoothed full configuration over `y`: per sample, the smoothed torque
+/// (`torque_smoothed`), its standard deviation and the smoothed ripple + misalignment, N·m.
 fn run_smoothed(
     gear: &Gear<f64>,
     y: &[f64],
@@ -300,7 +300,7 @@ pub fn evaluate(
     let mut rows = Vec::with_capacity(methods.len());
     for &m in methods {
         let (out, left) = if m == Method::Smoothed {
-            // The smoothed torque state is not `raw − prediction`: what is left of the
+            // The smoothed torque is not `raw − prediction`: what is left of the
             // periodic part is the truth minus the smoothed ripple and misalignment.
             let sm = run_smoothed(gear, s.measured_nm, s, noise_nm, learned)?;
             (sm.iter().map(|o| o[0]).collect(), (0..n).map(|k| periodic[k] - sm[k][2]).collect())
@@ -320,13 +320,14 @@ pub fn evaluate(
     Ok(rows)
 }
 
-/// The smoothed torque state against the truth over a run (see [`smoothed_accuracy`]).
+/// The smoothed torque (`torque_smoothed`) against the truth over a run (see
+/// [`smoothed_accuracy`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SmoothedAccuracy {
-    /// RMS error of the smoothed torque state against `true_torque` after the warm-up, N·m.
+    /// RMS error of the smoothed torque against `true_torque` after the warm-up, N·m.
     pub rms_error_nm: f64,
     /// Fraction of the samples after the warm-up whose truth lies within ±1σ
-    /// (`torque_smoothed_sd`) of the smoothed torque state (0.683 when honest).
+    /// (`torque_smoothed_sd`) of the smoothed torque (0.683 when honest).
     pub coverage_1sd: f64,
     /// A 1 N·m step added at sample `k0`: the first sample from `k0 − 50` on where the
     /// smoothed response reaches 0.5 N·m, minus `k0` (negative: it rises early). `None`:
@@ -339,7 +340,7 @@ pub struct SmoothedAccuracy {
     pub step_level_after_nm: f64,
 }
 
-/// The full configuration's smoothed torque state on a run, from `learned`: RMS error,
+/// The full configuration's smoothed torque on a run, from `learned`: RMS error,
 /// coverage of its 1σ band and the response to a 1 N·m step added at `step_at` (the
 /// run's middle when `None`).
 pub fn smoothed_accuracy(
@@ -399,8 +400,8 @@ pub fn filtered(s: &RunSignals, gear: &Gear<f64>, noise_nm: f64, learned: &Learn
     apply(Method::Full, gear, s.measured_nm, s, noise_nm, Some(learned))
 }
 
-/// The full configuration's smoothed torque state over a run, from `learned` (offline,
-/// zero phase), N·m.
+/// The full configuration's smoothed torque (`torque_smoothed`) over a run, from
+/// `learned` (offline, zero phase), N·m.
 pub fn smoothed(s: &RunSignals, gear: &Gear<f64>, noise_nm: f64, learned: &Learned) -> Result<Vec<f64>, AnalysisError> {
     check(s)?;
     apply(Method::Smoothed, gear, s.measured_nm, s, noise_nm, Some(learned))

@@ -447,6 +447,13 @@ fn smooth_spans_blocks_and_leaves_no_scratch_files() {
     let (t, truth) = (col(&h, &rows, "torque"), col(&h, &rows, "true_torque"));
     let err = (300..10_000).map(|k| (t[k] - truth[k]).powi(2)).sum::<f64>() / 9_700.0;
     assert!(err.sqrt() < 1.5 * 0.0162, "smoothed RMS error {}", err.sqrt());
+    // The smoothed torque's two filters cross the block boundaries (4096, 8192) unbroken.
+    let (x, sd) = (col(&h, &rows, "torque_smoothed"), col(&h, &rows, "torque_smoothed_sd"));
+    let err = (300..10_000).map(|k| (x[k] - truth[k]).powi(2)).sum::<f64>() / 9_700.0;
+    assert!(err.sqrt() < 0.5 * 0.0162, "torque_smoothed RMS error {}", err.sqrt());
+    for k in (4086..4106).chain(8182..8202) {
+        assert!((x[k] - truth[k]).abs() < 4.0 * sd[k], "row {k}: {} ± {} vs {}", x[k], sd[k], truth[k]);
+    }
 
     let o = run(&[&args[..], &["--out", "-"]].concat());
     assert!(o.status.success(), "{}", stderr(&o));

@@ -1,5 +1,5 @@
-//! The report's filter section: the smoothed torque state (`filter --smooth`) with its
-//! 1σ band and the causal denoised torque, plotted against the measurement, with their
+//! The report's filter section: the smoothed torque (`filter --smooth`) with its 1σ
+//! band and the causal denoised torque, plotted against the measurement, with their
 //! error, coverage and delay figures.
 
 use strainwave_io::Table;
@@ -63,8 +63,9 @@ pub fn section(t: &Table, time: &[f64], measured: Option<&str>, cfg: Option<&Joi
     body += &plot.to_svg();
     body += "<p><code>torque</code>: measurement minus ripple and misalignment (no delay). ";
     if smoothed.is_some() {
-        body += "<code>torque_smoothed</code>: the Rauch–Tung–Striebel smoothed torque state (offline, zero \
-                 phase, load steps the filter detected kept sharp), <code>torque_smoothed_sd</code> its 1σ. ";
+        body += "<code>torque_smoothed</code>: <code>torque</code> after the Rauch–Tung–Striebel smoother, \
+                 smoothed as a level-and-rate torque state (offline, zero phase, 40 Hz; a jump beyond 4σ \
+                 restarts it, so steps stay sharp), <code>torque_smoothed_sd</code> its 1σ. ";
     }
     if denoised.is_some() {
         match cfg.and_then(|c| c.denoiser().ok().flatten().map(|d| (c, d))) {
