@@ -24,6 +24,8 @@ use strainwave_core::ripple::{
 };
 
 use crate::error::AnalysisError;
+use crate::smoother::smooth_with;
+use crate::smoother::torque::{smooth_torque, TorqueTrack};
 use crate::stats::rms;
 
 /// The signals of a run.
@@ -65,6 +67,11 @@ pub enum Method {
     Full,
     /// The full configuration without commissioning: learning from zero during the run.
     FullCold,
+    /// The full configuration (commissioned) run offline: forward filter and
+    /// Rauch–Tung–Striebel pass, its output the smoothed torque (`torque_smoothed`: the
+    /// clean torque smoothed as a level-and-rate state, zero phase, steps kept sharp;
+    /// see [`crate::smoother::torque`]).
+    Smoothed,
 }
 
 /// What the full configuration learned: per order, rotating-frame coefficients and
@@ -82,6 +89,7 @@ impl Method {
             Method::Seed6th => "seed 6th-order (+1× output)".into(),
             Method::Full => "strainwave full (commissioned)".into(),
             Method::FullCold => "strainwave full, no commissioning".into(),
+            Method::Smoothed => "strainwave full, smoothed (offline)".into(),
         }
     }
 }
@@ -161,7 +169,36 @@ fn notch(f0_hz: f64, fs: f64) -> Result<Biquad<f64>, AnalysisError> {
     Biquad::from_analog([1.0, 0.0, w0 * w0], [1.0, w0 / q, w0 * w0], f0_hz, fs).map_err(core_err("notch"))
 }
 
-/// Output of a method on `y` (and, for the Kalman methods, their prediction).
+/// The full configuration from `learned`.
+fn full_model(fs: f64, noise_nm: f64, learned: Option<&Learned>) -> Result<RippleModel<f64, 5>, AnalysisError> {
+    let learned = learned.ok_or(AnalysisError::Invalid {
+        what: "full configuration",
+        why: "needs learned coefficients: run `commission` first".into(),
+    })?;
+    RippleModel::<f64, 5>::full(fs, noise_nm).and_then(|m| m.with_priors(*learned)).map_err(core_err("full model"))
+}
+
+/// The smoothed full configuration over `y`: per sample, the smoothed torque
+/// (`torque_smoothed`), its standard deviation and the smoothed ripple + misalignment, N·m.
+fn run_smoothed(
+    gear: &Gear<f64>,
+    y: &[f64],
+    s: &RunSignals,
+    noise_nm: f64,
+    learned: Option<&Learned>,
+) -> Result<Vec<[f64; 3]>, AnalysisError> {
+    let m = full_model(s.sample_rate_hz, noise_nm, learned)?;
+    let inputs: Vec<RippleInput<f64>> = (0..y.len())
+        .map(|k| RippleInput::new(y[k], ReferenceValues::from_gear(gear, s.motor_angle_rad[k], s.output_angle_rad[k])))
+        .collect();
+    let out =
+        smooth_with(&m, &inputs, false).map_err(|e| AnalysisError::Invalid { what: "smoother", why: e.to_string() })?;
+    let clean: Vec<f64> = out.smoothed.iter().map(|o| o.torque_nm).collect();
+    let level = smooth_torque(&clean, &[], TorqueTrack::pair(m.r_nm2(), s.sample_rate_hz));
+    Ok(out.smoothed.iter().zip(level).map(|(o, (t, sd))| [t, sd, o.ripple_nm + o.misalignment_nm]).collect())
+}
+
+/// Output of a method on `y`.
 fn apply(
     method: Method,
     gear: &Gear<f64>,
@@ -190,15 +227,10 @@ fn apply(
             run_kalman(&m, gear, y, s, true)?.iter().map(|o| o.torque_nm).collect()
         }
         Method::Full => {
-            let learned = learned.ok_or(AnalysisError::Invalid {
-                what: "full configuration",
-                why: "needs learned coefficients: run `commission` first".into(),
-            })?;
-            let m = RippleModel::<f64, 5>::full(fs, noise_nm)
-                .and_then(|m| m.with_priors(*learned))
-                .map_err(core_err("full model"))?;
+            let m = full_model(fs, noise_nm, learned)?;
             run_kalman(&m, gear, y, s, false)?.iter().map(|o| o.torque_nm).collect()
         }
+        Method::Smoothed => run_smoothed(gear, y, s, noise_nm, learned)?.iter().map(|o| o[0]).collect(),
         Method::FullCold => {
             let m = RippleModel::<f64, 5>::full_commissioning(fs, noise_nm).map_err(core_err("full model"))?;
             run_kalman(&m, gear, y, s, false)?.iter().map(|o| o.torque_nm).collect()
@@ -267,8 +299,16 @@ pub fn evaluate(
     let k_warm = ((warmup_s * s.sample_rate_hz) as usize).min(n - 1);
     let mut rows = Vec::with_capacity(methods.len());
     for &m in methods {
-        let out = apply(m, gear, s.measured_nm, s, noise_nm, learned)?;
-        let left = remaining(m, &out, s, &periodic)?;
+        let (out, left) = if m == Method::Smoothed {
+            // The smoothed torque is not `raw − prediction`: what is left of the
+            // periodic part is the truth minus the smoothed ripple and misalignment.
+            let sm = run_smoothed(gear, s.measured_nm, s, noise_nm, learned)?;
+            (sm.iter().map(|o| o[0]).collect(), (0..n).map(|k| periodic[k] - sm[k][2]).collect())
+        } else {
+            let out = apply(m, gear, s.measured_nm, s, noise_nm, learned)?;
+            let left = remaining(m, &out, s, &periodic)?;
+            (out, left)
+        };
         let err: Vec<f64> = (k_warm..n).map(|k| out[k] - s.true_torque_nm[k]).collect();
         rows.push(EvalRow {
             method: m,
@@ -278,6 +318,58 @@ pub fn evaluate(
         });
     }
     Ok(rows)
+}
+
+/// The smoothed torque (`torque_smoothed`) against the truth over a run (see
+/// [`smoothed_accuracy`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SmoothedAccuracy {
+    /// RMS error of the smoothed torque against `true_torque` after the warm-up, N·m.
+    pub rms_error_nm: f64,
+    /// Fraction of the samples after the warm-up whose truth lies within ±1σ
+    /// (`torque_smoothed_sd`) of the smoothed torque (0.683 when honest).
+    pub coverage_1sd: f64,
+    /// A 1 N·m step added at sample `k0`: the first sample from `k0 − 50` on where the
+    /// smoothed response reaches 0.5 N·m, minus `k0` (negative: it rises early). `None`:
+    /// never.
+    pub step_offset_samples: Option<i64>,
+    /// The largest response before `k0 − 2`, N·m (how much the step smears backwards).
+    pub step_smear_before_nm: f64,
+    /// The smallest response from `k0 + 2` on over 50 samples, N·m (1 when the step is
+    /// complete within 2 samples).
+    pub step_level_after_nm: f64,
+}
+
+/// The full configuration's smoothed torque on a run, from `learned`: RMS error,
+/// coverage of its 1σ band and the response to a 1 N·m step added at `step_at` (the
+/// run's middle when `None`).
+pub fn smoothed_accuracy(
+    s: &RunSignals,
+    gear: &Gear<f64>,
+    noise_nm: f64,
+    learned: &Learned,
+    warmup_s: f64,
+    step_at: Option<usize>,
+) -> Result<SmoothedAccuracy, AnalysisError> {
+    let n = check(s)?;
+    let k_warm = ((warmup_s * s.sample_rate_hz) as usize).min(n - 1);
+    let sm = run_smoothed(gear, s.measured_nm, s, noise_nm, Some(learned))?;
+    let err: Vec<f64> = (k_warm..n).map(|k| sm[k][0] - s.true_torque_nm[k]).collect();
+    let covered = (k_warm..n).filter(|&k| (sm[k][0] - s.true_torque_nm[k]).abs() <= sm[k][1]).count();
+    let k0 = step_at.unwrap_or(n / 2).clamp(52, n.saturating_sub(52).max(52));
+    if k0 + 52 > n {
+        return Err(AnalysisError::TooShort { what: "run for the step", needed: k0 + 52, got: n });
+    }
+    let stepped: Vec<f64> = (0..n).map(|k| s.measured_nm[k] + if k >= k0 { 1.0 } else { 0.0 }).collect();
+    let with = run_smoothed(gear, &stepped, s, noise_nm, Some(learned))?;
+    let response = |k: usize| with[k][0] - sm[k][0];
+    Ok(SmoothedAccuracy {
+        rms_error_nm: rms(&err),
+        coverage_1sd: covered as f64 / (n - k_warm) as f64,
+        step_offset_samples: (k0 - 50..n).find(|&k| response(k) >= 0.5).map(|k| k as i64 - k0 as i64),
+        step_smear_before_nm: (k0 - 50..k0 - 2).map(|k| response(k).abs()).fold(0.0, f64::max),
+        step_level_after_nm: (k0 + 2..k0 + 52).map(response).fold(f64::INFINITY, f64::min),
+    })
 }
 
 /// The cutoff of a 2nd-order low-pass that removes `target_db` of the run's ripple +
@@ -306,4 +398,11 @@ pub fn lowpass_cutoff_for(s: &RunSignals, target_db: f64) -> Result<f64, Analysi
 pub fn filtered(s: &RunSignals, gear: &Gear<f64>, noise_nm: f64, learned: &Learned) -> Result<Vec<f64>, AnalysisError> {
     check(s)?;
     apply(Method::Full, gear, s.measured_nm, s, noise_nm, Some(learned))
+}
+
+/// The full configuration's smoothed torque (`torque_smoothed`) over a run, from
+/// `learned` (offline, zero phase), N·m.
+pub fn smoothed(s: &RunSignals, gear: &Gear<f64>, noise_nm: f64, learned: &Learned) -> Result<Vec<f64>, AnalysisError> {
+    check(s)?;
+    apply(Method::Smoothed, gear, s.measured_nm, s, noise_nm, Some(learned))
 }

@@ -24,6 +24,7 @@ use strainwave_core::ripple::{
 use strainwave_core::Real;
 
 mod checkpointed;
+pub mod torque;
 pub use checkpointed::{CheckpointStore, CheckpointedSmoother};
 
 /// Why the smoother stopped.
@@ -78,8 +79,14 @@ pub struct SmoothedSample<T: Real> {
     pub ripple_nm: T,
     /// Smoothed misalignment (Output-referenced orders), N·m.
     pub misalignment_nm: T,
-    /// Smoothed bias-state torque `T_exp + b̂(k|N)` (the clean torque without bias state), N·m.
+    /// Smoothed torque state `T_exp + b̂(k|N)`: the transmitted torque with the sensor's
+    /// white noise averaged out (zero phase), steps the filter detected kept sharp; the
+    /// clean torque `torque_nm` when the model has no bias state. N·m.
     pub torque_state_nm: T,
+    /// Its standard deviation `√P_bb(k|N)`, N·m (0 without the bias state; NaN from a
+    /// [`CheckpointedSmoother`] not asked for it, see
+    /// [`with_torque_state_sd`](CheckpointedSmoother::with_torque_state_sd)).
+    pub torque_state_sd_nm: T,
 }
 
 /// Forward filter outputs and smoothed samples, one each per input sample.
@@ -124,10 +131,9 @@ fn record<T: Real, const M: usize>(tr: &StepTrace<T, M>, n: usize) -> Record {
     }
 }
 
-/// Cholesky factor of the `n × n` row-major `a` with the rows/columns in `skip` taken
-/// out (they are treated as having infinite variance: their solution entries are 0).
-fn solve_spd(a: &[f64], n: usize, skip: Option<usize>, rhs: &[f64]) -> Option<Vec<f64>> {
-    let idx: Vec<usize> = (0..n).filter(|&i| Some(i) != skip).collect();
+/// Cholesky factor `L` (row-major `m × m`) of the `n × n` row-major `a` restricted to
+/// the indices `idx`; `None` when that part is not positive definite.
+fn cholesky(a: &[f64], n: usize, idx: &[usize]) -> Option<Vec<f64>> {
     let m = idx.len();
     let mut l = vec![0.0; m * m];
     for i in 0..m {
@@ -146,6 +152,12 @@ fn solve_spd(a: &[f64], n: usize, skip: Option<usize>, rhs: &[f64]) -> Option<Ve
             }
         }
     }
+    Some(l)
+}
+
+/// Solves `L Lᵀ y = rhs` (restricted to `idx`) in place of `y`; the other entries are 0.
+fn cholesky_solve(l: &[f64], idx: &[usize], rhs: &[f64], out: &mut [f64]) {
+    let m = idx.len();
     let mut y: Vec<f64> = idx.iter().map(|&i| rhs[i]).collect();
     for i in 0..m {
         for k in 0..i {
@@ -159,11 +171,77 @@ fn solve_spd(a: &[f64], n: usize, skip: Option<usize>, rhs: &[f64]) -> Option<Ve
         }
         y[i] /= l[i * m + i];
     }
-    let mut out = vec![0.0; n];
+    out.iter_mut().for_each(|v| *v = 0.0);
     for (p, &i) in idx.iter().enumerate() {
         out[i] = y[p];
     }
-    Some(out)
+}
+
+/// One backward step's smoothed mean and covariance of sample `k` (record `cur`), given
+/// the record `next` of sample `k + 1` and its smoothed mean and covariance:
+///
+/// ```text
+/// A(k)   = P(k|k) Dᵀ P(k+1|k)⁻¹
+/// ẑ(k|N) = ẑ(k|k) + A(k) [ẑ(k+1|N) − ẑ(k+1|k)]
+/// P(k|N) = P(k|k) + A(k) [P(k+1|N) − P(k+1|k)] A(k)ᵀ
+/// ```
+///
+/// At a load step entering `k + 1` the bias row and column of `P(k+1|k)⁻¹` are 0
+/// (`Var(b) → ∞`): nothing of the bias after the step reaches the bias before it, so the
+/// step stays sharp. `None`: `P(k+1|k)` is not positive definite.
+pub(crate) fn rts_step<const M: usize>(
+    n: usize,
+    cur: &Record,
+    next: &Record,
+    next_mean: &[f64],
+    next_cov: Option<&[f64]>,
+) -> Option<(Vec<f64>, Option<Vec<f64>>)> {
+    let bias = (n > 2 * M).then_some(2 * M);
+    let skip = if next.load_step { bias } else { None };
+    let idx: Vec<usize> = (0..n).filter(|&i| Some(i) != skip).collect();
+    let l = cholesky(&next.prior_cov, n, &idx)?;
+    let kept = |i: usize| i >= 2 * M || next.kept[i / 2];
+    // Mean: P(k|k) Dᵀ v with v = P(k+1|k)⁻¹ [ẑ(k+1|N) − ẑ(k+1|k)] (one solve).
+    let diff: Vec<f64> = (0..n).map(|i| next_mean[i] - next.prior_mean[i]).collect();
+    let mut v = vec![0.0; n];
+    cholesky_solve(&l, &idx, &diff, &mut v);
+    let dv: Vec<f64> = (0..n).map(|i| if kept(i) { v[i] } else { 0.0 }).collect();
+    let mean: Vec<f64> =
+        (0..n).map(|i| cur.post_mean[i] + (0..n).map(|j| cur.post_cov[i * n + j] * dv[j]).sum::<f64>()).collect();
+    let Some(next_cov) = next_cov else { return Some((mean, None)) };
+    // Aᵀ = P(k+1|k)⁻¹ D P(k|k): column j solves against D P(k|k)'s column j.
+    let mut at = vec![0.0; n * n];
+    let (mut col, mut sol) = (vec![0.0; n], vec![0.0; n]);
+    for j in 0..n {
+        for (i, c) in col.iter_mut().enumerate() {
+            *c = if kept(i) { cur.post_cov[i * n + j] } else { 0.0 };
+        }
+        cholesky_solve(&l, &idx, &col, &mut sol);
+        for (i, v) in sol.iter().enumerate() {
+            at[i * n + j] = *v;
+        }
+    }
+    // A(i, j) = at(j, i).
+    let a = |i: usize, j: usize| at[j * n + i];
+    // ΔP = P(k+1|N) − P(k+1|k); P(k|N) = P(k|k) + A ΔP Aᵀ.
+    let dp: Vec<f64> = (0..n * n).map(|ij| next_cov[ij] - next.prior_cov[ij]).collect();
+    let mut adp = vec![0.0; n * n];
+    for i in 0..n {
+        for j in 0..n {
+            adp[i * n + j] = (0..n).map(|m| a(i, m) * dp[m * n + j]).sum();
+        }
+    }
+    let mut cov = cur.post_cov.clone();
+    for i in 0..n {
+        for j in 0..=i {
+            let v: f64 = (0..n).map(|m| adp[i * n + m] * a(j, m)).sum();
+            cov[i * n + j] += v;
+            if i != j {
+                cov[j * n + i] = cov[i * n + j];
+            }
+        }
+    }
+    Some((mean, Some(cov)))
 }
 
 /// Runs the real-time filter over `inputs`, then the RTS backward pass on the same
@@ -189,10 +267,20 @@ pub fn smooth<T: Real, const M: usize>(
     model: &RippleModel<T, M>,
     inputs: &[RippleInput<T>],
 ) -> Result<Smoothed<T>, SmootherError> {
+    smooth_with(model, inputs, true)
+}
+
+/// [`smooth`], with the smoothed covariance (`torque_state_sd_nm`) or without it (NaN;
+/// the rest is the same, and the backward pass much cheaper).
+pub(crate) fn smooth_with<T: Real, const M: usize>(
+    model: &RippleModel<T, M>,
+    inputs: &[RippleInput<T>],
+    state_sd: bool,
+) -> Result<Smoothed<T>, SmootherError> {
     let mut state = RippleState::new(model);
     let (filtered, records) = forward(model, &mut state, inputs, 0)?;
-    let means = backward::<M>(model.state_len(), &records, None, 0)?;
-    let smoothed = samples(model, inputs, &records, &means);
+    let back = backward::<M>(model.state_len(), &records, None, 0, state_sd)?;
+    let smoothed = samples(model, inputs, &records, &back);
     Ok(Smoothed { filtered, smoothed })
 }
 
@@ -217,38 +305,57 @@ pub(crate) fn forward<T: Real, const M: usize>(
     Ok((filtered, records))
 }
 
-/// The smoothed means `ẑ(k|N)` of `records` (the first being sample `first`), given the
-/// record and smoothed mean of the sample after the last one (`None`: the last one is
-/// the end of the recording).
+/// What the backward pass gives for a run of records: per sample, the smoothed mean
+/// `ẑ(k|N)` and the bias variance `P_bb(k|N)` (0 without the bias state, NaN when the
+/// covariance was not asked for); and the smoothed covariance of the first sample,
+/// which the block before it needs.
+pub(crate) struct Backward {
+    pub(crate) means: Vec<Vec<f64>>,
+    pub(crate) bias_var: Vec<f64>,
+    pub(crate) first_cov: Option<Vec<f64>>,
+}
+
+/// The sample after a run of records: its record, smoothed mean and (if carried)
+/// smoothed covariance.
+pub(crate) type After<'a> = (&'a Record, &'a [f64], Option<&'a [f64]>);
+
+/// The backward pass over `records` (the first being sample `first`), given the record,
+/// smoothed mean and covariance of the sample after the last one (`None`: the last one
+/// is the end of the recording). `with_cov`: also the smoothed covariance (`n` more
+/// solves and two `n³` products per sample).
 pub(crate) fn backward<const M: usize>(
     n: usize,
     records: &[Record],
-    after: Option<(&Record, &[f64])>,
+    after: Option<After<'_>>,
     first: usize,
-) -> Result<Vec<Vec<f64>>, SmootherError> {
+    with_cov: bool,
+) -> Result<Backward, SmootherError> {
     let bias = (n > 2 * M).then_some(2 * M);
-    // ẑ(k|N) = ẑ(k|k) + P(k|k) Dᵀ P(k+1|k)⁻¹ [ẑ(k+1|N) − ẑ(k+1|k)].
-    let step = |k: usize, cur: &Record, next: &Record, next_mean: &[f64]| -> Result<Vec<f64>, SmootherError> {
-        let diff: Vec<f64> = (0..n).map(|i| next_mean[i] - next.prior_mean[i]).collect();
-        let skip = if next.load_step { bias } else { None };
-        let v = solve_spd(&next.prior_cov, n, skip, &diff)
-            .ok_or(SmootherError::NotPositiveDefinite { index: first + k + 1 })?;
-        // Dᵀ v: zero where the oscillator was reset entering k+1.
-        let dv: Vec<f64> = (0..n).map(|i| if i < 2 * M && !next.kept[i / 2] { 0.0 } else { v[i] }).collect();
-        Ok((0..n).map(|i| cur.post_mean[i] + (0..n).map(|j| cur.post_cov[i * n + j] * dv[j]).sum::<f64>()).collect())
-    };
-    let mut means = vec![Vec::new(); records.len()];
+    let mut out =
+        Backward { means: vec![Vec::new(); records.len()], bias_var: vec![f64::NAN; records.len()], first_cov: None };
     let Some(last) = records.len().checked_sub(1) else {
-        return Ok(means);
+        return Ok(out);
     };
-    means[last] = match after {
-        Some((next, next_mean)) => step(last, &records[last], next, next_mean)?,
-        None => records[last].post_mean.clone(),
+    let fail = |k: usize| SmootherError::NotPositiveDefinite { index: first + k + 1 };
+    let (mut mean, mut cov) = match after {
+        Some((next, next_mean, next_cov)) => {
+            let next_cov = next_cov.filter(|_| with_cov);
+            rts_step::<M>(n, &records[last], next, next_mean, next_cov).ok_or(fail(last))?
+        }
+        None => (records[last].post_mean.clone(), with_cov.then(|| records[last].post_cov.clone())),
     };
-    for k in (0..last).rev() {
-        means[k] = step(k, &records[k], &records[k + 1], &means[k + 1])?;
+    for k in (0..=last).rev() {
+        if k < last {
+            (mean, cov) =
+                rts_step::<M>(n, &records[k], &records[k + 1], &out.means[k + 1], cov.as_deref()).ok_or(fail(k))?;
+        }
+        if let Some(c) = &cov {
+            out.bias_var[k] = bias.map_or(0.0, |b| c[b * n + b].max(0.0));
+        }
+        out.means[k] = core::mem::take(&mut mean);
     }
-    Ok(means)
+    out.first_cov = cov;
+    Ok(out)
 }
 
 /// The smoothed outputs of `inputs` from their records and smoothed means.
@@ -256,14 +363,14 @@ pub(crate) fn samples<T: Real, const M: usize>(
     model: &RippleModel<T, M>,
     inputs: &[RippleInput<T>],
     records: &[Record],
-    means: &[Vec<f64>],
+    back: &Backward,
 ) -> Vec<SmoothedSample<T>> {
     let bias = (model.state_len() > 2 * M).then_some(2 * M);
     inputs
         .iter()
         .zip(records)
-        .zip(means)
-        .map(|((input, rec), z)| {
+        .zip(back.means.iter().zip(&back.bias_var))
+        .map(|((input, rec), (z, bias_var))| {
             let (mut ripple, mut mis) = (0.0, 0.0);
             for (i, o) in model.orders().iter().enumerate() {
                 let (c, s, on) = rec.phasor[i];
@@ -283,6 +390,7 @@ pub(crate) fn samples<T: Real, const M: usize>(
                 ripple_nm: T::from_f64(ripple),
                 misalignment_nm: T::from_f64(mis),
                 torque_state_nm: T::from_f64(state_torque),
+                torque_state_sd_nm: T::from_f64(bias_var.sqrt()),
             }
         })
         .collect()
@@ -362,6 +470,71 @@ mod tests {
         let smo = err(&|k| out.smoothed[k].ripple_nm);
         let filt = err(&|k| out.filtered[k].ripple_nm);
         assert!(smo < 0.5 * filt, "smoothed {smo} vs filtered {filt}");
+    }
+
+    /// A model that is exactly the truth (a constant 2× ripple, a random-walk torque,
+    /// white noise): the smoothed torque state's error matches its σ, covers the truth
+    /// 68 % of the time, and is well below the noise.
+    #[test]
+    fn smoothed_torque_state_sd_is_honest_when_the_model_is_right() {
+        use strainwave_core::ripple::{Order, Reference};
+        let (r_nm2, q_nm2) = (0.01, 1e-4);
+        let order = Order::new(Reference::Relative, 2.0).unwrap();
+        let model = RippleModel::<f64, 1>::new([order], r_nm2, 1000.0).unwrap().with_bias_state(q_nm2).unwrap();
+        let mut seed = 99u64;
+        let mut uniform = move || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((seed >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        };
+        let mut gauss = move || (-2.0 * uniform().ln()).sqrt() * (std::f64::consts::TAU * uniform()).cos();
+        let (n, mut b) = (40_000, 3.0);
+        let (mut inputs, mut truth) = (Vec::with_capacity(n), Vec::with_capacity(n));
+        for k in 0..n {
+            let phi = 0.07 * k as f64;
+            let y = b + 0.4 * (2.0 * phi + 0.3).cos() + r_nm2.sqrt() * gauss();
+            inputs.push(RippleInput::new(y, ReferenceValues::new(phi.rem_euclid(std::f64::consts::TAU), 0.0, 0.0)));
+            truth.push(b);
+            b += q_nm2.sqrt() * gauss();
+        }
+        let out = smooth(&model, &inputs).unwrap();
+        let from = 2000;
+        let s = &out.smoothed[from..];
+        let err = rms(s.iter().zip(&truth[from..]).map(|(o, t)| o.torque_state_nm - t));
+        let sd = (s.iter().map(|o| o.torque_state_sd_nm.powi(2)).sum::<f64>() / s.len() as f64).sqrt();
+        let covered =
+            s.iter().zip(&truth[from..]).filter(|(o, t)| (o.torque_state_nm - *t).abs() <= o.torque_state_sd_nm);
+        let coverage = covered.count() as f64 / s.len() as f64;
+        assert!((err / sd - 1.0).abs() < 0.05, "RMS error {err} vs σ {sd}");
+        assert!((coverage - 0.683).abs() < 0.02, "coverage {coverage}");
+        // Random walk q = 1e-4, r = 1e-2: the smoothed σ is about √(√(q r)/2) = 0.024.
+        assert!(err < 0.3 * r_nm2.sqrt(), "RMS error {err} vs noise {}", r_nm2.sqrt());
+        let filtered = rms(out.filtered[from..].iter().zip(&truth[from..]).map(|(o, t)| o.torque_state_nm - t));
+        assert!(err < 0.8 * filtered, "smoothed {err} vs filtered state {filtered}");
+    }
+
+    /// A load step the filter detects is in the smoothed torque state at its sample: the
+    /// backward pass does not carry the level after it to the samples before.
+    #[test]
+    fn detected_load_steps_stay_sharp() {
+        let model = RippleModel::<f64, 3>::product(1000.0, 0.05).unwrap();
+        let (n, k0) = (6000, 4000);
+        let inputs: Vec<_> = (0..n)
+            .map(|k| {
+                let phi = 0.05 * k as f64;
+                let load = if k >= k0 { 6.0 } else { 2.0 };
+                let noise = 0.05 * (((k * 7919) % 23) as f64 / 11.0 - 1.0);
+                let refs = ReferenceValues::new(phi.rem_euclid(std::f64::consts::TAU), 0.0, 0.0);
+                RippleInput::new(load + 0.3 * (2.0 * phi).cos() + noise, refs)
+            })
+            .collect();
+        let out = smooth(&model, &inputs).unwrap();
+        assert!(out.filtered[k0].flags.contains(strainwave_core::ripple::StepFlags::LOAD_STEP));
+        for k in k0 - 50..k0 {
+            assert!((out.smoothed[k].torque_state_nm - 2.0).abs() < 0.1, "sample {k}: {:?}", out.smoothed[k]);
+        }
+        for k in k0..k0 + 50 {
+            assert!((out.smoothed[k].torque_state_nm - 6.0).abs() < 0.1, "sample {k}: {:?}", out.smoothed[k]);
+        }
     }
 
     #[test]

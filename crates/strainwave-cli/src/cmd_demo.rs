@@ -233,7 +233,7 @@ pub fn run(a: &Args) -> Result<()> {
 /// loaded runs: text, HTML table and plots. The full configuration first learns on the
 /// commissioning run of the same joint.
 fn canceller_section() -> Result<(String, String, Vec<LinePlot>)> {
-    use strainwave_analysis::canceller_eval::{commission, evaluate, filtered, lowpass_cutoff_for, Method};
+    use strainwave_analysis::canceller_eval::{commission, evaluate, filtered, lowpass_cutoff_for, smoothed, Method};
     let mut text = String::from("\nripple and misalignment cancellation against the simulator's truth:\n");
     let commissioning = EvalRun::simulate("taghirad-commissioning")?;
     let learned = commission(&commissioning.signals()?, &commissioning.gear, commissioning.noise_nm)?;
@@ -267,6 +267,7 @@ fn canceller_section() -> Result<(String, String, Vec<LinePlot>)> {
             Method::Seed6th,
             Method::FullCold,
             Method::Full,
+            Method::Smoothed,
         ];
         let eval = evaluate(&signals, &gear, noise, &methods, 0.3, Some(&learned))?;
         if let (Some(lp), true) = (eval.get(1), name == "taghirad") {
@@ -290,14 +291,19 @@ fn canceller_section() -> Result<(String, String, Vec<LinePlot>)> {
                 r.step_delay_samples.map_or(format!("> {}", signals.measured_nm.len() / 2), |d| d.to_string()),
             ]);
         }
-        let full_row = eval.last().context("no rows")?;
+        let full_row = eval.iter().find(|r| r.method == Method::Full).context("no full row")?;
+        let smoothed_row = eval.last().context("no rows")?;
         rows.push(vec![
             name.to_string(),
             "(white-noise floor)".into(),
             "".into(),
             format!("{noise:.4}"),
             format!("{:.3}", 100.0 * noise / run.full_scale_nm),
-            format!("full/floor = {:.2}", full_row.rms_error_nm / noise),
+            format!(
+                "full/floor = {:.2}, smoothed/floor = {:.2}",
+                full_row.rms_error_nm / noise,
+                smoothed_row.rms_error_nm / noise
+            ),
         ]);
         if name == "taghirad" {
             // Spectrum before and after, over the first constant-speed hold.
@@ -325,13 +331,15 @@ fn canceller_section() -> Result<(String, String, Vec<LinePlot>)> {
         if name == "taghirad-loaded" {
             let t = run.col("time")?;
             let clean = filtered(&signals, &gear, noise, &learned)?;
+            let offline = smoothed(&signals, &gear, noise, &learned)?;
             plots.push(LinePlot {
-                title: "Loaded run: measured, filtered and true torque".into(),
+                title: "Loaded run: measured, filtered, smoothed (offline) and true torque".into(),
                 x_label: "time (s)".into(),
                 y_label: "output torque (N·m)".into(),
                 series: vec![
                     Series { name: "measured".into(), x: t.to_vec(), y: signals.measured_nm.to_vec() },
                     Series { name: "strainwave filtered".into(), x: t.to_vec(), y: clean },
+                    Series { name: "strainwave smoothed".into(), x: t.to_vec(), y: offline },
                     Series { name: "true".into(), x: t.to_vec(), y: signals.true_torque_nm.to_vec() },
                 ],
                 x_range: Some((2.3, 2.8)),

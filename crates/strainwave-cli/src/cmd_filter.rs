@@ -16,10 +16,18 @@ pub struct Args {
     /// Input recording (.csv, .parquet; `-` for CSV on standard input).
     #[arg(long = "in")]
     pub input: PathBuf,
-    /// Output recording: the input columns plus torque, ripple, misalignment, innovation, nis, filter_flags.
+    /// Output recording: the input columns plus torque, ripple, misalignment, innovation, nis,
+    /// filter_flags; then torque_denoised when the config sets `filter.torque_bandwidth_hz`
+    /// (causal, the clean torque filtered as a torque state: group delay at DC
+    /// (1 − α)/(α fs) with α = 1 − exp(−2π f/fs), about 1/(2π f), e.g. 16 ms at 10 Hz; load
+    /// steps restart it); then, with --smooth, torque_smoothed and torque_smoothed_sd.
     #[arg(long)]
     pub out: PathBuf,
-    /// Offline: forward filter plus Rauch–Tung–Striebel smoother (zero phase; reads the whole recording).
+    /// Offline: forward filter plus Rauch–Tung–Striebel smoother (zero phase; reads the whole
+    /// recording). `torque` stays the measurement minus the smoothed ripple and misalignment;
+    /// torque_smoothed is that torque smoothed as a level-and-rate torque state (40 Hz, zero
+    /// phase, white noise averaged out; a jump beyond 4σ restarts it, so load steps stay
+    /// sharp), torque_smoothed_sd its 1σ.
     #[arg(long)]
     pub smooth: bool,
     /// Commissioning: learn the ripple and misalignment coefficients over this run (the

@@ -29,7 +29,8 @@ pub struct Args {
 }
 
 /// Torque-like columns shown when present, in this order.
-const TORQUE_COLUMNS: &[&str] = &["measured_torque", "reference_torque", "torque", "true_torque"];
+const TORQUE_COLUMNS: &[&str] =
+    &["measured_torque", "reference_torque", "torque", "torque_denoised", "torque_smoothed", "true_torque"];
 
 /// Pixel columns of the time plot: each gets the minimum and maximum of its rows.
 const PLOT_COLUMNS: usize = 1000;

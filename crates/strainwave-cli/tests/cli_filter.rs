@@ -275,6 +275,36 @@ fn report_renders_sections_for_a_filtered_recording() {
         assert!(text.contains(s), "{s}");
     }
     assert!(!text.contains("<script"));
+    assert!(!text.contains("Filter: smoothed and denoised torque"), "no such columns, no section");
+
+    // Smoothed and denoised: the filter section plots them with the band, states the
+    // delay and the coverage.
+    let cfg = d.join("joint.toml");
+    let cfg_text = absolute_learned(&std::fs::read_to_string(config()).unwrap());
+    std::fs::write(&cfg, cfg_text.replace("phase = \"angle\"", "phase = \"angle\"\ntorque_bandwidth_hz = 20.0"))
+        .unwrap();
+    let s = d.join("s.csv");
+    let args = ["filter", "--config", cfg.to_str().unwrap(), "--in", sim.to_str().unwrap(), "--smooth", "-q"];
+    assert!(run(&[&args[..], &["--out", s.to_str().unwrap()]].concat()).status.success());
+    let o = run(&[
+        "report",
+        "--in",
+        s.to_str().unwrap(),
+        "--config",
+        cfg.to_str().unwrap(),
+        "--out",
+        html.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&html).unwrap();
+    for s in [
+        "Filter: smoothed and denoised torque",
+        "torque_smoothed + 1σ",
+        "group delay at DC 7.47 ms",
+        "truth within ±1σ",
+    ] {
+        assert!(text.contains(s), "{s}");
+    }
 }
 
 fn simulate_preset(d: &Path, preset: &str) -> PathBuf {
@@ -323,7 +353,7 @@ fn learn_on_commissioning_then_filter_and_smooth_a_loaded_run() {
 
     let cfg = d.join("joint.toml");
     let cfg_text = std::fs::read_to_string(config()).unwrap();
-    let learned_line = format!("learned = {:?}", learned.to_str().unwrap());
+    let learned_line = format!("learned = {:?}\ntorque_bandwidth_hz = 20.0", learned.to_str().unwrap());
     std::fs::write(&cfg, cfg_text.replace("learned = \"joint-taghirad-learned.toml\"", &learned_line)).unwrap();
     let loaded = simulate_preset(&d, "taghirad-loaded");
     let (out, smooth) = (d.join("loaded-f.csv"), d.join("loaded-s.csv"));
@@ -333,6 +363,8 @@ fn learn_on_commissioning_then_filter_and_smooth_a_loaded_run() {
         args.extend(extra);
         let o = run(&args);
         assert!(o.status.success(), "{}", stderr(&o));
+        // 20 Hz: α = 1 − exp(−2π 20/1000) = 0.1181, (1 − α)/(α fs) = 7.47 ms.
+        assert!(stderr(&o).contains("torque_denoised: 20 Hz, group delay at DC 7.47 ms"), "{}", stderr(&o));
     }
     let raw = rms_error(&out, "measured_torque", 0.3);
     let filtered = rms_error(&out, "torque", 0.3);
@@ -340,6 +372,39 @@ fn learn_on_commissioning_then_filter_and_smooth_a_loaded_run() {
     assert!(raw > 0.5, "raw {raw}");
     assert!(filtered < 1.5 * 0.0162, "filtered {filtered}");
     assert!(smoothed < 1.5 * 0.0162, "smoothed {smoothed}");
+    // The smoothed torque: below half the floor, its 1σ band covering the truth 68 % ± 5 %.
+    let torque_smoothed = rms_error(&smooth, "torque_smoothed", 0.3);
+    assert!(torque_smoothed < 0.5 * 0.0162, "torque_smoothed {torque_smoothed}");
+    let (h, rows) = read(&smooth);
+    let (t, x, sd, truth) = (
+        col(&h, &rows, "time"),
+        col(&h, &rows, "torque_smoothed"),
+        col(&h, &rows, "torque_smoothed_sd"),
+        col(&h, &rows, "true_torque"),
+    );
+    let after: Vec<usize> = (0..t.len()).filter(|&k| t[k] > 0.3).collect();
+    let covered = after.iter().filter(|&&k| (x[k] - truth[k]).abs() <= sd[k]).count() as f64 / after.len() as f64;
+    assert!((0.63..=0.73).contains(&covered), "coverage {covered}");
+    // The causal denoised torque is the same with and without --smooth (the same forward
+    // filter, up to the streaming kernel's rounding), and the streaming output has no
+    // smoothed columns.
+    let (hf, rows_f) = read(&out);
+    let (a, b) = (col(&hf, &rows_f, "torque_denoised"), col(&h, &rows, "torque_denoised"));
+    let most = a.iter().zip(&b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+    assert!(a.len() == b.len() && most < 1e-6, "torque_denoised differs by {most} N·m");
+    assert!(!hf.iter().any(|c| c.starts_with("torque_smoothed")), "{hf:?}");
+    let denoised = rms_error(&out, "torque_denoised", 0.3);
+    eprintln!(
+        "taghirad-loaded: torque {filtered:.4}, torque_denoised (20 Hz) {denoised:.4}, torque_smoothed \
+         {torque_smoothed:.4} N·m RMS, coverage {covered:.3}"
+    );
+
+    // A bandwidth the sample rate cannot carry is refused, naming the key.
+    let bad_cfg = d.join("bad.toml");
+    std::fs::write(&bad_cfg, std::fs::read_to_string(&cfg).unwrap().replace("= 20.0", "= 600.0")).unwrap();
+    let args = ["filter", "--config", bad_cfg.to_str().unwrap(), "--in", loaded.to_str().unwrap(), "--out"];
+    let o = run(&[&args[..], &[d.join("bad.csv").to_str().unwrap()]].concat());
+    assert_user_error(&o, "`filter.torque_bandwidth_hz` must be positive and below 0.45");
 
     // Learning and smoothing together is a usage error (exit 2).
     let o = run(&[
@@ -382,6 +447,13 @@ fn smooth_spans_blocks_and_leaves_no_scratch_files() {
     let (t, truth) = (col(&h, &rows, "torque"), col(&h, &rows, "true_torque"));
     let err = (300..10_000).map(|k| (t[k] - truth[k]).powi(2)).sum::<f64>() / 9_700.0;
     assert!(err.sqrt() < 1.5 * 0.0162, "smoothed RMS error {}", err.sqrt());
+    // The smoothed torque's two filters cross the block boundaries (4096, 8192) unbroken.
+    let (x, sd) = (col(&h, &rows, "torque_smoothed"), col(&h, &rows, "torque_smoothed_sd"));
+    let err = (300..10_000).map(|k| (x[k] - truth[k]).powi(2)).sum::<f64>() / 9_700.0;
+    assert!(err.sqrt() < 0.5 * 0.0162, "torque_smoothed RMS error {}", err.sqrt());
+    for k in (4086..4106).chain(8182..8202) {
+        assert!((x[k] - truth[k]).abs() < 4.0 * sd[k], "row {k}: {} ± {} vs {}", x[k], sd[k], truth[k]);
+    }
 
     let o = run(&[&args[..], &["--out", "-"]].concat());
     assert!(o.status.success(), "{}", stderr(&o));

@@ -4,6 +4,7 @@
 pub mod bridge;
 pub mod calibration;
 pub mod compliance;
+pub mod denoise;
 pub mod error;
 pub mod fusion;
 pub mod gear;

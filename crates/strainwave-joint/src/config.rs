@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use serde::Deserialize;
 use strainwave_core::calibration::Calibration;
+use strainwave_core::denoise::TorqueDenoiser;
 use strainwave_core::gear::{FixedElement, Gear};
 use strainwave_io::Channel;
 
@@ -163,6 +164,10 @@ pub struct FilterConfig {
     pub r_nm2: Option<f64>,
     /// `orders` model: torque/bias random-walk variance per sample, N·m² (absent: no bias state).
     pub bias_q_nm2: Option<f64>,
+    /// Bandwidth of the causal denoised torque (`torque_denoised` column), Hz: the clean
+    /// torque filtered as a random-walk torque state, group delay at DC about
+    /// `1 / (2π f)` (see `strainwave_core::denoise`). Absent (default): no such column.
+    pub torque_bandwidth_hz: Option<f64>,
     /// Coefficients learned on a commissioning run (`strainwave filter --learn FILE`);
     /// relative paths are relative to the joint config. Absent: learn from zero.
     pub learned: Option<PathBuf>,
@@ -206,6 +211,7 @@ impl JointConfig {
         if !(c.filter.sample_rate_hz.is_finite() && c.filter.sample_rate_hz > 0.0) {
             bail!("{}: `filter.sample_rate_hz` must be positive", path.display());
         }
+        c.denoiser().with_context(|| format!("{}", path.display()))?;
         Ok(c)
     }
 
@@ -226,6 +232,18 @@ impl JointConfig {
             (None, Some(r)) => bail!("`filter.r_nm2` must be positive, got {r}"),
             (None, None) => bail!("`filter.noise_nm` is needed by the orders model"),
         }
+    }
+
+    /// The causal torque denoiser of `filter.torque_bandwidth_hz`, if set; the error
+    /// names the key.
+    pub fn denoiser(&self) -> Result<Option<TorqueDenoiser<f64>>> {
+        let Some(f) = self.filter.torque_bandwidth_hz else { return Ok(None) };
+        TorqueDenoiser::new(f, self.filter.sample_rate_hz).map(Some).map_err(|_| {
+            anyhow::anyhow!(
+                "`filter.torque_bandwidth_hz` must be positive and below 0.45 × `filter.sample_rate_hz` ({} Hz), got {f}",
+                0.45 * self.filter.sample_rate_hz
+            )
+        })
     }
 
     /// The calibration to apply to the torque channel (identity when absent).

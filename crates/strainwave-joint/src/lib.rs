@@ -18,3 +18,4 @@ pub mod toml_error;
 pub use config::{JointConfig, MAX_TABLE_LEN};
 pub use learned::LearnedFile;
 pub use run::{filter_recording, FilterOptions, FilterSummary, OUTPUT_COLUMNS};
+pub use run::{DENOISED_COLUMN, SMOOTHED_COLUMNS};

@@ -11,6 +11,7 @@ use std::path::PathBuf;
 use anyhow::{anyhow, bail, Context, Result};
 use strainwave_core::ripple::{
     step, PhaseSource, ReferenceValues, RippleInput, RippleModel, RippleOutput, RippleState,
+    StepFlags,
 };
 use strainwave_io::{BoundChannel, IoError, RecordingReader, RecordingWriter};
 
@@ -21,6 +22,13 @@ use crate::row_check::RowCheck;
 
 /// Columns the filter adds.
 pub const OUTPUT_COLUMNS: &[&str] = &["torque", "ripple", "misalignment", "innovation", "nis", "filter_flags"];
+
+/// Column added after [`OUTPUT_COLUMNS`] when `filter.torque_bandwidth_hz` is set: the
+/// causal denoised torque (delayed by the denoiser's group delay).
+pub const DENOISED_COLUMN: &str = "torque_denoised";
+
+/// Columns `--smooth` adds after the others: the smoothed torque state and its 1σ.
+pub const SMOOTHED_COLUMNS: &[&str] = &["torque_smoothed", "torque_smoothed_sd"];
 
 /// Rows in: a recording's columns and its rows one at a time.
 pub trait RowSource {
@@ -123,6 +131,13 @@ pub fn filter_recording<S: RowSource, W: RowSink>(
     let with_learned_priors = opts.learn.is_none() && cfg.filter.learned.is_some();
     let run = Run { cfg, opts, source, create, progress };
     let mut summary = build_model(cfg, with_learned_priors, run)?;
+    if let Some(d) = cfg.denoiser()? {
+        notes.push(format!(
+            "torque_denoised: {} Hz, group delay at DC {:.2} ms",
+            cfg.filter.torque_bandwidth_hz.unwrap_or(f64::NAN),
+            1e3 * d.group_delay_s()
+        ));
+    }
     notes.append(&mut summary.notes);
     summary.notes = notes;
     Ok(summary)
@@ -248,7 +263,15 @@ impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
             bail!("{config}: the angle phase needs `channels.motor_angle` and `channels.output_angle`");
         }
         let mut columns: Vec<String> = r.columns().to_vec();
-        for c in OUTPUT_COLUMNS {
+        let denoiser = cfg.denoiser().with_context(|| config.clone())?;
+        let mut added: Vec<&str> = OUTPUT_COLUMNS.to_vec();
+        if denoiser.is_some() {
+            added.push(DENOISED_COLUMN);
+        }
+        if opts.smooth {
+            added.extend_from_slice(SMOOTHED_COLUMNS);
+        }
+        for c in added {
             let name = format!("{}{c}", opts.prefix);
             if columns.contains(&name) {
                 bail!("{input}: already has a column `{name}`; choose --prefix");
@@ -259,12 +282,13 @@ impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
         let mut check = ch.check(cfg, opts, r.columns());
         if opts.smooth {
             let w = create(&refs)?;
-            return crate::smooth::smooth(opts, model, r, w, &mut check, |row| {
+            return crate::smooth::smooth(opts, model, denoiser, r, w, &mut check, |row| {
                 (ch.input(&gear, &cal, row, velocity).0, ch.time.get(row))
             });
         }
         let mut w = create(&refs)?;
         let mut state = RippleState::new(model);
+        let mut denoiser = denoiser;
         let mut row = Vec::with_capacity(columns.len());
         let mut last_t: Option<f64> = None;
         let mut first_t: Option<f64> = None;
@@ -307,6 +331,9 @@ impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
                 o.nis,
                 o.flags.bits() as f64,
             ]);
+            if let Some(d) = denoiser.as_mut() {
+                row.push(d.step(o.torque_nm, o.flags.contains(StepFlags::LOAD_STEP)));
+            }
             w.write_row(&row)?;
             if n.is_multiple_of(strainwave_io::DEFAULT_CHUNK_ROWS as u64) {
                 if opts.streaming_output {

@@ -1,5 +1,7 @@
 //! The offline zero-phase smoother (forward filter plus
-//! Rauch–Tung–Striebel pass) over a whole recording, in constant memory.
+//! Rauch–Tung–Striebel pass) over a whole recording, in constant memory; with it the
+//! smoothed torque (`torque_smoothed`, see `strainwave_analysis::smoother::torque`),
+//! whose backward filter rides on the backward pass and forward filter on the last.
 //!
 //! Three passes: the forward filter reads the recording once, keeping its state every
 //! [`BLOCK_ROWS`] rows and the rows themselves in scratch files; the backward pass
@@ -15,8 +17,10 @@ use std::io::{BufReader, BufWriter, Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, bail, Context, Result};
+use strainwave_analysis::smoother::torque::{LevelEstimate, TorqueTrack};
 use strainwave_analysis::smoother::{CheckpointStore, CheckpointedSmoother, SmootherError};
-use strainwave_core::ripple::{ReferenceValues, RippleInput, RippleModel, RippleState};
+use strainwave_core::denoise::TorqueDenoiser;
+use strainwave_core::ripple::{ReferenceValues, RippleInput, RippleModel, RippleState, StepFlags};
 
 use crate::row_check::RowCheck;
 use crate::run::{FilterOptions, FilterSummary, RowSink, RowSource};
@@ -26,10 +30,12 @@ use crate::run::{FilterOptions, FilterSummary, RowSink, RowSource};
 /// filter state at each block's start (about 1.3 kB) goes to a scratch file.
 pub const BLOCK_ROWS: usize = 4096;
 
-/// Values per row the smoother adds: torque, ripple, misalignment, innovation, nis, flags.
-const ADDED: usize = 6;
-/// The canceller's input as stored: torque, expected torque, three references, dt (NaN: none).
-const INPUT: usize = 6;
+/// Values per row the smoother adds: torque, ripple, misalignment, innovation, nis, flags,
+/// and the smoothed torque's backward prediction (mean, variance; ∞: none).
+const ADDED: usize = 8;
+/// The canceller's input as stored: torque, expected torque, three references, dt (NaN:
+/// none); then the causal denoised torque of the forward pass (NaN: none).
+const INPUT: usize = 7;
 
 /// A scratch file of `f64` records of one width: unlinked once open (Unix), else
 /// removed when dropped.
@@ -119,9 +125,9 @@ fn get(r: &mut impl Read, values: &mut [f64]) -> std::io::Result<()> {
     Ok(())
 }
 
-fn encode(i: &RippleInput<f64>) -> [f64; INPUT] {
+fn encode(i: &RippleInput<f64>, denoised_nm: f64) -> [f64; INPUT] {
     let r = i.references;
-    [i.torque_nm, i.expected_torque_nm, r.relative, r.output, r.motor, i.dt_s.unwrap_or(f64::NAN)]
+    [i.torque_nm, i.expected_torque_nm, r.relative, r.output, r.motor, i.dt_s.unwrap_or(f64::NAN), denoised_nm]
 }
 
 fn decode(v: &[f64]) -> RippleInput<f64> {
@@ -130,10 +136,12 @@ fn decode(v: &[f64]) -> RippleInput<f64> {
     i
 }
 
-/// Runs the smoother over the whole recording and writes the smoothed columns.
+/// Runs the smoother over the whole recording and writes the smoothed columns (with
+/// `denoiser`, the causal denoised torque of the forward pass before them).
 pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
     opts: &FilterOptions,
     model: &RippleModel<f64, M>,
+    mut denoiser: Option<TorqueDenoiser<f64>>,
     r: &mut S,
     mut w: W,
     check: &mut RowCheck,
@@ -173,7 +181,11 @@ pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
         }
         let o = sm.push(&sample).map_err(smoother_error)?;
         check.flags(o.flags, r.rows_read());
-        put(&mut spool, &row).and_then(|()| put(&mut spool, &encode(&sample))).with_context(|| rows.context())?;
+        let denoised =
+            denoiser.as_mut().map_or(f64::NAN, |d| d.step(o.torque_nm, o.flags.contains(StepFlags::LOAD_STEP)));
+        put(&mut spool, &row)
+            .and_then(|()| put(&mut spool, &encode(&sample, denoised)))
+            .with_context(|| rows.context())?;
     }
     spool.flush().with_context(|| rows.context())?;
     drop(spool);
@@ -184,16 +196,25 @@ pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
     // Backward, block by block from the last.
     let mut added = Scratch::create(&dir, "smoothed", ADDED)?;
     let (mut block, mut inputs, mut values) = (Vec::new(), Vec::new(), Vec::new());
+    // The smoothed torque's two filters: backward here, forward in the last pass.
+    let (mut forward, mut backward) = TorqueTrack::pair(model.r_nm2(), model.sample_rate_hz());
+    let mut predicted = Vec::new();
     for b in (0..sm.blocks()).rev() {
         let range = sm.block_range(b);
         rows.read_rows(range.start, range.len(), &mut block)?;
         inputs.clear();
         inputs.extend(block.chunks_exact(width + INPUT).map(|v| decode(&v[width..])));
         let s = sm.smooth_block(b, &inputs).map_err(smoother_error)?;
+        predicted.clear();
+        for x in s.smoothed.iter().rev() {
+            let p = backward.predicted();
+            // Restarted here: its prediction crossed a step and is dropped.
+            predicted.push(if backward.push(x.torque_nm, false) { LevelEstimate::NONE } else { p });
+        }
         values.clear();
-        for (s, f) in s.smoothed.iter().zip(&s.filtered) {
+        for ((s, f), p) in s.smoothed.iter().zip(&s.filtered).zip(predicted.iter().rev()) {
             values.extend_from_slice(&[s.torque_nm, s.ripple_nm, s.misalignment_nm, f.innovation_nm, f.nis]);
-            values.push(f.flags.bits() as f64);
+            values.extend_from_slice(&[f.flags.bits() as f64, p.mean_nm, p.var_nm2]);
         }
         added.write_rows(range.start, &values)?;
     }
@@ -208,8 +229,16 @@ pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
     for _ in 0..sm.len() {
         get(&mut rows_in, &mut line).with_context(|| rows.context())?;
         get(&mut added_in, &mut extra).with_context(|| added.context())?;
+        let denoised = line[width + INPUT - 1];
         line.truncate(width);
-        line.extend_from_slice(&extra);
+        line.extend_from_slice(&extra[..6]);
+        if denoiser.is_some() {
+            line.push(denoised);
+        }
+        forward.push(extra[0], false);
+        let back = LevelEstimate { mean_nm: extra[6], var_nm2: extra[7] };
+        let (t, sd) = forward.filtered().combine(back).map_or((extra[0], f64::NAN), |e| (e.mean_nm, e.var_nm2.sqrt()));
+        line.extend_from_slice(&[t, sd]);
         w.write_row(&line)?;
         line.resize(width + INPUT, 0.0);
     }

@@ -49,7 +49,7 @@ impl<T: Real, const M: usize> CheckpointStore<T, M> for Vec<RippleState<T, M>> {
 /// let inputs: Vec<_> = (0..2500)
 ///     .map(|k| RippleInput::new(0.5 * (0.1 * k as f64).cos(), ReferenceValues::new(0.05 * k as f64, 0.0, 0.0)))
 ///     .collect();
-/// let mut s = CheckpointedSmoother::new(&model, 1000);
+/// let mut s = CheckpointedSmoother::new(&model, 1000).with_torque_state_sd();
 /// for input in &inputs {
 ///     s.push(input).unwrap();
 /// }
@@ -72,9 +72,12 @@ pub struct CheckpointedSmoother<T: Real, const M: usize, S = Vec<RippleState<T, 
     len: usize,
     /// The block `smooth_block` takes next.
     next_block: Option<usize>,
-    /// The first sample of the block smoothed last: its record and smoothed mean.
-    after: Option<(Record, Vec<f64>)>,
+    /// The first sample of the block smoothed last: its record, smoothed mean and
+    /// smoothed covariance.
+    after: Option<(Record, Vec<f64>, Option<Vec<f64>>)>,
     backward_began: bool,
+    /// Whether the backward pass carries the smoothed covariance (for `torque_state_sd_nm`).
+    state_sd: bool,
 }
 
 impl<T: Real, const M: usize> CheckpointedSmoother<T, M> {
@@ -100,7 +103,16 @@ impl<T: Real, const M: usize, S: CheckpointStore<T, M>> CheckpointedSmoother<T, 
             next_block: None,
             after: None,
             backward_began: false,
+            state_sd: false,
         }
+    }
+
+    /// Also carries the smoothed covariance backward, for `torque_state_sd_nm` (NaN
+    /// without; the means are the same either way). It costs `n` more solves and two
+    /// `n³` products per sample, `n` the state length.
+    pub fn with_torque_state_sd(mut self) -> Self {
+        self.state_sd = true;
+        self
     }
 
     /// Forward pass: filters the next sample and returns the real-time output (the
@@ -160,11 +172,12 @@ impl<T: Real, const M: usize, S: CheckpointStore<T, M>> CheckpointedSmoother<T, 
         self.backward_began = true;
         let mut state = self.checkpoints.load(b).map_err(|message| SmootherError::Checkpoint { block: b, message })?;
         let (filtered, mut records) = forward(&self.model, &mut state, inputs, expected.start)?;
-        let after = self.after.as_ref().map(|(r, m)| (r, m.as_slice()));
-        let mut means = backward::<M>(self.model.state_len(), &records, after, expected.start)?;
-        let smoothed = samples(&self.model, inputs, &records, &means);
+        let after = self.after.as_ref().map(|(r, m, c)| (r, m.as_slice(), c.as_deref()));
+        let mut back = backward::<M>(self.model.state_len(), &records, after, expected.start, self.state_sd)?;
+        let smoothed = samples(&self.model, inputs, &records, &back);
         self.next_block = b.checked_sub(1);
-        self.after = (!records.is_empty()).then(|| (records.swap_remove(0), means.swap_remove(0)));
+        self.after =
+            (!records.is_empty()).then(|| (records.swap_remove(0), back.means.swap_remove(0), back.first_cov.take()));
         Ok(Smoothed { filtered, smoothed })
     }
 }
@@ -219,7 +232,7 @@ mod tests {
         block: usize,
         store: impl CheckpointStore<T, M>,
     ) -> Smoothed<T> {
-        let mut s = CheckpointedSmoother::with_store(model, block, store);
+        let mut s = CheckpointedSmoother::with_store(model, block, store).with_torque_state_sd();
         let mut forward = Vec::new();
         for i in ins {
             forward.push(s.push(i).unwrap());
@@ -300,6 +313,28 @@ mod tests {
         let err = s.smooth_block(2, &ins[2000..2500]).unwrap_err();
         assert_eq!(err, SmootherError::Checkpoint { block: 2, message: "unreadable".into() });
         assert_eq!(err.to_string(), "checkpoint of block 2: unreadable");
+    }
+
+    #[test]
+    fn without_the_state_sd_the_means_are_the_same() {
+        let ins = inputs(3001);
+        let product = RippleModel::<f64, 3>::product(1000.0, 0.05).unwrap();
+        let whole = smooth(&product, &ins).unwrap();
+        let mut s = CheckpointedSmoother::new(&product, 1000);
+        for i in &ins {
+            s.push(i).unwrap();
+        }
+        for b in (0..s.blocks()).rev() {
+            let range = s.block_range(b);
+            let part = s.smooth_block(b, &ins[range.clone()]).unwrap();
+            for (p, w) in part.smoothed.iter().zip(&whole.smoothed[range]) {
+                assert_eq!(
+                    (p.torque_nm, p.ripple_nm, p.torque_state_nm),
+                    (w.torque_nm, w.ripple_nm, w.torque_state_nm)
+                );
+                assert!(p.torque_state_sd_nm.is_nan() && w.torque_state_sd_nm > 0.0);
+            }
+        }
     }
 
     #[test]
