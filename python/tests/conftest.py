@@ -41,7 +41,17 @@ def spectra_golden(tmp_path_factory):
 @pytest.fixture(scope="session")
 def cli():
     """The `strainwave` binary (`cargo build -p strainwave-cli`, CARGO_TARGET_DIR honoured):
-    a function running it with ARGS, returning the completed process (never raises)."""
+    a function running it with ARGS, returning the completed process (never raises).
+    STRAINWAVE_BIN names an already built binary to use instead."""
+
+    def runner(exe):
+        def run(*args):
+            return subprocess.run([exe, *map(str, args)], cwd=ROOT, capture_output=True, text=True, timeout=1800)
+
+        return run
+
+    if os.environ.get("STRAINWAVE_BIN"):
+        return runner(os.environ["STRAINWAVE_BIN"])
     if shutil.which("cargo") is None:
         pytest.skip("cargo not found")
     res = subprocess.run(
@@ -57,11 +67,7 @@ def cli():
             exe = msg["executable"]
     if exe is None:
         pytest.fail("cargo build -p strainwave-cli named no `strainwave` executable")
-
-    def run(*args):
-        return subprocess.run([exe, *map(str, args)], cwd=ROOT, capture_output=True, text=True, timeout=1800)
-
-    return run
+    return runner(exe)
 
 
 def read_csv_exact(path):

@@ -106,8 +106,12 @@ def test_missing_column_is_the_cli_error(cli, recording, tmp_path):
     with pytest.raises(sw.StrainwaveError) as e:
         sw.filter_recording(df, config=CONFIG, input_name=str(bad))
     assert str(e.value) == expected
+    # A frame with no file behind it is `<DataFrame>` (pandas carries `attrs` through
+    # renames and copies, so the renamed frame above still named the file).
+    plain = df.copy()
+    plain.attrs = {}
     with pytest.raises(sw.StrainwaveError, match=r"^<DataFrame>: no column `motor_angle`"):
-        sw.filter_recording(df.drop(columns=[]), config=CONFIG)
+        sw.filter_recording(plain, config=CONFIG)
 
 
 def test_bad_row_is_the_cli_error(cli, recording, tmp_path):
