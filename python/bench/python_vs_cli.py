@@ -141,12 +141,14 @@ def main():
     p.add_argument("--minutes", type=float, default=10.0)
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--skip-fleet", action="store_true")
+    p.add_argument("--skip-filter", action="store_true", help="only the fleet (no CLI needed)")
     a = p.parse_args()
-    if shutil.which(a.cli) is None and not os.access(a.cli, os.X_OK):
+    if not a.skip_filter and shutil.which(a.cli) is None and not os.access(a.cli, os.X_OK):
         sys.exit(f"{a.cli}: no strainwave binary (cargo build --release -p strainwave-cli)")
     with tempfile.TemporaryDirectory(prefix="sw-bench-") as t:
         tmp = Path(t)
-        part_one(a, tmp)
+        if not a.skip_filter:
+            part_one(a, tmp)
         if not a.skip_fleet:
             part_two(a, tmp)
 
