@@ -1,5 +1,7 @@
-"""Shared by the comparison tests: running the project's Rust examples through cargo."""
+"""Shared by the comparison tests: the project's Rust examples and `strainwave` binary through
+cargo, and exact comparisons of recordings."""
 
+import json
 import os
 import shutil
 import subprocess
@@ -34,3 +36,63 @@ def spectra_golden(tmp_path_factory):
     out = tmp_path_factory.mktemp("spectra_golden")
     run_cargo_example("strainwave-analysis", "spectra_golden", out)
     return out
+
+
+@pytest.fixture(scope="session")
+def cli():
+    """The `strainwave` binary (`cargo build -p strainwave-cli`, CARGO_TARGET_DIR honoured):
+    a function running it with ARGS, returning the completed process (never raises).
+    STRAINWAVE_BIN names an already built binary to use instead."""
+
+    def runner(exe):
+        def run(*args):
+            return subprocess.run([exe, *map(str, args)], cwd=ROOT, capture_output=True, text=True, timeout=1800)
+
+        return run
+
+    if os.environ.get("STRAINWAVE_BIN"):
+        return runner(os.environ["STRAINWAVE_BIN"])
+    if shutil.which("cargo") is None:
+        pytest.skip("cargo not found")
+    res = subprocess.run(
+        ["cargo", "build", "--quiet", "-p", "strainwave-cli", "--message-format", "json"],
+        cwd=ROOT, capture_output=True, text=True, timeout=1800,
+    )
+    if res.returncode != 0:
+        pytest.fail(f"cargo build -p strainwave-cli failed:\n{res.stderr}")
+    exe = None
+    for line in res.stdout.splitlines():
+        msg = json.loads(line)
+        if msg.get("reason") == "compiler-artifact" and msg.get("executable") and msg["target"]["name"] == "strainwave":
+            exe = msg["executable"]
+    if exe is None:
+        pytest.fail("cargo build -p strainwave-cli named no `strainwave` executable")
+    return runner(exe)
+
+
+def read_csv_exact(path):
+    """A CSV recording as (column names, float64 columns), parsed by Python's `float` (a
+    correctly rounded parser, independent of the project's reader)."""
+    import csv
+
+    import numpy as np
+
+    with open(path, newline="") as f:
+        rows = csv.reader(f)
+        names = next(rows)
+        values = [[float(x) for x in r] for r in rows]
+    data = np.array(values, dtype=np.float64).reshape(len(values), len(names))
+    return names, [data[:, k].copy() for k in range(len(names))]
+
+
+def assert_bitwise_equal(a, b, what):
+    """Two float64 arrays equal bit for bit (NaN payloads aside: NaN where the other is NaN)."""
+    import numpy as np
+
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    assert a.shape == b.shape, f"{what}: shape {a.shape} != {b.shape}"
+    nan = np.isnan(a)
+    assert np.array_equal(nan, np.isnan(b)), f"{what}: NaN at different rows"
+    same = a.view(np.uint64) == b.view(np.uint64)
+    bad = np.flatnonzero(~same & ~nan)
+    assert bad.size == 0, f"{what}: {bad.size} values differ, first at row {bad[0] + 1}: {a[bad[0]]!r} != {b[bad[0]]!r}"

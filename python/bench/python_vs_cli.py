@@ -1,0 +1,158 @@
+#!/usr/bin/env python3
+"""Python package timings, printed as Markdown tables for docs/performance.md.
+
+1. `strainwave.filter_recording` on N rows (DataFrame in memory) against the command line
+   `strainwave filter` on the same rows (CSV file in and out, the process's wall time), and
+   a filterpy Kalman filter with the same state size (6: three oscillators) on the same
+   rows, each the best of `--repeat` runs. The Python package is also timed end to end
+   (read the CSV, filter, write the CSV) like the command line.
+2. A fleet: `--fleet` recordings of `--minutes` each, filtered serially in this process
+   and with `strainwave.dask.filter_many` on a LocalCluster of `--workers` processes.
+
+    python python/bench/python_vs_cli.py --cli target/release/strainwave --rows 1000000
+"""
+
+import argparse
+import math
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+import strainwave as sw
+
+ROOT = Path(__file__).resolve().parents[2]
+CONFIG = ROOT / "examples" / "joint-taghirad-seed-6th.toml"
+FLEET_CONFIG = ROOT / "examples" / "joint-taghirad.toml"
+
+
+def best(f, repeat):
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        f()
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+def filterpy_run(df, rows):
+    """Three rotating oscillators (relative orders 2 and 4, output order 1) on the
+    calibrated torque: a 6-state Kalman filter in filterpy, one predict and update per row."""
+    from filterpy.kalman import KalmanFilter
+
+    gain = 6.611
+    y = df["bridge_voltage"].to_numpy()[:rows] * gain
+    motor = df["motor_angle"].to_numpy()[:rows]
+    out = df["output_angle"].to_numpy()[:rows]
+    rel = motor - out  # wave generator angle relative to the flexspline
+    kf = KalmanFilter(dim_x=6, dim_z=1)
+    kf.x = np.zeros((6, 1))
+    kf.P = np.eye(6)
+    kf.H = np.array([[1.0, 0.0, 1.0, 0.0, 1.0, 0.0]])
+    kf.R = np.array([[0.0162**2]])
+    kf.Q = np.eye(6) * 1e-8
+    f = np.eye(6)
+    for k in range(1, rows):
+        for i, inc in enumerate((2.0 * (rel[k] - rel[k - 1]), 4.0 * (rel[k] - rel[k - 1]), out[k] - out[k - 1])):
+            c, s = math.cos(inc), math.sin(inc)
+            f[2 * i : 2 * i + 2, 2 * i : 2 * i + 2] = [[c, s], [-s, c]]
+        kf.F = f
+        kf.predict()
+        kf.update(y[k])
+
+
+def part_one(a, tmp):
+    rows = a.rows
+    df = sw.simulate("taghirad", duration=rows / 1000.0, seed=1).iloc[:rows]
+    rec = tmp / "rec.csv"
+    sw.write_recording(df, rec)
+    out = tmp / "out.csv"
+
+    def cli():
+        subprocess.run([a.cli, "filter", "--config", CONFIG, "--in", rec, "--out", out, "--quiet"], check=True)
+
+    t_cli = best(cli, a.repeat) if not a.no_cli else float("nan")
+    t_py = best(lambda: sw.filter_recording(df, config=CONFIG), a.repeat)
+    t_py_files = best(lambda: sw.write_recording(sw.filter_recording(sw.read_recording(rec), config=CONFIG), tmp / "py.csv"), a.repeat)
+    same = None if a.no_cli else (tmp / "py.csv").read_bytes() == out.read_bytes()
+    print(f"\n### filter_recording, {rows} rows, `{CONFIG.name}` (best of {a.repeat})\n")
+    print("| what | time, s | rows/s | vs CLI |")
+    print("|---|---:|---:|---:|")
+    print(f"| CLI `strainwave filter` (CSV in, CSV out) | {t_cli:.3f} | {rows / t_cli:.3g} | 1.00 |")
+    print(f"| `sw.filter_recording` (DataFrame in memory) | {t_py:.3f} | {rows / t_py:.3g} | {t_py / t_cli:.2f} |")
+    print(f"| `sw.read_recording` + `filter_recording` + `write_recording` (CSV) | {t_py_files:.3f} | {rows / t_py_files:.3g} | {t_py_files / t_cli:.2f} |")
+    if a.filterpy_rows > 0:
+        try:
+            import filterpy  # noqa: F401
+        except ImportError:
+            print("| filterpy | not installed | | |")
+        else:
+            n = min(a.filterpy_rows, rows)
+            t_fp = best(lambda: filterpy_run(df, n), 1)
+            print(f"| filterpy `KalmanFilter`, 6 states, on the first {n} rows (1 run) | {t_fp:.3f} | {n / t_fp:.3g} | {t_fp / n * rows / t_cli:.1f} (per row) |")
+    print(f"\nPython's CSV output byte for byte the CLI's: {same}")
+
+
+def part_two(a, tmp):
+    from distributed import Client, LocalCluster
+
+    import strainwave.dask
+
+    rows = int(a.minutes * 60 * 1000)
+    d = tmp / "fleet"
+    d.mkdir()
+    paths = []
+    for k in range(a.fleet):
+        p = d / f"joint{k:03d}.parquet"
+        sw.write_recording(sw.simulate("taghirad", duration=a.minutes * 60, seed=100 + k), p)
+        paths.append(p)
+    out1, out2 = tmp / "serial", tmp / "dask"
+    out1.mkdir()
+    t0 = time.perf_counter()
+    for p in paths:
+        strainwave.dask.filter_file(p, FLEET_CONFIG, out1 / p.name)
+    t_serial = time.perf_counter() - t0
+    with LocalCluster(n_workers=a.workers, processes=True, threads_per_worker=1, dashboard_address=None) as cluster, Client(cluster):
+        t0 = time.perf_counter()
+        strainwave.dask.filter_many(paths, FLEET_CONFIG, out_dir=out2)
+        t_dask = time.perf_counter() - t0
+    same = all((out1 / p.name).read_bytes() == (out2 / p.name).read_bytes() for p in paths)
+    total = rows * a.fleet
+    print(f"\n### Fleet: {a.fleet} recordings × {a.minutes} min ({total} rows, Parquet in and out)\n")
+    print("| how | time, s | rows/s |")
+    print("|---|---:|---:|")
+    print(f"| serial, one process (`strainwave.dask.filter_file` in a loop) | {t_serial:.2f} | {total / t_serial:.3g} |")
+    print(f"| `strainwave.dask.filter_many`, LocalCluster {a.workers} processes | {t_dask:.2f} | {total / t_dask:.3g} |")
+    print(f"\nOutputs identical: {same}")
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--cli", default=str(ROOT / "target" / "release" / "strainwave"))
+    p.add_argument("--rows", type=int, default=1_000_000)
+    p.add_argument("--repeat", type=int, default=3)
+    p.add_argument("--filterpy-rows", type=int, default=1_000_000)
+    p.add_argument("--fleet", type=int, default=64)
+    p.add_argument("--minutes", type=float, default=10.0)
+    p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--skip-fleet", action="store_true")
+    p.add_argument("--no-cli", action="store_true", help="the filter table without the command line")
+    p.add_argument("--skip-filter", action="store_true", help="only the fleet (no CLI needed)")
+    a = p.parse_args()
+    if not (a.skip_filter or a.no_cli) and shutil.which(a.cli) is None and not os.access(a.cli, os.X_OK):
+        sys.exit(f"{a.cli}: no strainwave binary (cargo build --release -p strainwave-cli)")
+    with tempfile.TemporaryDirectory(prefix="sw-bench-") as t:
+        tmp = Path(t)
+        if not a.skip_filter:
+            part_one(a, tmp)
+        if not a.skip_fleet:
+            part_two(a, tmp)
+
+
+if __name__ == "__main__":
+    main()

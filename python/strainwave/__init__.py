@@ -1,0 +1,27 @@
+"""strainwave for Python: strain wave gear joint recordings, the ripple and misalignment
+canceller and the joint's twin, on pandas DataFrames and numpy arrays.
+
+The numbers are the command line's, bit for bit: the same Rust code runs (with the GIL
+released), and errors are :class:`StrainwaveError` with the message ``strainwave`` prints.
+
+Example::
+
+    >>> import strainwave as sw
+    >>> rec = sw.simulate("taghirad", duration=2, seed=1)
+    >>> out = sw.filter_recording(rec, config="examples/joint-taghirad.toml")
+    >>> list(out.columns[-6:])
+    ['torque', 'ripple', 'misalignment', 'innovation', 'nis', 'filter_flags']
+"""
+
+from ._native import OUTPUT_COLUMNS, StrainwaveError
+from .recording import filter_recording, read_recording, simulate, write_recording
+
+__all__ = [
+    "OUTPUT_COLUMNS",
+    "StrainwaveError",
+    "filter_recording",
+    "read_recording",
+    "simulate",
+    "write_recording",
+]
+__version__ = "0.1.0"

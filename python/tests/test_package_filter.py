@@ -1,0 +1,156 @@
+"""The `strainwave` Python package against the `strainwave` command line: the same
+recordings read, the same twin, the same filter outputs bit for bit, the same errors."""
+
+import pytest
+from conftest import ROOT, assert_bitwise_equal, read_csv_exact
+
+np = pytest.importorskip("numpy")
+pd = pytest.importorskip("pandas")
+sw = pytest.importorskip("strainwave", reason="pip install ./python (./scripts/test-all does)")
+
+CONFIG = ROOT / "examples" / "joint-taghirad.toml"
+
+
+@pytest.fixture(scope="module")
+def recording(cli, tmp_path_factory):
+    """4 s of the taghirad twin written by `strainwave simulate`."""
+    path = tmp_path_factory.mktemp("rec") / "taghirad.csv"
+    res = cli("simulate", "--preset", "taghirad", "--duration", 4, "--seed", 3, "--out", path, "--quiet")
+    assert res.returncode == 0, res.stderr
+    return path
+
+
+def cli_error(res):
+    assert res.returncode == 1, f"expected the command line to fail:\n{res.stderr}"
+    lines = [l for l in res.stderr.splitlines() if l.startswith("error: ")]
+    assert len(lines) == 1, res.stderr
+    return lines[0][len("error: "):]
+
+
+def assert_frame_is_csv(df, path):
+    names, cols = read_csv_exact(path)
+    assert list(df.columns) == names
+    for n, c in zip(names, cols):
+        assert_bitwise_equal(df[n].to_numpy(), c, f"{path.name} column {n}")
+
+
+def test_read_recording_gives_the_file_exactly(recording):
+    df = sw.read_recording(recording)
+    assert len(df) == 4000
+    assert_frame_is_csv(df, recording)
+    assert all(df[c].dtype == np.float64 for c in df.columns)
+
+
+def test_read_recording_parquet_matches_csv(cli, recording, tmp_path):
+    pq = tmp_path / "taghirad.parquet"
+    res = cli("convert", "--in", recording, "--out", pq)
+    if res.returncode != 0:
+        pytest.skip(f"strainwave convert to Parquet: {res.stderr.strip()}")
+    a, b = sw.read_recording(recording), sw.read_recording(pq)
+    assert list(a.columns) == list(b.columns)
+    for c in a.columns:
+        assert_bitwise_equal(a[c], b[c], f"parquet column {c}")
+
+
+def test_simulate_is_the_cli_twin(cli, tmp_path):
+    path = tmp_path / "sim.csv"
+    res = cli("simulate", "--preset", "flexspline-fixed", "--duration", 1.5, "--seed", 7, "--out", path, "--quiet")
+    assert res.returncode == 0, res.stderr
+    assert_frame_is_csv(sw.simulate("flexspline-fixed", duration=1.5, seed=7), path)
+
+
+@pytest.mark.parametrize("smooth", [False, True], ids=["stream", "smooth"])
+@pytest.mark.parametrize("config", ["joint-taghirad.toml", "joint-taghirad-seed-6th.toml"])
+def test_filter_recording_is_the_cli_bit_for_bit(cli, recording, tmp_path, smooth, config):
+    config = ROOT / "examples" / config
+    out = tmp_path / "out.csv"
+    args = ["filter", "--config", config, "--in", recording, "--out", out, "--quiet"]
+    res = cli(*args, *(["--smooth"] if smooth else []))
+    assert res.returncode == 0, res.stderr
+    got = sw.filter_recording(sw.read_recording(recording), config=config, smooth=smooth)
+    assert list(got.columns[-6:]) == sw.OUTPUT_COLUMNS
+    assert_frame_is_csv(got, out)
+
+
+def test_filter_recording_takes_a_dict_of_arrays_with_a_prefix(cli, recording, tmp_path):
+    out = tmp_path / "out.csv"
+    res = cli("filter", "--config", CONFIG, "--in", recording, "--out", out, "--prefix", "f_", "--quiet")
+    assert res.returncode == 0, res.stderr
+    df = sw.read_recording(recording)
+    # Integer-typed and non-contiguous inputs are taken as float64.
+    arrays = {c: np.repeat(df[c].to_numpy(), 2)[::2] for c in df.columns}
+    got = sw.filter_recording(arrays, config=CONFIG, prefix="f_")
+    assert_frame_is_csv(got, out)
+
+
+def test_write_recording_is_the_cli_file_byte_for_byte(cli, recording, tmp_path):
+    out = tmp_path / "cli.csv"
+    assert cli("filter", "--config", CONFIG, "--in", recording, "--out", out, "--quiet").returncode == 0
+    mine = tmp_path / "py.csv"
+    got = sw.filter_recording(sw.read_recording(recording), config=CONFIG)
+    assert sw.write_recording(got, mine) == 4000
+    assert mine.read_bytes() == out.read_bytes()
+
+
+def test_missing_column_is_the_cli_error(cli, recording, tmp_path):
+    df = sw.read_recording(recording).rename(columns={"motor_angle": "motor_angel"})
+    bad = tmp_path / "renamed.csv"
+    sw.write_recording(df, bad)
+    expected = cli_error(cli("filter", "--config", CONFIG, "--in", bad, "--out", tmp_path / "x.csv"))
+    assert "no column `motor_angle`" in expected
+    # The frame read from that file names it as the command line does.
+    with pytest.raises(sw.StrainwaveError) as e:
+        sw.filter_recording(sw.read_recording(bad), config=CONFIG)
+    assert str(e.value) == expected
+    # A frame built in Python is named by `input_name`.
+    with pytest.raises(sw.StrainwaveError) as e:
+        sw.filter_recording(df, config=CONFIG, input_name=str(bad))
+    assert str(e.value) == expected
+    # A frame with no file behind it is `<DataFrame>` (pandas carries `attrs` through
+    # renames and copies, so the renamed frame above still named the file).
+    plain = df.copy()
+    plain.attrs = {}
+    with pytest.raises(sw.StrainwaveError, match=r"^<DataFrame>: no column `motor_angle`"):
+        sw.filter_recording(plain, config=CONFIG)
+
+
+def test_bad_row_is_the_cli_error(cli, recording, tmp_path):
+    df = sw.read_recording(recording)
+    df.loc[1233, "bridge_voltage"] = np.inf
+    bad = tmp_path / "inf.csv"
+    sw.write_recording(df, bad)
+    expected = cli_error(cli("filter", "--config", CONFIG, "--in", bad, "--out", tmp_path / "x.csv"))
+    assert "1234" in expected
+    with pytest.raises(sw.StrainwaveError) as e:
+        sw.filter_recording(sw.read_recording(bad), config=CONFIG)
+    assert str(e.value) == expected
+
+
+def test_bad_config_and_bad_file_are_the_cli_errors(cli, recording, tmp_path):
+    cfg = tmp_path / "joint.toml"
+    cfg.write_text(CONFIG.read_text().replace('model = "full"', 'model = "fulll"'))
+    expected = cli_error(cli("filter", "--config", cfg, "--in", recording, "--out", tmp_path / "x.csv"))
+    with pytest.raises(sw.StrainwaveError) as e:
+        sw.filter_recording(sw.read_recording(recording), config=cfg)
+    assert str(e.value) == expected
+    missing = tmp_path / "nope.csv"
+    expected = cli_error(cli("filter", "--config", CONFIG, "--in", missing, "--out", tmp_path / "x.csv"))
+    with pytest.raises(sw.StrainwaveError) as e:
+        sw.read_recording(missing)
+    assert str(e.value) == expected
+
+
+def test_non_numeric_and_ragged_columns_are_errors():
+    with pytest.raises(sw.StrainwaveError, match=r"^<DataFrame>: column `time`: not numbers"):
+        sw.filter_recording(pd.DataFrame({"time": ["a", "b"]}), config=CONFIG)
+    with pytest.raises(sw.StrainwaveError, match="has 3 rows, the first column 2"):
+        sw._native.filter_columns(str(CONFIG), ["a", "b"], [np.zeros(2), np.zeros(3)], input_name="x")
+    with pytest.raises(sw.StrainwaveError, match="no data rows"):
+        sw.filter_recording(sw.simulate("taghirad", duration=1, seed=1).iloc[:0], config=CONFIG)
+
+
+def test_simulate_errors():
+    with pytest.raises(sw.StrainwaveError, match="preset"):
+        sw.simulate("no-such-preset")
+    with pytest.raises(sw.StrainwaveError, match="duration"):
+        sw.simulate("taghirad", duration=-1)
