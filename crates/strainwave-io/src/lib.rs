@@ -10,9 +10,9 @@ pub mod error;
 pub mod guard;
 #[cfg(feature = "mcap")]
 pub mod mcap_in;
-pub mod output;
 #[cfg(feature = "mcap")]
 pub mod mcap_out;
+pub mod output;
 #[cfg(feature = "parquet")]
 pub mod parquet_io;
 pub mod read_options;

@@ -10,8 +10,7 @@ use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Context, Result};
 use strainwave_core::ripple::{
-    step, PhaseSource, ReferenceValues, RippleInput, RippleModel, RippleOutput, RippleState,
-    StepFlags,
+    step, PhaseSource, ReferenceValues, RippleInput, RippleModel, RippleOutput, RippleState, StepFlags,
 };
 use strainwave_io::{BoundChannel, IoError, RecordingReader, RecordingWriter};
 
