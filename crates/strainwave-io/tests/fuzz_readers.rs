@@ -175,7 +175,7 @@ proptest! {
     ]) {
         let p = case_path("mcap");
         std::fs::write(&p, &bytes).unwrap();
-        if let Ok(mut r) = strainwave_io::mcap_in::McapReader::open(&p) {
+        if let Ok(mut r) = strainwave_io::mcap_in::BagReader::open(&p, &strainwave_io::mcap_in::ReadOptions::default()) {
             let mut row = Vec::new();
             while let Ok(true) = r.read_row(&mut row) {}
         }
