@@ -1,4 +1,4 @@
-"""The seed 003 bench models of strainwave-core (G_TS, G_ACC simplified and full) and the
+"""The Stoß et al. (2022) bench models of strainwave-core (G_TS, G_ACC simplified and full) and the
 complementary fusion filters against scipy.signal on the same coefficients, and the
 coefficients themselves against Table I by the seed's formulas (eqs. 1, 5, 6).
 

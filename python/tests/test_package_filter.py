@@ -68,7 +68,9 @@ def test_filter_recording_is_the_cli_bit_for_bit(cli, recording, tmp_path, smoot
     res = cli(*args, *(["--smooth"] if smooth else []))
     assert res.returncode == 0, res.stderr
     got = sw.filter_recording(sw.read_recording(recording), config=config, smooth=smooth)
-    assert list(got.columns[-6:]) == sw.OUTPUT_COLUMNS
+    # --smooth adds the smoothed torque and its 1σ after the filter's columns.
+    added = ["torque_smoothed", "torque_smoothed_sd"] if smooth else []
+    assert list(got.columns[-6 - len(added) :]) == sw.OUTPUT_COLUMNS + added
     assert_frame_is_csv(got, out)
 
 

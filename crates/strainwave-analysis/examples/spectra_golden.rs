@@ -1,7 +1,7 @@
 //! Golden data for the Python comparison tests (`python/tests/test_spectra_scipy.py`,
 //! `python/tests/test_bench_scipy.py`): writes `spectra.json` (a deterministic two-channel
 //! signal and this crate's Welch, CSD, H1, coherence, spectrogram and spectral combination
-//! of it for several settings) and `models.json` (the seed 003 models' coefficients and
+//! of it for several settings) and `models.json` (the Stoß et al. (2022) models' coefficients and
 //! complex responses, the complementary filters' and the online corrected fusion's
 //! coefficients) into the directory given.
 //!

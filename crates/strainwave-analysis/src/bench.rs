@@ -1,4 +1,4 @@
-//! Offline hybrid torque on the motor test bench (SPEC §6, seed 003): the models as
+//! Offline hybrid torque on the motor test bench (docs/physics.md §6, Stoß et al. (2022)): the models as
 //! complex responses, the three ways of combining the torsion-shaft torque `T_TS` and the
 //! accelerometer torque `T_acc`, and the check of a fused torque against a reference.
 //!

@@ -1,4 +1,4 @@
-//! Campbell diagrams and order slices from a speed channel (SPEC §6, seed 003 Figs. 8–9).
+//! Campbell diagrams and order slices from a speed channel (docs/physics.md §6, Stoß et al. (2022) Figs. 8–9).
 //!
 //! - [`campbell`]: an amplitude-scaled STFT of the signal ([`crate::stft::stft`]); each
 //!   frame gets the mean of the speed channel over its samples; frames are then averaged

@@ -1,5 +1,5 @@
 //! Accuracy of ripple/misalignment cancellers against a simulator's truth, side by side
-//! with the simple alternatives (issue: the real-time canceller; SPEC §4).
+//! with the simple alternatives (issue: the real-time canceller; docs/physics.md §4).
 //!
 //! Figures, per method, over a run:
 //! - **ripple + misalignment remaining**, dB below raw: `20 log10(rms(P) / rms(P_left))`
@@ -58,9 +58,9 @@ pub enum Method {
     LowPass(f64),
     /// Notch (Q = 2) at this frequency, Hz.
     Notch(f64),
-    /// Seed 000's 4th-order model (2×, 4× on the tachometer, Q = 1e-3 I, R = 1).
+    /// Taghirad and Bélanger (1999)'s 4th-order model (2×, 4× on the tachometer, Q = 1e-3 I, R = 1).
     Seed4th,
-    /// Seed 000's 6th-order model (plus 1× output).
+    /// Taghirad and Bélanger (1999)'s 6th-order model (plus 1× output).
     Seed6th,
     /// The full configuration (2×, 4× relative angle, the same scaled by load, 1×
     /// output, bias state) starting from what [`commission`] learned.

@@ -1,6 +1,6 @@
 //! FIR correction of a measured or modelled frequency response: the inverse of the
 //! response within a pass band, designed by frequency sampling with a window and applied
-//! offline with its linear-phase delay compensated (seed 003 §V, future work).
+//! offline with its linear-phase delay compensated (Stoß et al. (2022) §V, future work).
 //!
 //! Design of an `N`-tap filter (`N` odd, delay `D = (N − 1)/2`) for a desired zero-delay
 //! response `G(f)`, `0 ≤ f ≤ fs/2`:

@@ -1,4 +1,4 @@
-//! Campbell diagram and order slices on a synthetic speed ramp 0 → 3200 rpm (seed 003
+//! Campbell diagram and order slices on a synthetic speed ramp 0 → 3200 rpm (Stoß et al. (2022)
 //! Fig. 8): each simulated order's ridge sits on its line, order slices give its
 //! amplitude and phase.
 

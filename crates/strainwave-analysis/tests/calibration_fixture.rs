@@ -16,7 +16,7 @@
 //! numpy.polyfit(deflection, torque, 1) gives slope 420.1365949023933 N·m/rad and
 //! intercept −0.17801892769676325 N·m (numpy 2.4).
 //!
-//! **Seed 001 error patterns**: residual vectors with exactly seed 001's max |e| and RMS
+//! **the embedded-sensor article error patterns**: residual vectors with exactly the embedded-sensor article's max |e| and RMS
 //! that are orthogonal to `[1, x]`, so the least-squares line through
 //! `T_ref = α x + β + e` is exactly `α x + β`:
 //! - static, `x = 0, 2, …, 14` N·m: `e = (−0.09, 0.39, −0.09, −0.09, −0.39, 0.09, 0.09, 0.09)`:
@@ -45,15 +45,15 @@ pub fn sea_torque_nm() -> Vec<f64> {
     SEA_MASSES_KG.iter().map(|m| m * GRAVITY_M_S2 * LEVER_ARM_M).collect()
 }
 
-/// Seed 001 static model.
+/// the embedded-sensor article static model.
 pub const STATIC_ALPHA: f64 = 1.284;
-/// Seed 001 static model, N·m.
+/// the embedded-sensor article static model, N·m.
 pub const STATIC_BETA_NM: f64 = -0.0812;
 /// Reference minus model on the static fixture, N·m.
 pub const STATIC_ERRORS_NM: [f64; 8] = [-0.09, 0.39, -0.09, -0.09, -0.39, 0.09, 0.09, 0.09];
-/// Seed 001 dynamic model.
+/// the embedded-sensor article dynamic model.
 pub const DYNAMIC_ALPHA: f64 = 1.572;
-/// Seed 001 dynamic model, N·m.
+/// the embedded-sensor article dynamic model, N·m.
 pub const DYNAMIC_BETA_NM: f64 = -0.0928;
 /// Reference minus model on the dynamic fixture, N·m.
 pub const DYNAMIC_ERRORS_NM: [f64; 16] =

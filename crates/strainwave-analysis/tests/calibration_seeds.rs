@@ -1,4 +1,4 @@
-//! Calibration behaviour against the seeds: seed 000's gain consistency, seed 001's
+//! Calibration behaviour against the seeds: Taghirad and Bélanger's gain consistency, the embedded-sensor article's
 //! error table, and the series-elastic dead-weight fixture against numpy's polyfit.
 
 #[path = "calibration_fixture.rs"]
@@ -19,7 +19,7 @@ fn round2(x: f64) -> f64 {
     (x * 100.0).round() / 100.0
 }
 
-/// Eight experiments (seed 000 used eight), loading and unloading at five steps, with
+/// Eight experiments (Taghirad and Bélanger (1999) used eight), loading and unloading at five steps, with
 /// zero-mean hysteresis-like scatter orthogonal to the voltages so each gain is exact:
 /// gains alternate 6.468 / 6.732 N·m/V → mean 6.6, deviations ±0.132.
 fn seed000_experiments() -> Vec<Experiment> {
@@ -66,7 +66,7 @@ fn seed001_static_row_reproduced() {
     assert!((m.max_abs_error_nm - 0.39).abs() < 1e-12);
     assert!((m.rms_error_nm - 0.21).abs() < 1e-12);
     assert!(m.mean_error_nm.abs() < 1e-12);
-    // Seed 001 prints 1.04 % FS: 0.21 / 20.19 = 1.0401 %. (With FS = 20 exactly it would be 1.05 %.)
+    // the embedded-sensor article prints 1.04 % FS: 0.21 / 20.19 = 1.0401 %. (With FS = 20 exactly it would be 1.05 %.)
     assert_eq!(round2(m.rms_percent_fs.unwrap()), 1.04);
     assert_eq!(m.rows, 8);
     assert_eq!(m.max_abs_row, 1);
@@ -81,7 +81,7 @@ fn seed001_dynamic_row_reproduced() {
     let m = f.metrics;
     assert!((m.max_abs_error_nm - 0.64).abs() < 1e-12);
     assert!((m.rms_error_nm - 0.265).abs() < 1e-12);
-    // Seed 001 prints 1.27 % FS: 0.265 / 20.87 = 1.2698 %.
+    // the embedded-sensor article prints 1.27 % FS: 0.265 / 20.87 = 1.2698 %.
     assert_eq!(round2(m.rms_percent_fs.unwrap()), 1.27);
     let file = f.to_dynamic_file();
     let text = file.to_toml_string().unwrap();
@@ -112,7 +112,8 @@ fn nan_rows_and_single_load_are_named() {
     x[3] = f64::NAN;
     let err = fit_affine(&x, &t, None).unwrap_err();
     assert_eq!(err, CalibrationError::NonFiniteRow { what: "affine fit".into(), row: 3, column: "sensor" });
-    assert!(err.to_string().contains("row 3"));
+    // Rows are 0-based in the value and 1-based in the message, as the user counts.
+    assert!(err.to_string().contains("row 4"), "{err}");
     let err = fit_affine(&[5.0; 6], &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0], None).unwrap_err();
     assert!(err.to_string().contains("singular"), "{err}");
 }

@@ -21,11 +21,11 @@ pub use report::{
 /// The model to fit.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Model {
-    /// `T = g V` per experiment; final gain = mean, consistency = std/mean (seed 000).
+    /// `T = g V` per experiment; final gain = mean, consistency = std/mean (Taghirad and Bélanger (1999)).
     Gain,
-    /// `T = α x + β` on quasi-static data (seed 001); use `--held` for held loads only.
+    /// `T = α x + β` on quasi-static data (the embedded-sensor article); use `--held` for held loads only.
     Static,
-    /// `T = α x + β` on sinusoidal-load data (seed 001); `--speed` adds a per-speed look.
+    /// `T = α x + β` on sinusoidal-load data (the embedded-sensor article); `--speed` adds a per-speed look.
     Dynamic,
     /// `α(ω)`, `β(ω)` as a lookup table over speed bins.
     SpeedTable,

@@ -74,7 +74,7 @@ pub fn run(a: &Args) -> Result<()> {
     );
     let _ = writeln!(
         out,
-        "  sensor: gain {:.3} N·m/V (seed 000: 6.60), full scale {:.1} N·m, white-noise floor {:.4} N·m rms\n",
+        "  sensor: gain {:.3} N·m/V (Taghirad and Bélanger 1999: 6.60), full scale {:.1} N·m, white-noise floor {:.4} N·m rms\n",
         sensor.gain_nm_per_v().abs(),
         full_scale,
         sensor.noise_floor_nm()

@@ -25,7 +25,7 @@ pub struct Args {
     #[arg(long)]
     pub seed: Option<u64>,
     /// Run a calibration procedure on the scenario's sensor instead of the joint:
-    /// `locked-wg` (seed 000: wave generator locked, arm and weights, loading and
+    /// `locked-wg` (Taghirad and Bélanger (1999): wave generator locked, arm and weights, loading and
     /// unloading both ways, four flexspline positions × low/full range, 5–35 °C).
     #[arg(long, value_parser = ["locked-wg"])]
     pub procedure: Option<String>,

@@ -1,6 +1,6 @@
 //! The demo's calibration section: the seed-000 gain calibration on the simulated
 //! locked-wave-generator procedure (gain per experiment against the simulator's truth,
-//! consistency, DIN 51309 figures), then seed 001's static and dynamic models on the
+//! consistency, DIN 51309 figures), then the embedded-sensor article's static and dynamic models on the
 //! simulated flexspline-fixed rig with their error table beside the seed's.
 
 use std::fmt::Write as _;
@@ -18,12 +18,12 @@ use crate::report::html::table;
 use crate::report::plot::LinePlot;
 use crate::report::text::text_table;
 
-/// Seed 000's gain, N·m/V, and consistency, %.
+/// Taghirad and Bélanger (1999)'s gain, N·m/V, and consistency, %.
 const SEED000_GAIN_NM_PER_V: f64 = 6.60;
 const SEED000_CONSISTENCY_PERCENT: f64 = 2.0;
-/// Seed 001's full scale (its % FS figures imply about 20 N·m).
+/// the embedded-sensor article's full scale (its % FS figures imply about 20 N·m).
 const SEED001_FULL_SCALE_NM: f64 = 20.0;
-/// Seed 001's table: model, α, β N·m, max |e| N·m, RMS N·m, RMS % FS.
+/// the embedded-sensor article's table: model, α, β N·m, max |e| N·m, RMS N·m, RMS % FS.
 const SEED001: [(&str, f64, f64, f64, f64, f64); 2] =
     [("static", 1.284, -0.0812, 0.39, 0.21, 1.04), ("dynamic", 1.572, -0.0928, 0.64, 0.265, 1.27)];
 /// Quasi-static rows: the reference steady for this long, s.
@@ -32,11 +32,11 @@ const HOLD_S: f64 = 0.6;
 /// Text for the terminal, HTML for the report, plots.
 pub fn section() -> Result<(String, String, Vec<LinePlot>)> {
     let mut text =
-        String::from("\nsensor calibration (seed 000: gain and consistency; seed 001: static and dynamic models):\n");
+        String::from("\nsensor calibration (Taghirad and Bélanger 1999: gain and consistency; the embedded-sensor article: static and dynamic models):\n");
     let mut html = String::new();
     let mut plots = Vec::new();
 
-    // Seed 000: the locked-wave-generator procedure on the taghirad sensor.
+    // Taghirad and Bélanger (1999): the locked-wave-generator procedure on the taghirad sensor.
     let scenario = presets::preset("taghirad")?;
     let run = LockedWgProcedure::default().run(&scenario)?;
     let col = |name: &str| COLUMNS.iter().position(|c| *c == name).with_context(|| format!("no `{name}` column"));
@@ -94,7 +94,7 @@ pub fn section() -> Result<(String, String, Vec<LinePlot>)> {
         format!("{SEED000_CONSISTENCY_PERCENT:.0}"),
     ]);
     let header =
-        ["seed 000, locked WG", "position, range, temperature", "fitted N·m/V", "true N·m/V", "error %", "seed"];
+        ["locked WG (Taghirad 1999)", "position, range, temperature", "fitted N·m/V", "true N·m/V", "error %", "seed"];
     let _ = writeln!(text, "  gain per experiment (T = g V through the origin) against the simulator's truth:");
     text += &text_table(&header, &rows);
     html += "<p>Seed 000: gain per experiment on the simulated locked-wave-generator procedure \
@@ -141,7 +141,7 @@ pub fn section() -> Result<(String, String, Vec<LinePlot>)> {
     let cal: Vec<f64> = all_v.iter().map(|v| g.gain_nm_per_v * v).collect();
     plots.extend(fit_plots("Seed-000 gain calibration", &all_v, &refs, &cal, "bridge voltage (V)"));
 
-    // Seed 001: static (held loads) and dynamic (sinusoidal load) on the flexspline-fixed rig.
+    // the embedded-sensor article: static (held loads) and dynamic (sinusoidal load) on the flexspline-fixed rig.
     let mut err_rows: Vec<Vec<String>> = Vec::new();
     for (name, preset) in [("static", "flexspline-fixed-static"), ("dynamic", "flexspline-fixed-dynamic")] {
         let (rec, _) = simulate(&presets::preset(preset)?)?;
@@ -182,7 +182,7 @@ pub fn section() -> Result<(String, String, Vec<LinePlot>)> {
             ]);
         }
     }
-    let err_header = ["seed 001 model", "rows", "T_ref = α T_sens + β", "max |e| N·m", "RMS N·m", "RMS % FS"];
+    let err_header = ["embedded-sensor model", "rows", "T_ref = α T_sens + β", "max |e| N·m", "RMS N·m", "RMS % FS"];
     let _ = writeln!(
         text,
         "  seed-001 rig (presets flexspline-fixed-static / -dynamic), sensor = measured_torque, FS {SEED001_FULL_SCALE_NM} N·m:"
@@ -216,7 +216,7 @@ fn affine_row(
 
 fn seed_row(s: &(&str, f64, f64, f64, f64, f64)) -> Vec<String> {
     vec![
-        format!("  seed 001 {}", s.0),
+        format!("  embedded sensor {}", s.0),
         "".into(),
         format!("{:.3} T {:+.4}", s.1, s.2),
         format!("{:.2}", s.3),
@@ -232,8 +232,14 @@ mod tests {
     fn section_prints_the_tables() {
         let (text, html, plots) = super::section().unwrap();
         println!("{text}");
-        for s in ["final gain (mean)", "consistency std/mean %", "6.60", "DIN 51309", "seed 001 static", "speed table"]
-        {
+        for s in [
+            "final gain (mean)",
+            "consistency std/mean %",
+            "6.60",
+            "DIN 51309",
+            "embedded sensor static",
+            "speed table",
+        ] {
             assert!(text.contains(s), "{s}");
         }
         assert_eq!(html.matches("<table>").count(), 3);

@@ -1,4 +1,4 @@
-//! The demo's estimate section: seed 002 on the arm twin (SPEC §5). Identify the
+//! The demo's estimate section: the HDA-arm paper on the arm twin (docs/physics.md §5). Identify the
 //! kinematic error (no-load run) and the compliance (loaded run against the noisy
 //! reference), then estimate the link torque from the raw counts in the seed's
 //! experiments and compare with the truth, the seed's figures and a plain linear spring.
@@ -153,7 +153,7 @@ pub fn section() -> Result<(String, String, Vec<LinePlot>)> {
             format!("{:.3e}", kin_poly.max_abs),
         ],
     ];
-    let mut text = String::from("Encoder-based torque estimation (seed 002, arm twin)\n");
+    let mut text = String::from("Encoder-based torque estimation (HDA-arm paper, arm twin)\n");
     text.push_str(&crate::report::text::text_table(&header, &rows));
     text.push_str(&crate::report::text::text_table(&kin_header, &kin_rows));
     let mut html = String::from("<p>Seed 002 on the arm twin: link torque from the raw encoder counts, mean/max |error| against the true link torque (N·m).</p>\n");

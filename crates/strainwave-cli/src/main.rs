@@ -60,7 +60,7 @@ enum Command {
         after_help = "Examples:\n  strainwave simulate --preset taghirad --out taghirad.csv\n  strainwave filter --config examples/joint-taghirad.toml --in taghirad.csv --out filtered.csv\n  strainwave filter --config joint.toml --in commissioning.csv --out c.csv --learn learned.toml   # then set filter.learned\n  strainwave filter --config examples/joint-taghirad.toml --in taghirad.csv --out smoothed.csv --smooth\n  cat log.csv | strainwave filter --config joint.toml --in - --out - > filtered.csv"
     )]
     Filter(cmd_filter::Args),
-    /// Link torque from a motor encoder and a link encoder (seed 002).
+    /// Link torque from a motor encoder and a link encoder (the HDA-arm paper).
     #[command(
         after_help = "Example:\n  strainwave simulate --preset hda-arm --out arm.csv\n  strainwave estimate --config arm-model.toml --in arm.csv --out estimated.csv"
     )]

@@ -1,5 +1,5 @@
 //! `strainwave calibrate` end to end: the seed-000 loop against the simulator's truth,
-//! seed 001's static and dynamic models, and bad input (one line, exit code 1, the
+//! the embedded-sensor article's static and dynamic models, and bad input (one line, exit code 1, the
 //! file/row/column named, never a NaN in a calibration file).
 
 use std::path::{Path, PathBuf};
@@ -177,7 +177,7 @@ fn seed001_static_and_dynamic_through_the_cli() {
     assert!((toml_number(&st_text, "beta_nm") - lib.beta_nm).abs() < 1e-12);
     assert_eq!(toml_number(&st_text, "rows") as usize, lib.metrics.rows);
 
-    // Seed 001's shape: a slope near the sensor's own scale, errors of a few tenths of a
+    // the embedded-sensor article's shape: a slope near the sensor's own scale, errors of a few tenths of a
     // N·m, the dynamic fit worse than the static one.
     let dy_text = read_calibration(&dy_cal);
     assert!(dy_text.contains("model = \"dynamic\""));

@@ -275,36 +275,6 @@ fn report_renders_sections_for_a_filtered_recording() {
         assert!(text.contains(s), "{s}");
     }
     assert!(!text.contains("<script"));
-    assert!(!text.contains("Filter: smoothed and denoised torque"), "no such columns, no section");
-
-    // Smoothed and denoised: the filter section plots them with the band, states the
-    // delay and the coverage.
-    let cfg = d.join("joint.toml");
-    let cfg_text = absolute_learned(&std::fs::read_to_string(config()).unwrap());
-    std::fs::write(&cfg, cfg_text.replace("phase = \"angle\"", "phase = \"angle\"\ntorque_bandwidth_hz = 20.0"))
-        .unwrap();
-    let s = d.join("s.csv");
-    let args = ["filter", "--config", cfg.to_str().unwrap(), "--in", sim.to_str().unwrap(), "--smooth", "-q"];
-    assert!(run(&[&args[..], &["--out", s.to_str().unwrap()]].concat()).status.success());
-    let o = run(&[
-        "report",
-        "--in",
-        s.to_str().unwrap(),
-        "--config",
-        cfg.to_str().unwrap(),
-        "--out",
-        html.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let text = std::fs::read_to_string(&html).unwrap();
-    for s in [
-        "Filter: smoothed and denoised torque",
-        "torque_smoothed + 1σ",
-        "group delay at DC 7.47 ms",
-        "truth within ±1σ",
-    ] {
-        assert!(text.contains(s), "{s}");
-    }
 }
 
 fn simulate_preset(d: &Path, preset: &str) -> PathBuf {

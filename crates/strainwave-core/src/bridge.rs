@@ -1,4 +1,4 @@
-//! Wheatstone bridge of strain gauges on the flexspline diaphragm (SPEC §2).
+//! Wheatstone bridge of strain gauges on the flexspline diaphragm (docs/physics.md §2).
 //!
 //! Strain field seen by a gauge at circumferential position `β`, radius `r` and
 //! orientation `α` (from the radial direction; ±45° nominal), with `ψ = φ − β` and
@@ -24,13 +24,13 @@
 //! exact:         U/E = R1/(R1 + R2) − R4/(R3 + R4),  R_i = R0 (1 + K ε_i)
 //! ```
 //!
-//! With the standard layouts and ideal placement `U = K ε_a E`. Seed 001 writes
+//! With the standard layouts and ideal placement `U = K ε_a E`. the embedded-sensor article writes
 //! `4 K ε_a E`, dropping the bridge's 1/4; we follow the standard equation.
 
 use crate::error::{positive, Error};
 use crate::Real;
 
-/// Torsional principal strain of a flexspline diaphragm per N·m (seed 001):
+/// Torsional principal strain of a flexspline diaphragm per N·m (the embedded-sensor article):
 /// `ε_a / T = (r1 + r2) / (8π a G r1² r2)`.
 ///
 /// `r1_m` hub radius, `r2_m` outer radius, `thickness_m` diaphragm thickness `a`,
@@ -140,9 +140,9 @@ impl<T: Real> Gauge<T> {
 /// Gauge layouts on the diaphragm.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Layout {
-    /// Seed 000: four rosettes (two perpendicular gauges each) at 0°, 90°, 180°, 270°.
+    /// Taghirad and Bélanger (1999): four rosettes (two perpendicular gauges each) at 0°, 90°, 180°, 270°.
     FourRosettes,
-    /// Seed 001: eight gauges as four "T" pairs at 0°, 90°, 180°, 270°.
+    /// the embedded-sensor article: eight gauges as four "T" pairs at 0°, 90°, 180°, 270°.
     EightGaugeT,
 }
 

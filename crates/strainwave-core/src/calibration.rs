@@ -1,19 +1,19 @@
 //! Applying a calibration in real time: a gain, an affine map, or an affine map whose
 //! coefficients depend on speed (lookup table interpolated in speed, or polynomial).
 //!
-//! Every model is the one equation of SPEC §3 (seed 001):
+//! Every model is the one equation of docs/physics.md §3 (the embedded-sensor article):
 //!
 //! ```text
 //! T_nm = α(ω) · x + β(ω)
 //!
-//! gain               α = g (N·m per sensor unit, e.g. N·m/V), β = 0     (seed 000)
-//! affine (static)    α, β constant                                     (seed 001 static/dynamic rows)
+//! gain               α = g (N·m per sensor unit, e.g. N·m/V), β = 0     (Taghirad and Bélanger (1999))
+//! affine (static)    α, β constant                                     (the embedded-sensor article static/dynamic rows)
 //! speed table        α(ω), β(ω) linear between K breakpoints ω_0 < … < ω_{n−1}
 //! speed polynomial   α(ω) = Σ_k a_k ω^k, β(ω) = Σ_k b_k ω^k, k < K, valid on [ω_min, ω_max]
 //! ```
 //!
 //! `x` is the sensor reading in the unit the calibration was fitted in (bridge volts
-//! for a gain, sensed flexspline torque in N·m for seed 001's `T_sens`); `ω` is the
+//! for a gain, sensed flexspline torque in N·m for the embedded-sensor article's `T_sens`); `ω` is the
 //! signed speed the coefficients were fitted against (rad/s, usually the output speed).
 //! Gain and affine models ignore `ω` entirely, even a NaN one.
 //!
@@ -106,7 +106,7 @@ impl<T: Real, const K: usize> Calibration<T, K> {
         }
     }
 
-    /// A pure gain `T = g · x` (seed 000: 6.60 N·m/V). `g` must be finite and non-zero
+    /// A pure gain `T = g · x` (Taghirad and Bélanger (1999): 6.60 N·m/V). `g` must be finite and non-zero
     /// (negative is allowed for a bridge wired the other way round).
     ///
     /// ```
@@ -122,7 +122,7 @@ impl<T: Real, const K: usize> Calibration<T, K> {
         Ok(c)
     }
 
-    /// An affine map `T = α · x + β` (seed 001 static: α = 1.284, β = −0.0812 N·m).
+    /// An affine map `T = α · x + β` (the embedded-sensor article static: α = 1.284, β = −0.0812 N·m).
     /// `α` finite and non-zero, `β` finite.
     ///
     /// ```
@@ -205,7 +205,7 @@ impl<T: Real, const K: usize> Calibration<T, K> {
     ///
     /// ```
     /// use strainwave_core::calibration::{Calibration, Extrapolation};
-    /// // α linear in speed, β constant (seed 001: "potentially linear").
+    /// // α linear in speed, β constant (the embedded-sensor article: "potentially linear").
     /// let cal = Calibration::<f64, 3>::speed_polynomial(
     ///     &[1.5, 0.01],
     ///     &[-0.09],

@@ -10,14 +10,14 @@
 //!
 //! Units: torque N·m, twist rad, stiffness N·m/rad.
 //!
-//! Beyond the catalogue curve this module holds the other compliance models of SPEC §5,
+//! Beyond the catalogue curve this module holds the other compliance models of docs/physics.md §5,
 //! all behind the [`Compliance`] trait (torque → wind-up, odd and non-decreasing), which
 //! the torsion solver of [`crate::torsion`] inverts:
 //!
 //! ```text
-//! flexspline, stiffening (seed 002 B.2):   τ_f = tan(C_f K_f0 θ_f) / C_f  ⇔  θ_f = atan(C_f τ_f) / (C_f K_f0)
-//! wave generator (seed 002 B.1):           θ_w = sgn(τ_w) (1 − e^(−c_w |τ_w|)) / (c_w K_w0)
-//! series, seed 002:                        θ = θ_f(τ) + θ_w(τ/N) / N
+//! flexspline, stiffening (the HDA-arm paper B.2):   τ_f = tan(C_f K_f0 θ_f) / C_f  ⇔  θ_f = atan(C_f τ_f) / (C_f K_f0)
+//! wave generator (the HDA-arm paper B.1):           θ_w = sgn(τ_w) (1 − e^(−c_w |τ_w|)) / (c_w K_w0)
+//! series, the HDA-arm paper:                        θ = θ_f(τ) + θ_w(τ/N) / N
 //! cubic stiffness:                         τ = k1 θ + k3 θ³
 //! catalogue + lost motion:                 θ = θ_3slope(τ) + (ℓ/2) tanh(τ / τ_ℓ)
 //! hysteresis (Dahl, on the wind-up w):     dz/dw = (1 − z sgn ẇ) / λ,   elastic twist = w + h z

@@ -1,8 +1,8 @@
-//! Hybrid torque sensing on a motor test bench (SPEC §6, seed 003): the transfer functions
+//! Hybrid torque sensing on a motor test bench (docs/physics.md §6, Stoß et al. (2022)): the transfer functions
 //! of the torsion-shaft and the accelerometer measurement, the accelerometer torque, and
 //! the real-time complementary fusion of the two.
 //!
-//! Glossary (seed 003 Table I; SI units):
+//! Glossary (Stoß et al. (2022) Table I; SI units):
 //!
 //! | symbol | field | meaning |
 //! |---|---|---|
@@ -24,7 +24,7 @@
 //! ```
 //!
 //! Which stiffness is which: with Table I, `k = 258 N·m/rad` gives `f_res,TS = 829.3 Hz` (the
-//! SPEC §8 number), so 258 is the torsion-shaft stiffness `k_RB,TS`; `k = 549 N·m/rad`
+//! docs/physics.md §7 number), so 258 is the torsion-shaft stiffness `k_RB,TS`; `k = 549 N·m/rad`
 //! (`k_RB,Acc`, the DUT coupled directly to the brake) gives the 1209.7 Hz DUT–brake resonance
 //! the seed sees at ≈ 1.2 kHz in the accelerometer response (its Fig. 6).
 //!

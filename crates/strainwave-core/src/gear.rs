@@ -1,4 +1,4 @@
-//! Strain wave gear (harmonic drive) kinematics and torque relations (SPEC §1).
+//! Strain wave gear (harmonic drive) kinematics and torque relations (docs/physics.md §1).
 //!
 //! Glossary: WG wave generator (input, on the motor shaft), FS flexspline (thin cup,
 //! carries the strain gauges), CS circular spline (rigid ring), `N` the ratio.

@@ -13,7 +13,7 @@
 //!
 //! A first-order section is a biquad with `b2 = a2 = 0` ([`Biquad::first_order_lowpass`]).
 //! Coefficients are immutable values; the two state words live in [`BiquadState`]
-//! (configuration apart from state, STYLE §1). [`Complex`] is the small complex number
+//! (configuration apart from state, the project's style notes). [`Complex`] is the small complex number
 //! the frequency responses of this module and of [`crate::fusion`] are returned in.
 
 use core::ops::{Add, Div, Mul, Neg, Sub};

@@ -1,4 +1,4 @@
-//! Inner torque of a PMSM from its flux linkages (SPEC §6, seed 003 eqs. 12–13).
+//! Inner torque of a PMSM from its flux linkages (docs/physics.md §6, Stoß et al. (2022) eqs. 12–13).
 //!
 //! ```text
 //! T_e = 3/2 p [(ψ_d i_q − ψ_q i_d) + (i_d ∂ψ_d/∂γ + i_q ∂ψ_q/∂γ)]      (eq. 12)
@@ -59,7 +59,7 @@ impl<T: Real> LinearPmsm<T> {
         Ok(Self { pole_pairs, pm_flux_linkage_vs, d_inductance_h, q_inductance_h })
     }
 
-    /// Nanotec DB59M024035R (seed 003 Table II): `p = 3`, `Ψ_PM = 11.7 mV·s`,
+    /// Nanotec DB59M024035R (Stoß et al. (2022) Table II): `p = 3`, `Ψ_PM = 11.7 mV·s`,
     /// `L_d = L_q = 0.2 mH`.
     ///
     /// ```

@@ -1,5 +1,5 @@
-//! The seed 003 models and the PMSM torque against independent derivations and the
-//! reference numbers of SPEC §8, for f32 and f64.
+//! The Stoß et al. (2022) models and the PMSM torque against independent derivations and the
+//! reference numbers of docs/physics.md §7, for f32 and f64.
 
 use strainwave_core::fusion::{
     kit, AccelerometerModel, AccelerometerModelFull, AccelerometerPair, ComplementaryFusion, CrossoverOrder,
@@ -9,7 +9,7 @@ use strainwave_core::iir::Complex;
 use strainwave_core::pmsm::{FluxMap, LinearPmsm};
 use strainwave_core::Real;
 
-/// Reference numbers to the digits SPEC §8 gives them, with the scalar's own rounding.
+/// Reference numbers to the digits docs/physics.md §7 gives them, with the scalar's own rounding.
 fn reference_numbers<T: Real>(tol: f64) {
     let ts = TorsionShaftModel::<T>::kit();
     assert!((ts.resonance_hz().to_f64() - 829.3).abs() < 0.05 + tol * 829.3);

@@ -16,7 +16,6 @@ pub use crate::read_options::{Align, ReadOptions, TimeSource};
 pub use crate::ros2::bag::BagReader;
 use crate::Table;
 
-pub(crate) mod bounds;
 mod cdr;
 pub use cdr::{decode_joint_state, CdrError, JointState, JOINT_STATE_SCHEMAS};
 

@@ -127,7 +127,7 @@ pub struct Channels {
     pub output_angle: Option<Channel>,
     /// Motor velocity, rad/s (tachometer phase, speed-dependent calibrations).
     pub motor_velocity: Option<Channel>,
-    /// Expected torque (seed 000: load inertia × load acceleration), N·m.
+    /// Expected torque (Taghirad and Bélanger (1999): load inertia × load acceleration), N·m.
     pub expected_torque: Option<Channel>,
 }
 

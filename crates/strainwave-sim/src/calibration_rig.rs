@@ -1,4 +1,4 @@
-//! The seed-000 calibration procedure (seed 000 §IV): the wave generator is locked,
+//! The seed-000 calibration procedure (Taghirad and Bélanger (1999) §IV): the wave generator is locked,
 //! known torques are applied by an arm and weights, loading and unloading in both
 //! directions, at several flexspline positions, in a low and a full range, at
 //! temperatures from 5 to 35 °C. Quasi-static: the flexspline carries the applied

@@ -1,6 +1,6 @@
 //! Sensor design: what a flexspline bridge gives (sensitivity, full scale, resolution,
 //! strain at rated torque) and how much 2× and 4× interference survives given the
-//! gauge placement tolerances, by Monte Carlo (SPEC §2, seed 000 §III).
+//! gauge placement tolerances, by Monte Carlo (docs/physics.md §2, Taghirad and Bélanger (1999) §III).
 //!
 //! Each draw displaces the eight gauges by independent normal errors (1σ = the
 //! tolerance), reduces the bridge to its linear kernel and reads the residual line
@@ -205,7 +205,7 @@ mod tests {
     #[test]
     fn seed_000_sensitivity_and_ideal_cancellation() {
         let r = config().evaluate().unwrap();
-        // Gain 6.6 N·m/V after the amplifier (seed 000 Table I).
+        // Gain 6.6 N·m/V after the amplifier (Taghirad and Bélanger (1999) Table I).
         assert!((1.0 / r.amplified_v_per_nm - 6.6).abs() < 0.05, "{}", 1.0 / r.amplified_v_per_nm);
         assert!(r.ideal_residual_nm.0 < 1e-12 && r.ideal_residual_nm.1 > 0.01);
         assert!((r.full_scale_nm - 10.0 / r.amplified_v_per_nm).abs() < 1e-9);
@@ -232,7 +232,7 @@ mod tests {
 
     #[test]
     fn circumferential_and_angular_errors_matter_more_than_radial() {
-        // Seed 000 §III at equal "placement effort": 0.1 mm radial vs 0.5° (0.12 mm of arc at 14 mm).
+        // Taghirad and Bélanger (1999) §III at equal "placement effort": 0.1 mm radial vs 0.5° (0.12 mm of arc at 14 mm).
         let r = config().evaluate().unwrap();
         let p95 = |name: &str| r.studies.iter().find(|s| s.errors == name).unwrap().line_2x_nm.p95;
         assert!(p95("circumferential") > p95("radial"), "{} {}", p95("circumferential"), p95("radial"));

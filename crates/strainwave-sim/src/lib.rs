@@ -1,4 +1,4 @@
-//! The digital twin of a strain wave gear joint (SPEC §7): motor, gear compliance with
+//! The digital twin of a strain wave gear joint (docs/physics.md §7): motor, gear compliance with
 //! hysteresis and friction, load, meshing ripple, misalignment, the flexspline bridge
 //! with placement errors, amplifier, ADC, noise, encoders and tachometer.
 //!

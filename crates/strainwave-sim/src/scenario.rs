@@ -1,5 +1,5 @@
 //! The scenario: every physical parameter of the simulated joint, its motion and
-//! load profiles, sample rate, duration and seed, as TOML (SPEC §7).
+//! load profiles, sample rate, duration and seed, as TOML (docs/physics.md §7).
 //!
 //! Unknown keys are rejected; [`Scenario::validate`] checks every value and names
 //! the key at fault.
@@ -151,9 +151,9 @@ pub struct MisalignmentParams {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum LayoutName {
-    /// Seed 000: four rosettes.
+    /// Taghirad and Bélanger (1999): four rosettes.
     FourRosettes,
-    /// Seed 001: eight gauges in four T pairs.
+    /// the embedded-sensor article: eight gauges in four T pairs.
     EightGaugeT,
 }
 
@@ -266,7 +266,7 @@ pub struct EncoderParams {
     pub tacho_noise_rad_s: f64,
     /// Current sensor white noise, A rms.
     pub current_noise_a: f64,
-    /// Reference torque sensor on the output (seed 001): white noise, N·m rms; absent = no sensor.
+    /// Reference torque sensor on the output (the embedded-sensor article): white noise, N·m rms; absent = no sensor.
     #[serde(default)]
     pub reference_torque_noise_nm: Option<f64>,
 }

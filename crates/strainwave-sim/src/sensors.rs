@@ -1,5 +1,5 @@
 //! The flexspline torque sensor of the twin: gauges with placement errors on the
-//! diaphragm strain field, the bridge, amplifier, noise and ADC (SPEC §2).
+//! diaphragm strain field, the bridge, amplifier, noise and ADC (docs/physics.md §2).
 //!
 //! The sensor sees the flexspline torque of `τ + T_mesh + T_mis` (transmitted torque,
 //! meshing ripple, misalignment signature) plus the elliptical interference.

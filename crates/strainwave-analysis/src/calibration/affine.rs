@@ -1,4 +1,4 @@
-//! Static and dynamic affine models `T_ref = α x + β` (seed 001).
+//! Static and dynamic affine models `T_ref = α x + β` (the embedded-sensor article).
 
 use super::{
     check_columns, error_metrics, require_two_values, CalibrationError, CalibrationFile, ErrorMetrics, ModelKind,
@@ -36,7 +36,7 @@ impl AffineFit {
     }
 }
 
-/// Fits `T_ref = α · sensor + β` by least squares (QR); seed 001's static and dynamic rows.
+/// Fits `T_ref = α · sensor + β` by least squares (QR); the embedded-sensor article's static and dynamic rows.
 ///
 /// Errors: fewer than 2 rows, a non-finite row (named), all sensor values equal or all
 /// reference torques equal (one load: singular).

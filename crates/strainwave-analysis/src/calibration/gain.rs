@@ -1,4 +1,4 @@
-//! Gain per experiment and the consistency across experiments (seed 000 §IV).
+//! Gain per experiment and the consistency across experiments (Taghirad and Bélanger (1999) §IV).
 
 use super::{
     check_columns, error_metrics, invalid, require_two_values, CalibrationError, CalibrationFile, ErrorMetrics,
@@ -37,7 +37,7 @@ impl Experiment {
 /// The model fitted to each experiment.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum GainFit {
-    /// `T = g V` (seed 000).
+    /// `T = g V` (Taghirad and Bélanger (1999)).
     #[default]
     ThroughOrigin,
     /// `T = g V + c`, the offset absorbing a bridge zero error.
@@ -59,7 +59,7 @@ pub struct ExperimentGain {
     pub metrics: ErrorMetrics,
 }
 
-/// Gains of several experiments and their consistency (seed 000 §IV).
+/// Gains of several experiments and their consistency (Taghirad and Bélanger (1999) §IV).
 #[derive(Debug, Clone, PartialEq)]
 pub struct GainCalibration {
     /// The model fitted per experiment.
@@ -95,7 +95,7 @@ impl GainCalibration {
     }
 }
 
-/// Fits a gain to each experiment and combines them (seed 000 §IV).
+/// Fits a gain to each experiment and combines them (Taghirad and Bélanger (1999) §IV).
 ///
 /// Errors name the experiment: too few rows, a non-finite row, all voltages equal or
 /// (with an offset) all torques equal, all voltages zero through the origin (singular),

@@ -1,4 +1,4 @@
-//! Quasi-static (held) rows of a step-loading recording: seed 001 fitted its static
+//! Quasi-static (held) rows of a step-loading recording: the embedded-sensor article fitted its static
 //! model on held loads only, not on the ramps between them.
 
 use std::collections::VecDeque;

@@ -1,15 +1,15 @@
 //! Calibration fitting and the figures torque-transducer standards use (DIN 51309 / EURAMET cg-14).
 //!
-//! SPEC §3. Four jobs, one file each, plus the error type and the file format:
+//! docs/physics.md §3. Four jobs, one file each, plus the error type and the file format:
 //!
-//! 1. **Gain per experiment** (seed 000 §IV): each experiment is a set of rows
+//! 1. **Gain per experiment** (Taghirad and Bélanger (1999) §IV): each experiment is a set of rows
 //!    (reference torque `T_i`, bridge voltage `V_i`); the gain `g` minimises
 //!    `Σ (T_i − g V_i)²` (through the origin, the default) or `Σ (T_i − g V_i − c)²`
 //!    (with an offset). Across experiments:
 //!    `consistency = s_g / |ḡ|`, with `ḡ` the mean gain (the final gain) and `s_g` the
 //!    **sample** standard deviation (divisor `n − 1`); the seed only says "standard
 //!    deviation" and reports 6.60 N·m/V at 2 %.
-//! 2. **Static, dynamic and speed-dependent affine models** (seed 001):
+//! 2. **Static, dynamic and speed-dependent affine models** (the embedded-sensor article):
 //!    `T_ref = α T_sens + β`, fitted on quasi-static ramps ("static") or sinusoidal-load
 //!    data ("dynamic": same form, other data), and `T_ref = α(ω) T_sens + β(ω)` with
 //!    `α`, `β` a polynomial in speed (one joint least-squares problem) or a lookup table
@@ -23,7 +23,7 @@
 //!    mean e  = Σ e_i / n                bias
 //!    RMS %FS = 100 · RMS / FS           FS = rated full-scale torque, given (not the data range)
 //!    ```
-//!    Seed 001's table (static 0.39 / 0.21 N·m / 1.04 %, dynamic 0.64 / 0.265 N·m /
+//!    the embedded-sensor article's table (static 0.39 / 0.21 N·m / 1.04 %, dynamic 0.64 / 0.265 N·m /
 //!    1.27 %) uses these definitions; its two %FS figures imply FS ≈ 20.2 and ≈ 20.9 N·m.
 //! 4. **DIN 51309 / EURAMET cg-14 figures** from repeated loading series: see
 //!    [`din51309_figures`] for the formulas.
@@ -35,8 +35,8 @@
 //! |---|---|
 //! | `error.rs` | [`CalibrationError`] |
 //! | `metrics.rs` | [`ErrorMetrics`], [`error_metrics`] |
-//! | `gain.rs` | [`Experiment`], [`calibrate_gain`] (seed 000) |
-//! | `affine.rs` | [`AffineFit`], [`fit_affine`] (seed 001 static / dynamic) |
+//! | `gain.rs` | [`Experiment`], [`calibrate_gain`] (Taghirad and Bélanger (1999)) |
+//! | `affine.rs` | [`AffineFit`], [`fit_affine`] (the embedded-sensor article static / dynamic) |
 //! | `speed.rs` | [`SpeedDependence`], [`fit_speed_dependent`] (table, polynomial) |
 //! | `din.rs` | [`LoadSeries`], [`din51309_figures`] |
 //! | `held.rs` | [`held_rows`]: the quasi-static rows of a step-loading recording |

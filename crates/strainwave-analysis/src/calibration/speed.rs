@@ -1,5 +1,5 @@
 //! Speed-dependent models `T_ref = α(ω) x + β(ω)`: a polynomial in speed or a lookup
-//! table of affine fits per speed bin (seed 001 dynamic model).
+//! table of affine fits per speed bin (the embedded-sensor article dynamic model).
 
 use serde::{Deserialize, Serialize};
 use strainwave_core::calibration::{Calibration, Extrapolation as CoreExtrapolation};
@@ -130,7 +130,7 @@ impl SpeedFit {
     }
 }
 
-/// Fits `T_ref = α(ω) · sensor + β(ω)` (seed 001 dynamic model).
+/// Fits `T_ref = α(ω) · sensor + β(ω)` (the embedded-sensor article dynamic model).
 ///
 /// Errors: non-finite rows (named), all rows at one speed or one load (singular), a bin
 /// whose rows are all at one load (named bin), fewer than two non-empty bins, more than

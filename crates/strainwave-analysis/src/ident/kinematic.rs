@@ -70,7 +70,7 @@ impl JointAngles<'_> {
 /// The form of a kinematic-error model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum KinematicBasis {
-    /// `Σ_{i=0..order} a_i θ^i` in the output angle (seed 002: order 5).
+    /// `Σ_{i=0..order} a_i θ^i` in the output angle (the HDA-arm paper: order 5).
     Polynomial {
         /// Highest power.
         order: usize,

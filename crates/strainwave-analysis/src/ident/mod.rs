@@ -1,6 +1,6 @@
 //! Identification of the kinematic error and the compliance from recorded runs.
 //!
-//! Two steps, as in seed 002:
+//! Two steps, as in the HDA-arm paper:
 //!
 //! 1. **Kinematic error** from a no-load run: the torsion `θ_h = θ − θ_m/n_s` is regressed
 //!    on a basis of the output angle (polynomial, the seed's form) or of the output and a
@@ -15,7 +15,7 @@
 //!    iteration whose residual is exactly what the core's streaming estimator computes
 //!    (the estimator itself for a Dahl hysteresis; the same play operators and solver,
 //!    with the parameter-free parts computed once, otherwise). Springs: linear, cubic,
-//!    catalogue three-slope, seed 002's pair, or known ones ([`ComplianceForm::Fixed`]);
+//!    catalogue three-slope, the HDA-arm paper's pair, or known ones ([`ComplianceForm::Fixed`]);
 //!    hysteresis: none, Dahl or play operators; optional damping and zero offset.
 //!
 //! When there is no no-load run (a real log), the mesh harmonics of the kinematic error

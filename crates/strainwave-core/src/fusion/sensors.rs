@@ -1,4 +1,4 @@
-//! The measurement models of the bench (seed 003): the torsion shaft's and the
+//! The measurement models of the bench (Stoß et al. (2022)): the torsion shaft's and the
 //! accelerometers' transfer functions and the accelerometer torque; see the parent
 //! module's doc for the equations.
 
@@ -6,7 +6,7 @@ use crate::error::{non_negative, positive, Error};
 use crate::iir::{polyval, Complex};
 use crate::Real;
 
-/// Seed 003 Table I and the accelerometer data, in SI units.
+/// Stoß et al. (2022) Table I and the accelerometer data, in SI units.
 pub mod kit {
     /// Brake rotor inertia `J_B`, kg·m² (100 mg·m²).
     pub const BRAKE_INERTIA_KG_M2: f64 = 100e-6;

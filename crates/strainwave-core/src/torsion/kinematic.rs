@@ -74,7 +74,7 @@ impl<T: Real, const D: usize> KinematicPolynomial<T, D> {
 }
 
 impl<T: Real> KinematicPolynomial<T, 6> {
-    /// Seed 002, Table II: the 5th-order fit `a0 … a5 = −6.5719e−5, 0.0018, 0.032, −0.0017,
+    /// the HDA-arm paper, Table II: the 5th-order fit `a0 … a5 = −6.5719e−5, 0.0018, 0.032, −0.0017,
     /// 2.6840e−4, −1.2686e−5`, output angle in rad, `θ_k` in rad.
     ///
     /// The seed does not state the range; the polynomial reaches 1.1 rad at `θ = 2π`, so it
@@ -100,7 +100,7 @@ impl<T: Real, const D: usize> KinematicError<T> for KinematicPolynomial<T, D> {
 /// Which fast angle the mesh harmonics of [`KinematicFourier`] follow.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum MeshAngle {
-    /// Relative angle `φ = θ_wg − θ_fs`: errors that travel with the flexspline teeth (SPEC §1).
+    /// Relative angle `φ = θ_wg − θ_fs`: errors that travel with the flexspline teeth (docs/physics.md §1).
     #[default]
     Relative,
     /// Motor (WG) angle: errors of the WG itself and, with the CS fixed, of its mesh with the CS.

@@ -1,4 +1,4 @@
-//! Encoder-based link torque: harmonic-drive torsion from motor and link angles, kinematic error, and the streaming estimator (SPEC §5).
+//! Encoder-based link torque: harmonic-drive torsion from motor and link angles, kinematic error, and the streaming estimator (docs/physics.md §5).
 //!
 //! Glossary: `θ_m` motor (= wave generator, WG) angle, `θ` link (output) angle, `n_s` the
 //! signed ratio of [`Gear::signed_ratio`] (`−N` with the circular spline fixed, `N + 1`
@@ -15,7 +15,7 @@
 //! ```
 //!
 //! Sign convention: `θ_h` is the output angle minus the rigid (ideal) output angle, as in
-//! SPEC §5. The estimator reports the **link torque**: the torque the gear transmits to
+//! docs/physics.md §5. The estimator reports the **link torque**: the torque the gear transmits to
 //! the link, positive when it drives the link in its positive direction. Driving the link
 //! forward makes it lag its rigid position, so `θ_h < 0` and the wind-up `w > 0`. In static
 //! equilibrium the link torque is minus the external torque on the link (SPEC's `τ`, which
@@ -70,7 +70,7 @@ pub use kinematic::{
 };
 pub use solver::{Solution, TorqueSolver};
 
-/// Kinematic-error models: polynomial (seed 002) and Fourier (output and mesh angle).
+/// Kinematic-error models: polynomial (the HDA-arm paper) and Fourier (output and mesh angle).
 mod kinematic;
 
 /// The bounded, bracketed Newton solver of the implicit torsion equation.
@@ -157,7 +157,7 @@ pub struct Estimate<T: Real> {
     pub flags: EncoderFlags,
 }
 
-/// Link torque from a motor and a link encoder through the gear's compliance (SPEC §5).
+/// Link torque from a motor and a link encoder through the gear's compliance (docs/physics.md §5).
 ///
 /// Configuration only (immutable); the per-joint [`EstimatorState`] is passed to each step.
 #[derive(Debug, Clone, Copy, PartialEq)]

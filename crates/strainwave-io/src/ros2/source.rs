@@ -113,8 +113,6 @@ fn mcap_error(path: &Path, e: mcap::McapError) -> IoError {
 }
 
 fn open_mcap(path: &Path) -> Result<mcap::io::MessageReader<BufReader<File>>, IoError> {
-    // Record lengths checked against the file before the mcap crate allocates for them.
-    crate::mcap_in::bounds::check_record_lengths(path)?;
     let os = |source| IoError::Os { path: path.to_path_buf(), source };
     let mut file = File::open(path).map_err(os)?;
     let mut magic = Vec::with_capacity(mcap::MAGIC.len());

@@ -1,4 +1,4 @@
-//! The harmonic-drive arm model of seed 002 (SPEC §5): motor, wave-generator and flexspline compliance, link, external torque.
+//! The harmonic-drive arm model of the HDA-arm paper (docs/physics.md §5): motor, wave-generator and flexspline compliance, link, external torque.
 //!
 //! ```text
 //! motor      J_m θ̈_m + r_m θ̇_m = τ_m − τ / n_s,        r_m = k_m I_0 / ω_0,  ω_0 = 2π n_0 / 60
@@ -21,7 +21,7 @@
 //! The circular spline is fixed (`n_s = −N`): the link turns opposite to the motor. `τ` is
 //! the link torque, the torque the gear transmits to the link, positive when it drives the
 //! link forward (`true_link_torque`); in static equilibrium it is `−τ_d`. The torsion
-//! `θ_h = θ − θ_m/n_s = θ_k − w` is SPEC §5's. The kinematic error is periodic (output
+//! `θ_h = θ − θ_m/n_s = θ_k − w` is docs/physics.md §5's. The kinematic error is periodic (output
 //! and relative-angle harmonics) plus an optional polynomial in the output angle.
 //!
 //! The motor is either held by a digital PID on its angle (the seed's first experiment),

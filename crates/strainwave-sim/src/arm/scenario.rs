@@ -83,7 +83,7 @@ pub struct ArmKinematicError {
     /// Harmonics of the relative angle `φ = θ_m − θ`.
     #[serde(default)]
     pub relative: Vec<Harmonic>,
-    /// Polynomial `a_0, a_1, …` in the output angle (rad), e.g. seed 002 Table II; short runs only.
+    /// Polynomial `a_0, a_1, …` in the output angle (rad), e.g. the HDA-arm paper Table II; short runs only.
     #[serde(default)]
     pub polynomial: Vec<f64>,
 }
@@ -189,7 +189,7 @@ impl ArmScenario {
         toml::to_string(self).unwrap_or_else(|e| format!("# could not serialize scenario: {e}\n"))
     }
 
-    /// The `hda-arm` preset (seed 002's arm, step experiment).
+    /// The `hda-arm` preset (the HDA-arm paper's arm, step experiment).
     ///
     /// ```
     /// let s = strainwave_sim::arm::ArmScenario::preset().unwrap();

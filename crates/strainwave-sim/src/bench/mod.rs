@@ -1,4 +1,4 @@
-//! The motor test bench of seed 003 (SPEC §6, §7): DUT rotor, torsion shaft, hysteresis
+//! The motor test bench of Stoß et al. (2022) (docs/physics.md §6, §7): DUT rotor, torsion shaft, hysteresis
 //! brake, stator housing on a helix coupling, two opposed accelerometers, a PMSM whose
 //! torque carries harmonics of the electrical angle, a speed ramp or a current sweep.
 //!
@@ -56,7 +56,7 @@ pub struct BenchScenario {
     pub profile: BenchProfile,
 }
 
-/// Mechanics (seed 003 Table I), SI units.
+/// Mechanics (Stoß et al. (2022) Table I), SI units.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MechanicsParams {
@@ -120,7 +120,7 @@ pub struct CoggingHarmonic {
     pub phase_rad: f64,
 }
 
-/// The PMSM under test (seed 003 Table II) with its torque harmonics.
+/// The PMSM under test (Stoß et al. (2022) Table II) with its torque harmonics.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DutParams {
