@@ -268,7 +268,10 @@ mod tests {
         torque = \"t\"\n[filter]\nmodel = \"orders\"\nsample_rate_hz = 1000.0\nnoise_nm = 0.02\n";
 
     fn load(text: &str) -> Result<JointConfig> {
-        let path = std::env::temp_dir().join(format!("sw-joint-config-{}-{}.toml", std::process::id(), text.len()));
+        // Tests run in parallel threads: each call gets its own file.
+        static NEXT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+        let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let path = std::env::temp_dir().join(format!("sw-joint-config-{}-{n}.toml", std::process::id()));
         std::fs::write(&path, text)?;
         let c = JointConfig::load(&path);
         std::fs::remove_file(&path)?;
