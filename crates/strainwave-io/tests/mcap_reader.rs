@@ -212,3 +212,12 @@ fn only_unknown_channels_give_no_rows_and_a_warning() {
     assert!(t.table.data[0].is_empty());
     assert_eq!(t.warnings.len(), 1);
 }
+
+/// A fuzz case that made the MCAP library subtract past zero: an uncompressed chunk
+/// whose inner record claims more bytes than the chunk holds.
+#[test]
+fn chunk_record_overrun_is_an_error_not_a_panic() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/chunk-record-overrun.mcap");
+    let e = read_mcap(&path).unwrap_err().to_string();
+    assert!(e.contains("chunk-record-overrun.mcap") && e.contains("corrupt chunk") && !e.contains('\n'), "{e}");
+}

@@ -11,4 +11,6 @@ mod db3;
 #[cfg(feature = "mcap")]
 pub mod msg_def;
 #[cfg(feature = "mcap")]
+mod record_check;
+#[cfg(feature = "mcap")]
 pub mod source;

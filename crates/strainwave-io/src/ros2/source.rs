@@ -124,6 +124,7 @@ fn open_mcap(path: &Path) -> Result<mcap::io::MessageReader<BufReader<File>>, Io
         });
     }
     file.seek(SeekFrom::Start(0)).map_err(os)?;
+    super::record_check::check_records(path)?;
     let options = mcap::sans_io::LinearReaderOptions::default().with_record_length_limit(MAX_RECORD_BYTES);
     Ok(mcap::io::MessageReader::new_with_options(BufReader::with_capacity(1 << 16, file), options))
 }
