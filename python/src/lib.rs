@@ -7,6 +7,7 @@
 
 use pyo3::prelude::*;
 
+mod calibrate;
 mod canceller;
 mod columns;
 mod error;
@@ -24,6 +25,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(filter::filter_columns, m)?)?;
     m.add_function(wrap_pyfunction!(simulate::simulate, m)?)?;
     m.add_class::<canceller::RippleCanceller>()?;
+    m.add_function(wrap_pyfunction!(calibrate::calibrate_experiments, m)?)?;
     m.add_function(wrap_pyfunction!(spectra::welch_psd, m)?)?;
     m.add_function(wrap_pyfunction!(spectra::stft_frames, m)?)?;
     m.add_function(wrap_pyfunction!(spectra::order_slice_blocks, m)?)?;

@@ -14,6 +14,7 @@ Example::
 """
 
 from ._native import OUTPUT_COLUMNS, StrainwaveError
+from .calibrate import calibrate
 from .canceller import RippleCanceller
 from .recording import filter_recording, read_recording, simulate, write_recording
 from .spectra import orders, sample_rate_hz, stft, welch
@@ -22,6 +23,7 @@ __all__ = [
     "OUTPUT_COLUMNS",
     "RippleCanceller",
     "StrainwaveError",
+    "calibrate",
     "filter_recording",
     "orders",
     "read_recording",

@@ -1,4 +1,5 @@
 from ._native import OUTPUT_COLUMNS as OUTPUT_COLUMNS, StrainwaveError as StrainwaveError
+from .calibrate import calibrate as calibrate
 from .canceller import RippleCanceller as RippleCanceller
 from .recording import (
     filter_recording as filter_recording,

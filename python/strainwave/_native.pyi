@@ -90,3 +90,17 @@ def order_slice_blocks(
     revs_per_block: float = ...,
     initial_angle_rev: float = ...,
 ) -> list[npt.NDArray[np.float64]]: ...
+def calibrate_experiments(
+    model: str,
+    experiments: list[tuple[str, npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]],
+    *,
+    inputs: str,
+    description: str,
+    speed_column: str = ...,
+    with_offset: bool = ...,
+    full_scale: Optional[float] = ...,
+    bins: Optional[int] = ...,
+    speed_edges: Optional[list[float]] = ...,
+    degree: int = ...,
+    extrapolation: str = ...,
+) -> str: ...
