@@ -50,9 +50,19 @@ def assert_block_is_cli(got, cli_cols, what):
         assert_bitwise_equal(values, cli_cols[name], f"{what} column {name}")
 
 
-@pytest.mark.parametrize("config", ["full", "seed-6th", "denoised"])
-def test_run_is_the_cli_bit_for_bit(cli, recording, tmp_path, denoised_config, config):
-    config = {"full": CONFIG, "seed-6th": SEED_6TH, "denoised": denoised_config}[config]
+@pytest.fixture(scope="module")
+def velocity_config(tmp_path_factory):
+    """The seed 6th-order model with its phase from the tachometer (`filter.phase = "velocity"`)."""
+    text = SEED_6TH.read_text()
+    assert 'phase = "angle"' in text
+    path = tmp_path_factory.mktemp("cfg") / "joint-velocity.toml"
+    path.write_text(text.replace('phase = "angle"', 'phase = "velocity"'))
+    return path
+
+
+@pytest.mark.parametrize("config", ["full", "seed-6th", "denoised", "velocity"])
+def test_run_is_the_cli_bit_for_bit(cli, recording, tmp_path, denoised_config, velocity_config, config):
+    config = {"full": CONFIG, "seed-6th": SEED_6TH, "denoised": denoised_config, "velocity": velocity_config}[config]
     expected = cli_filter(cli, config, recording, tmp_path / "out.csv")
     rec = sw.read_recording(recording)
     c = sw.RippleCanceller.from_config(config)
