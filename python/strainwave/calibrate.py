@@ -79,10 +79,11 @@ def calibrate(
 
     Example::
 
-        >>> locked = sw.simulate("taghirad", ...)    # or sw.read_recording("locked.csv")
+        >>> # strainwave simulate --preset taghirad --procedure locked-wg --out locked.csv
         >>> cal = sw.calibrate(sw.read_recording("locked.csv"), "reference_torque", "bridge_voltage",
         ...                    experiment_column="experiment")
         >>> cal["file"]["gain_nm_per_v"]
+        6.611407434438008
     """
     frames: List[pd.DataFrame] = [data] if isinstance(data, pd.DataFrame) else list(data)
     if not frames:

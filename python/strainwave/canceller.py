@@ -30,7 +30,7 @@ class RippleCanceller:
         >>> out = c.run(rec)                 # dict of numpy arrays: torque, ripple, ...
         >>> torque_nm, flags = c.step(0.12, motor_angle=3.1, output_angle=0.031, time=2.0)
         >>> [o[0] for o in c.learned()]      # the reference of each order
-        ['relative', 'relative', 'output', 'output', 'relative']
+        ['relative', 'relative', 'relative', 'relative', 'output']
     """
 
     def __init__(self, native: Any) -> None:
@@ -112,16 +112,35 @@ class RippleCanceller:
     def learned(self) -> List[Tuple[str, float, bool, float, float, float]]:
         """The coefficients learned so far, one ``(reference, multiple, load_scaled,
         cos_nm, sin_nm, variance_nm2)`` per order of the model: the entries of the file
-        ``filter --learn`` writes."""
+        ``filter --learn`` writes.
+
+        Example::
+
+            >>> c.learned()[0]
+            ('relative', 2.0, False, 0.2520612107099989, 0.44771890136520587, 1.3217677768605336e-06)
+        """
         return self._native.learned()
 
     def save_learned(self, path: PathLike) -> None:
         """Writes :meth:`learned` as a learned-coefficients file (the ``filter --learn``
-        format, for ``filter.learned`` or ``from_config(learned=...)``)."""
+        format, for ``filter.learned`` or ``from_config(learned=...)``).
+
+        Example::
+
+            >>> c = sw.RippleCanceller.from_config("joint.toml", learn=True)
+            >>> c.run(sw.read_recording("commissioning.csv"))
+            >>> c.save_learned("learned.toml")
+        """
         self._native.save_learned(os.fspath(path))
 
     def reset(self) -> None:
-        """Back to the state of a new canceller (the priors it started from kept)."""
+        """Back to the state of a new canceller (the priors it started from kept).
+
+        Example::
+
+            >>> c.reset(); c.samples
+            0
+        """
         self._native.reset()
 
     @property
