@@ -149,3 +149,19 @@ def test_errors_are_the_cli_messages(cli, recording, tmp_path):
         sw.RippleCanceller.from_config(CONFIG, learned=tmp_path / "nope.toml")
     with pytest.raises(sw.StrainwaveError, match="learn=True"):
         sw.RippleCanceller.from_config(CONFIG, learned=ROOT / "examples" / "joint-taghirad-learned.toml", learn=True)
+
+
+def test_bad_rows_are_filter_lenient(cli, recording, tmp_path):
+    """NaN readings, a missing angle and a time step back: the canceller flags and goes
+    on, with `filter --lenient`'s numbers."""
+    rec = sw.read_recording(recording).iloc[:1200].copy()
+    rec.loc[100, "bridge_voltage"] = np.nan
+    rec.loc[200, "motor_angle"] = np.nan
+    rec.loc[300, "time"] = rec.loc[250, "time"]
+    rec.loc[400:402, "output_angle"] = np.inf
+    bad = tmp_path / "bad.csv"
+    sw.write_recording(rec, bad)
+    expected = cli_filter(cli, SEED_6TH, bad, tmp_path / "out.csv", "--lenient")
+    got = sw.RippleCanceller.from_config(SEED_6TH).run(sw.read_recording(bad))
+    assert_block_is_cli(got, expected, "lenient run")
+    assert int(got["filter_flags"][100]) & 1 and int(got["filter_flags"][200]) & 2
