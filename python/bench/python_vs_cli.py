@@ -80,12 +80,29 @@ def part_one(a, tmp):
     t_py = best(lambda: sw.filter_recording(df, config=CONFIG), a.repeat)
     t_py_files = best(lambda: sw.write_recording(sw.filter_recording(sw.read_recording(rec), config=CONFIG), tmp / "py.csv"), a.repeat)
     same = None if a.no_cli else (tmp / "py.csv").read_bytes() == out.read_bytes()
+
+    def canceller_run():
+        sw.RippleCanceller.from_config(CONFIG).run(df)
+
+    t_run = best(canceller_run, a.repeat)
+    n_step = min(a.step_rows, rows)
+    step_cols = df[["time", "bridge_voltage", "motor_angle", "output_angle"]].iloc[:n_step].to_numpy().tolist()
+
+    def canceller_steps():
+        c = sw.RippleCanceller.from_config(CONFIG)
+        for t, v, m, o in step_cols:
+            c.step(v, m, o, time=t)
+
+    t_step = best(canceller_steps, 1) if n_step > 0 else float("nan")
     print(f"\n### filter_recording, {rows} rows, `{CONFIG.name}` (best of {a.repeat})\n")
     print("| what | time, s | rows/s | vs CLI |")
     print("|---|---:|---:|---:|")
     print(f"| CLI `strainwave filter` (CSV in, CSV out) | {t_cli:.3f} | {rows / t_cli:.3g} | 1.00 |")
     print(f"| `sw.filter_recording` (DataFrame in memory) | {t_py:.3f} | {rows / t_py:.3g} | {t_py / t_cli:.2f} |")
     print(f"| `sw.read_recording` + `filter_recording` + `write_recording` (CSV) | {t_py_files:.3f} | {rows / t_py_files:.3g} | {t_py_files / t_cli:.2f} |")
+    print(f"| `sw.RippleCanceller.run` (DataFrame in memory, one block) | {t_run:.3f} | {rows / t_run:.3g} | {t_run / t_cli:.2f} |")
+    if n_step > 0:
+        print(f"| `sw.RippleCanceller.step` in a Python loop, first {n_step} rows (1 run) | {t_step:.3f} | {n_step / t_step:.3g} | {t_step / n_step * rows / t_cli:.1f} (per row) |")
     if a.filterpy_rows > 0:
         try:
             import filterpy  # noqa: F401
@@ -137,6 +154,7 @@ def main():
     p.add_argument("--rows", type=int, default=1_000_000)
     p.add_argument("--repeat", type=int, default=3)
     p.add_argument("--filterpy-rows", type=int, default=1_000_000)
+    p.add_argument("--step-rows", type=int, default=100_000, help="rows for the per-sample `step` loop (0: skip)")
     p.add_argument("--fleet", type=int, default=64)
     p.add_argument("--minutes", type=float, default=10.0)
     p.add_argument("--workers", type=int, default=2)

@@ -7,11 +7,14 @@
 
 use pyo3::prelude::*;
 
+mod calibrate;
+mod canceller;
 mod columns;
 mod error;
 mod filter;
 mod recording;
 mod simulate;
+mod spectra;
 
 /// The extension module.
 #[pymodule]
@@ -21,6 +24,11 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(recording::write_recording, m)?)?;
     m.add_function(wrap_pyfunction!(filter::filter_columns, m)?)?;
     m.add_function(wrap_pyfunction!(simulate::simulate, m)?)?;
+    m.add_class::<canceller::RippleCanceller>()?;
+    m.add_function(wrap_pyfunction!(calibrate::calibrate_experiments, m)?)?;
+    m.add_function(wrap_pyfunction!(spectra::welch_psd, m)?)?;
+    m.add_function(wrap_pyfunction!(spectra::stft_frames, m)?)?;
+    m.add_function(wrap_pyfunction!(spectra::order_slice_blocks, m)?)?;
     m.add("OUTPUT_COLUMNS", strainwave_joint::OUTPUT_COLUMNS.to_vec())?;
     Ok(())
 }

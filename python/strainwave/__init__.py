@@ -14,14 +14,23 @@ Example::
 """
 
 from ._native import OUTPUT_COLUMNS, StrainwaveError
+from .calibrate import calibrate
+from .canceller import RippleCanceller
 from .recording import filter_recording, read_recording, simulate, write_recording
+from .spectra import orders, sample_rate_hz, stft, welch
 
 __all__ = [
     "OUTPUT_COLUMNS",
+    "RippleCanceller",
     "StrainwaveError",
+    "calibrate",
     "filter_recording",
+    "orders",
     "read_recording",
+    "sample_rate_hz",
     "simulate",
+    "stft",
+    "welch",
     "write_recording",
 ]
 __version__ = "0.1.0"

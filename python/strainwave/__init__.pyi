@@ -1,9 +1,18 @@
 from ._native import OUTPUT_COLUMNS as OUTPUT_COLUMNS, StrainwaveError as StrainwaveError
+from .calibrate import calibrate as calibrate
+from .canceller import RippleCanceller as RippleCanceller
 from .recording import (
     filter_recording as filter_recording,
     read_recording as read_recording,
     simulate as simulate,
     write_recording as write_recording,
+)
+
+from .spectra import (
+    orders as orders,
+    sample_rate_hz as sample_rate_hz,
+    stft as stft,
+    welch as welch,
 )
 
 __version__: str

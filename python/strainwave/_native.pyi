@@ -1,6 +1,6 @@
 """Type stubs of the Rust extension (use the functions of `strainwave` instead)."""
 
-from typing import Optional
+from typing import Any, Optional
 
 import numpy as np
 import numpy.typing as npt
@@ -31,3 +31,76 @@ def simulate(
     duration: Optional[float] = ...,
     seed: Optional[int] = ...,
 ) -> tuple[list[str], list[npt.NDArray[np.float64]]]: ...
+
+class RippleCanceller:
+    @staticmethod
+    def from_config(config: str, learned: Optional[str] = ..., *, learn: bool = ...) -> "RippleCanceller": ...
+    def step(
+        self,
+        torque: float,
+        motor_angle: float = ...,
+        output_angle: float = ...,
+        *,
+        motor_velocity: float = ...,
+        expected_torque: Optional[float] = ...,
+        time: float = ...,
+    ) -> tuple[float, int]: ...
+    def run_columns(
+        self, names: list[str], arrays: list[npt.NDArray[np.float64]], *, input_name: str
+    ) -> tuple[list[str], list[npt.NDArray[np.float64]]]: ...
+    def learned(self) -> list[tuple[str, float, bool, float, float, float]]: ...
+    def save_learned(self, path: str) -> None: ...
+    def reset(self) -> None: ...
+    @property
+    def samples(self) -> int: ...
+    @property
+    def extrapolated(self) -> int: ...
+    @property
+    def config(self) -> str: ...
+    @property
+    def channel_columns(self) -> list[Optional[str]]: ...
+
+def welch_psd(
+    x: npt.NDArray[np.float64],
+    sample_rate_hz: float,
+    nperseg: int,
+    *,
+    noverlap: Optional[int] = ...,
+    nfft: Optional[int] = ...,
+    window: Optional[npt.NDArray[np.float64]] = ...,
+    detrend: str = ...,
+    scaling: str = ...,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+def stft_frames(
+    x: npt.NDArray[np.float64],
+    sample_rate_hz: float,
+    nperseg: int,
+    *,
+    noverlap: Optional[int] = ...,
+    nfft: Optional[int] = ...,
+    window: Optional[npt.NDArray[np.float64]] = ...,
+    detrend: str = ...,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.complex128]]: ...
+def order_slice_blocks(
+    signal: npt.NDArray[np.float64],
+    speed_rpm: npt.NDArray[np.float64],
+    sample_rate_hz: float,
+    order: float,
+    *,
+    revs_per_block: float = ...,
+    initial_angle_rev: float = ...,
+) -> list[npt.NDArray[np.float64]]: ...
+def calibrate_experiments(
+    model: str,
+    experiments: list[tuple[str, npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]],
+    *,
+    inputs: str,
+    description: str,
+    speed_column: str = ...,
+    with_offset: bool = ...,
+    full_scale: Optional[float] = ...,
+    bins: Optional[int] = ...,
+    speed_edges: Optional[list[float]] = ...,
+    degree: int = ...,
+    extrapolation: str = ...,
+) -> str: ...

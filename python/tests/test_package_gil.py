@@ -1,5 +1,5 @@
 """The package releases the GIL while Rust runs: a Python thread keeps running while
-another thread filters a long recording."""
+another thread filters a long recording (`filter_recording`, `RippleCanceller.run`)."""
 
 import threading
 import time
@@ -12,7 +12,11 @@ pd = pytest.importorskip("pandas")
 sw = pytest.importorskip("strainwave", reason="pip install ./python (./scripts/test-all does)")
 
 
-def test_filter_recording_lets_other_threads_run():
+CONFIG = ROOT / "examples" / "joint-taghirad-seed-6th.toml"
+
+
+@pytest.fixture(scope="module")
+def long_recording():
     one = sw.simulate("taghirad", duration=20, seed=5)
     # 30 copies end to end (time shifted), long enough that the Rust call takes a while.
     parts = []
@@ -20,13 +24,20 @@ def test_filter_recording_lets_other_threads_run():
         p = one.copy()
         p["time"] = p["time"] + 20.0 * k
         parts.append(p)
-    rec = pd.concat(parts, ignore_index=True)
-    config = ROOT / "examples" / "joint-taghirad-seed-6th.toml"
+    return pd.concat(parts, ignore_index=True)
+
+
+@pytest.mark.parametrize("call", ["filter_recording", "RippleCanceller.run"])
+def test_rust_calls_let_other_threads_run(long_recording, call):
+    rec = long_recording
     span = {}
 
     def work():
         t0 = time.perf_counter()
-        sw.filter_recording(rec, config=config)
+        if call == "filter_recording":
+            sw.filter_recording(rec, config=CONFIG)
+        else:
+            sw.RippleCanceller.from_config(CONFIG).run(rec)
         span["s"] = time.perf_counter() - t0
 
     ticks = []

@@ -32,6 +32,7 @@ mod stdout;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+use strainwave_joint::one_line;
 
 /// Torque sensing for strain wave gear (harmonic drive) joints and motor test benches.
 #[derive(Parser, Debug)]
@@ -177,21 +178,4 @@ fn main() -> ExitCode {
             ExitCode::from(1)
         }
     }
-}
-
-/// The error and its causes on one line, each cause once (a cause whose text is already
-/// in the line, as when an error prints its source itself, is not repeated).
-fn one_line(e: &anyhow::Error) -> String {
-    let mut line = String::new();
-    for cause in e.chain() {
-        let text = cause.to_string();
-        if line.contains(&text) {
-            continue;
-        }
-        if !line.is_empty() {
-            line.push_str(": ");
-        }
-        line.push_str(&text);
-    }
-    line
 }

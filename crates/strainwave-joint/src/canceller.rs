@@ -91,7 +91,7 @@ pub fn build_model<V: ModelVisitor>(cfg: &JointConfig, with_learned_priors: bool
 
 /// A core error in the words of the config file: a parameter the user did not write
 /// is named by the key it comes from (`noise_nm`, not the variance `r_nm2` made of it).
-pub(crate) fn in_config_terms(e: strainwave_core::Error, orders_model: bool, sample_rate_hz: f64) -> String {
+pub fn in_config_terms(e: strainwave_core::Error, orders_model: bool, sample_rate_hz: f64) -> String {
     use strainwave_core::Error as E;
     let key = |p: &'static str| match p {
         "r_nm2" => "filter.noise_nm",

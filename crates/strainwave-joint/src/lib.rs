@@ -10,6 +10,7 @@ pub mod canceller;
 pub mod config;
 pub mod export_c;
 pub mod learned;
+pub mod one_line;
 pub mod row_check;
 pub mod run;
 pub mod smooth;
@@ -17,5 +18,6 @@ pub mod toml_error;
 
 pub use config::{JointConfig, MAX_TABLE_LEN};
 pub use learned::LearnedFile;
+pub use one_line::one_line;
 pub use run::{filter_recording, FilterOptions, FilterSummary, OUTPUT_COLUMNS};
 pub use run::{DENOISED_COLUMN, SMOOTHED_COLUMNS};
