@@ -12,19 +12,23 @@
 //! ```
 //!
 //! With white innovation of variance σ² and no line, `E / σ²` is χ² with 2 degrees of
-//! freedom whatever the speed profile. σ² is not assumed: it is the median of `E` over
-//! the candidates of the same reference within ±6 orders (the candidate itself and
-//! the model's orders left out) divided by `2 ln 2`, the median of χ²₂. Then
-//! `P(E / median > t) = 2^(−t)`, and a line is **significant** when
-//! `E / median > log₂(candidates tested / 0.001)`: a false alarm in one run in a
-//! thousand over the whole scan (Bonferroni).
+//! freedom whatever the speed profile. Each candidate's statistic is `T = E / σ̂²`, σ̂²
+//! its own residual variance `(Σ e² − E) / (n − 2)` over its own samples (candidates
+//! see different samples: a high multiple passes the Nyquist guard sooner). Against a
+//! coloured innovation, `T` is compared with the median of `T` over the candidates of
+//! the same reference within ±6 orders (itself and the model's orders left out): under
+//! no line the median of χ²₂ is `2 ln 2`, `P(T / median > t) = 2^(−t)`, and a line is
+//! **significant** when `T / median > log₂(candidates tested / 0.001)`: one false alarm
+//! in a thousand scans (Bonferroni over the candidates). A candidate needs 100 cycles
+//! of its line.
 //!
 //! A line shows on several references when they turn together (with the flexspline
-//! fixed the relative angle is the motor angle): significant candidates are taken
-//! strongest first, and one is dropped as an alias when an accepted line, or an order
-//! of the model, differs from it by `d` cycles over the run and could explain it:
-//! `E ≤ 10 · E_accepted / max(1, (π d)²)` (the `sinc²` bound of how much of a line leaks
-//! into a fit `d` cycles away). A candidate also needs 20 cycles of its line.
+//! fixed the relative angle is the motor angle; with the circular spline fixed they
+//! differ by `1/N`): significant candidates are taken strongest first, and one is
+//! dropped as an alias when an accepted line, or an order of the model, drifts from it
+//! by `d < 3` cycles over the run (the run cannot tell them apart), or could explain it
+//! through leakage: `T ≤ 10 · T_accepted / (π d)²`, the `sinc²` bound of how much of a
+//! line a fit `d` cycles away picks up.
 //!
 //! Phase: a whole multiple with angle input uses `n θ` of the absolute angle (as the
 //! canceller's priors do); a half multiple, or velocity input, the phase integrated
@@ -44,7 +48,9 @@ const NEIGHBOURS: usize = 12;
 /// Fewest neighbours for a noise estimate.
 const MIN_NEIGHBOURS: usize = 6;
 /// Cycles of its line a candidate needs.
-pub const MIN_CYCLES: f64 = 20.0;
+pub const MIN_CYCLES: f64 = 100.0;
+/// Two lines that drift apart by fewer cycles than this over the run are one line.
+const UNRESOLVED_CYCLES: f64 = 3.0;
 /// How much more than the `sinc²` leakage bound an alias may show.
 const LEAK_MARGIN: f64 = 10.0;
 /// A jump in a reference beyond this per sample (rad) is not motion.
@@ -56,6 +62,8 @@ const REFERENCES: [Reference; 3] = [Reference::Relative, Reference::Output, Refe
 struct Sums {
     s: [f64; 2],
     g: [f64; 3],
+    e2: f64,
+    count: f64,
     cycles: f64,
 }
 
@@ -70,7 +78,7 @@ pub struct Discovery {
     pub coefficients_nm: [f64; 2],
     /// Their covariance, N·m², from the local noise estimate.
     pub covariance_nm2: [[f64; 2]; 2],
-    /// `E / median` of the neighbours.
+    /// `T / median` of the neighbours.
     pub power_ratio: f64,
     /// The significance threshold of the scan.
     pub threshold: f64,
@@ -181,6 +189,8 @@ impl OrderScan {
                 acc.g[0] += cn * cn;
                 acc.g[1] += cn * sn;
                 acc.g[2] += sn * sn;
+                acc.e2 += innovation_nm * innovation_nm;
+                acc.count += 1.0;
                 acc.cycles += line / (2.0 * PI);
             }
         }
@@ -194,8 +204,12 @@ impl OrderScan {
             k: usize,
             ab: [f64; 2],
             ginv: [[f64; 2]; 2],
+            /// `E / σ̂²` with σ̂² the candidate's own residual variance.
             e: f64,
+            sigma2: f64,
             cycles: f64,
+            /// Mean cycles per sample: the line's mean frequency.
+            rate: f64,
             modelled: bool,
         }
         let mut fits: Vec<Fit> = Vec::new();
@@ -208,10 +222,16 @@ impl OrderScan {
                 }
                 let ginv = [[d / det, -b / det], [-b / det, a / det]];
                 let ab = [ginv[0][0] * acc.s[0] + ginv[0][1] * acc.s[1], ginv[1][0] * acc.s[0] + ginv[1][1] * acc.s[1]];
-                let e = ab[0] * acc.s[0] + ab[1] * acc.s[1];
+                let explained = ab[0] * acc.s[0] + ab[1] * acc.s[1];
+                let sigma2 = (acc.e2 - explained) / (acc.count - 2.0);
+                if sigma2.is_nan() || sigma2 <= 0.0 {
+                    continue;
+                }
+                let e = explained / sigma2;
                 let n = 0.5 * (k + 1) as f64;
                 let modelled = modelled.iter().any(|&(mr, mn)| mr == REFERENCES[r] && mn == n);
-                fits.push(Fit { r, k, ab, ginv, e, cycles: acc.cycles, modelled });
+                let rate = acc.cycles / acc.count;
+                fits.push(Fit { r, k, ab, ginv, e, sigma2, cycles: acc.cycles, rate, modelled });
             }
         }
         let candidates = fits.iter().filter(|f| !f.modelled).count();
@@ -250,14 +270,16 @@ impl OrderScan {
         for (i, ratio, med) in significant {
             let f = &fits[i];
             let alias = accepted.iter().any(|&j| {
-                let d = (fits[j].cycles - f.cycles).abs();
-                f.e <= LEAK_MARGIN * fits[j].e / (PI * d).powi(2).max(1.0)
+                let d = (fits[j].rate / f.rate - 1.0).abs() * f.cycles.min(fits[j].cycles);
+                d < UNRESOLVED_CYCLES || f.e <= LEAK_MARGIN * fits[j].e / (PI * d).powi(2)
             });
             if alias {
                 continue;
             }
             accepted.push(i);
-            let sigma2 = med / (2.0 * std::f64::consts::LN_2);
+            // The noise variance behind the fit: its own residual, scaled by how far the
+            // neighbourhood's median sits from that of χ²₂ (coloured innovation).
+            let sigma2 = f.sigma2 * med / (2.0 * std::f64::consts::LN_2);
             let whole = f.k % 2 == 1;
             out.push(Discovery {
                 reference: REFERENCES[f.r],
