@@ -7,8 +7,9 @@
 //!   [`crate::merge`]), merged by information into `FILE` when it exists (after
 //!   checking that `FILE` belongs to this joint), else written as it is;
 //! - an order analysis of the cold canceller's innovation ([`crate::discover`]) finds
-//!   lines the model lacks; each one is appended to the file's orders as a discovered
-//!   order (up to [`MAX_ORDERS`] in all), and used as such by every later run;
+//!   lines the model lacks; each significant one of at least [`MIN_AMPLITUDE_OF_NOISE`]
+//!   times the noise is appended to the file's orders as a discovered order (up to
+//!   [`MAX_ORDERS`] in all), and used as such by every later run;
 //! - the file is written atomically (a temporary file, synced, renamed): an existing
 //!   file is replaced only by its merged successor.
 //!
@@ -32,6 +33,11 @@ use crate::merge::Gaussian2;
 /// the fit's own: the cold canceller's bias state and neighbouring orders take part of
 /// a line, so the fit on its innovation is only a starting point for the canceller.
 const DISCOVERED_MODEL_ERROR: f64 = 0.25;
+
+/// Smallest amplitude of a discovered line worth an order, in units of the model's
+/// measurement noise `√R`: a line of `0.3 √R` left out adds 2 % to the error's RMS.
+/// Significant lines below it are reported, not added.
+pub const MIN_AMPLITUDE_OF_NOISE: f64 = 0.3;
 
 /// One run's learning, whichever the model's order count.
 pub trait RunLearner {
@@ -203,6 +209,13 @@ impl<const M: usize> RunLearner for Learner<M> {
                 d.threshold,
                 d.cycles
             );
+            let least = MIN_AMPLITUDE_OF_NOISE * self.model.r_nm2().sqrt();
+            if d.amplitude_nm() < least {
+                lines.push(format!(
+                    "found {what}; not added: below {least:.4} N·m ({MIN_AMPLITUDE_OF_NOISE} × the noise)"
+                ));
+                continue;
+            }
             if orders.len() >= MAX_ORDERS {
                 lines.push(format!("discovered {what}; not added: the model holds at most {MAX_ORDERS} orders"));
                 continue;
