@@ -1,6 +1,6 @@
 //! The identity of a joint, as a learned file carries it: the gear ratio, the fixed
-//! element, the phase source, the canceller's orders, the channel mapping and a
-//! fingerprint of all of these. Learned coefficients belong to one joint: the phase of
+//! element, the phase source, the canceller's orders, the channels the coefficients
+//! depend on (torque and phase) and a fingerprint of all of these. Learned coefficients belong to one joint: the phase of
 //! a coefficient depends on the angle channels and their offsets, its order on the
 //! gear. A learned file whose identity differs from the config that would use it is
 //! refused, naming what differs.
@@ -40,7 +40,9 @@ pub struct JointIdentity {
     pub phase: String,
     /// The config's orders, e.g. `2 relative`, `2 relative load-scaled`, `1 output`.
     pub orders: Vec<String>,
-    /// The channel mapping, `key = column` (scale and offset only in the fingerprint).
+    /// The channels the coefficients depend on (the torque, and the motor and output
+    /// angles, or the tachometer for the velocity phase), `key = column`; their scale and
+    /// offset are in the fingerprint.
     pub channels: Vec<String>,
     /// FNV-1a 64 of the canonical text, 16 hexadecimal digits.
     pub fingerprint: String,
@@ -101,7 +103,12 @@ impl JointIdentity {
         for o in &orders {
             text.push_str(&format!("order = {o}\n"));
         }
-        for (key, c) in cfg.channel_list() {
+        // The channels the coefficients depend on: the torque and the phase's.
+        let phase_keys: &[&str] = match cfg.filter.phase {
+            PhaseChoice::Angle => &["torque", "motor_angle", "output_angle"],
+            PhaseChoice::Velocity => &["torque", "motor_velocity"],
+        };
+        for (key, c) in cfg.channel_list().into_iter().filter(|(k, _)| phase_keys.contains(k)) {
             let (scale, offset) = c.scale_offset();
             channels.push(format!("{key} = {}", c.column_name()));
             text.push_str(&format!("channels.{key} = {} * {scale:?} + {offset:?}\n", c.column_name()));

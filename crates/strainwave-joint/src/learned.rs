@@ -58,8 +58,9 @@ pub struct LearnedOrder {
     /// on each, uncorrelated).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub covariance_nm2: Option<[f64; 3]>,
-    /// Runs that added evidence about this order (0: the model's own prior).
-    #[serde(default)]
+    /// Runs that added evidence about this order (0: the model's own prior; absent, in
+    /// files of older versions: 1, the commissioning run that wrote it).
+    #[serde(default = "one_run")]
     pub runs: u32,
     /// Found by the order analysis of the innovation, not in the config.
     #[serde(default, skip_serializing_if = "is_false")]
@@ -70,6 +71,10 @@ pub struct LearnedOrder {
     /// Process noise of a discovered order per radian of its phase, N·m².
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub q_per_rad_nm2: Option<f64>,
+}
+
+fn one_run() -> u32 {
+    1
 }
 
 fn is_false(b: &bool) -> bool {
