@@ -298,3 +298,76 @@ impl OrderScan {
         out
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use strainwave_core::ripple::ReferenceValues;
+
+    /// Gaussian noise from a fixed seed (xorshift64* and Box–Muller).
+    struct Noise(u64);
+
+    impl Noise {
+        fn uniform(&mut self) -> f64 {
+            self.0 ^= self.0 >> 12;
+            self.0 ^= self.0 << 25;
+            self.0 ^= self.0 >> 27;
+            ((self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        }
+        fn normal(&mut self) -> f64 {
+            (-2.0 * self.uniform().ln()).sqrt() * (2.0 * PI * self.uniform()).cos()
+        }
+    }
+
+    /// A scan of `n` samples at 1 kHz: the motor turns at a varying speed, the relative
+    /// angle is `k_rel` times it, the output 1/50 of it; the innovation is white noise of
+    /// 0.1 N·m plus `line(relative, output, motor)`.
+    fn scan(n: usize, k_rel: f64, seed: u64, line: impl Fn(f64, f64, f64) -> f64) -> Vec<Discovery> {
+        let mut s = OrderScan::new(1000.0, 0.45, 0.05, PhaseSource::Angle);
+        let mut noise = Noise(seed);
+        let mut motor = 0.3;
+        for k in 0..n {
+            let t = k as f64 * 1e-3;
+            motor += 1e-3 * (40.0 + 15.0 * (0.7 * t).sin());
+            let (rel, out) = (k_rel * motor, motor / 50.0);
+            let e = 0.1 * noise.normal() + line(rel, out, motor);
+            let input = RippleInput::new(e, ReferenceValues::new(rel, out, motor));
+            s.observe(&input, e, StepFlags::empty());
+        }
+        let mut tested = 0;
+        let found = s.finish(&[(Reference::Relative, 2.0)], &mut tested);
+        assert!(tested > 60, "{tested} candidates");
+        found
+    }
+
+    #[test]
+    fn white_noise_has_no_line() {
+        for seed in 1..=5 {
+            let found = scan(20_000, 1.02, seed, |_, _, _| 0.0);
+            assert!(found.is_empty(), "seed {seed}: {found:?}");
+        }
+    }
+
+    #[test]
+    fn a_half_order_line_is_found_with_its_size() {
+        let found = scan(20_000, 1.02, 7, |_, _, m| 0.05 * (1.5 * m + 0.4).sin());
+        assert_eq!(found.len(), 1, "{found:?}");
+        let d = &found[0];
+        assert_eq!((d.reference, d.multiple, d.phase_carries), (Reference::Motor, 1.5, false));
+        assert!((d.amplitude_nm() - 0.05).abs() < 0.01, "{}", d.amplitude_nm());
+    }
+
+    #[test]
+    fn a_line_on_angles_that_turn_together_is_reported_once() {
+        // Relative and motor angles equal (flexspline fixed): one line, on the relative angle.
+        let found = scan(20_000, 1.0, 11, |r, _, _| 0.1 * (3.0 * r).cos());
+        assert_eq!(found.len(), 1, "{found:?}");
+        let d = &found[0];
+        assert_eq!((d.reference, d.multiple, d.phase_carries), (Reference::Relative, 3.0, true));
+        // 0.1 cos 3θ: cos coefficient 0.1 with the absolute phase.
+        assert!((d.coefficients_nm[0] - 0.1).abs() < 0.01 && d.coefficients_nm[1].abs() < 0.01, "{d:?}");
+        // A line on a model order's angle is the model's, not a discovery.
+        let found = scan(20_000, 1.0, 12, |r, _, _| 0.1 * (2.0 * r).cos());
+        assert!(found.is_empty(), "{found:?}");
+    }
+}

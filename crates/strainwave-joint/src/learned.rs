@@ -1,16 +1,31 @@
-//! The learned-coefficients file: what `strainwave filter --learn` writes at the end of
-//! a commissioning run and `filter.learned` reads back as the canceller's priors.
+//! The learned-coefficients file: what `strainwave filter --learn` writes (merging each
+//! run into it, see [`crate::learn`]) and `filter.learned` reads back as the canceller's
+//! priors.
 //!
 //! ```toml
-//! # learned by strainwave filter from commissioning.csv (30400 rows)
+//! # learned by strainwave filter, last from run.csv (30400 rows)
+//! [joint]                  # the joint it belongs to (crate::identity)
+//! ratio = 100.0
+//! fixed = "circular_spline"
+//! phase = "angle"
+//! orders = ["2 relative", "4 relative", "2 relative load-scaled", "4 relative load-scaled", "1 output"]
+//! channels = ["torque = bridge_voltage", "motor_angle = motor_angle", "output_angle = output_angle"]
+//! fingerprint = "5a7104d121e8638d"
+//!
 //! [[orders]]
 //! reference = "relative"   # relative | output | motor
 //! multiple = 2.0
 //! load_scaled = false
 //! cos_nm = 0.2541          # contribution cos_nm cos(nθ) + sin_nm sin(nθ), θ the absolute angle
 //! sin_nm = 0.4478          # (times |T̂| for a load-scaled order: N·m per N·m)
-//! variance_nm2 = 1.3e-6
+//! variance_nm2 = 1.3e-6    # the prior variance: larger eigenvalue of the covariance
+//! covariance_nm2 = [1.3e-6, 2e-9, 1.2e-6]   # [P00, P01, P11]
+//! runs = 3                 # runs merged into it
 //! ```
+//!
+//! Orders the order analysis discovered follow the config's, with `discovered = true` and
+//! their process noise (`q_per_sample_nm2`, `q_per_rad_nm2`). Files of older versions,
+//! without `[joint]`, `covariance_nm2` and `runs`, are read as one run each.
 
 use std::io::Write;
 use std::path::Path;

@@ -81,7 +81,8 @@ pub struct FilterOptions {
     /// Offline smoother (forward filter plus Rauch–Tung–Striebel pass) instead of the
     /// real-time filter.
     pub smooth: bool,
-    /// Learn the coefficients over this run and write them to this file.
+    /// Learn from this run, cold, beside the output filter, and merge what was learned
+    /// into this file (see [`crate::learn`]).
     pub learn: Option<PathBuf>,
     /// Prefix of the added columns.
     pub prefix: String,
