@@ -77,6 +77,18 @@ fn several_runs_in_one_call_merge_into_the_file() {
     let o = run(&["filter", "--config", s(&cfg), "--in", s(&a), "--out", s(&learned), "--learn", s(&learned)]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(std::fs::read_to_string(&learned).unwrap() == text, "the learned file changed");
+
+    // A run that fails part way (a torque cell that is not a number) leaves the file as it was.
+    let good = std::fs::read_to_string(&a).unwrap();
+    let mut lines: Vec<String> = good.lines().take(3000).map(String::from).collect();
+    let broken = lines[2000].splitn(7, ',').enumerate().map(|(i, c)| if i == 5 { "x" } else { c }).collect::<Vec<_>>();
+    lines[2000] = broken.join(",");
+    let bad = d.join("bad.csv");
+    std::fs::write(&bad, lines.join("\n") + "\n").unwrap();
+    let o = run(&["filter", "--config", s(&cfg), "--learn", s(&learned), "--in", s(&bad)]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("bad.csv"), "{}", stderr(&o));
+    assert!(std::fs::read_to_string(&learned).unwrap() == text, "the learned file changed");
     std::fs::remove_dir_all(&d).unwrap();
 }
 
