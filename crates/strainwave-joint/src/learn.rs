@@ -18,7 +18,7 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use strainwave_core::ripple::{step, Order, Reference, RippleInput, RippleModel, RippleState};
 use strainwave_io::output::AtomicFile;
 
@@ -151,7 +151,9 @@ impl<const M: usize> RunLearner for Learner<M> {
         for (i, o) in self.model.orders().iter().enumerate() {
             let (mean, var) = o.prior();
             let prior = Gaussian2::isotropic(mean, var.unwrap_or(p0));
-            let evidence = posterior(&self.state, i).and_then(|post| Gaussian2::evidence(&post, &prior));
+            let post = posterior(&self.state, i)
+                .with_context(|| format!("{file}: the canceller's state does not read back (`orders[{i}]`)"))?;
+            let evidence = Gaussian2::evidence(&post, &prior);
             let carries = !velocity && o.multiple().fract() == 0.0;
             let mut entry = match target.map(|t| &t.orders[i]) {
                 Some(old) => {
@@ -282,4 +284,35 @@ fn discovered_entry<const M: usize>(model: &RippleModel<f64, M>, d: &Discovery) 
     };
     entry.set_gaussian(&g);
     entry
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use strainwave_core::ripple::ReferenceValues;
+
+    /// The posterior read from the snapshot is the state's own: its mean and diagonal
+    /// match `RippleState::learned`, and its covariance is symmetric positive definite.
+    #[test]
+    fn posterior_reads_the_state() {
+        let model = RippleModel::<f64, 5>::full_commissioning(1000.0, 0.02).unwrap();
+        let mut state = RippleState::new(&model);
+        for k in 0..3000 {
+            let m = 0.15 * k as f64;
+            let phi = m * 1.01;
+            let y = 1.0 + 0.3 * (2.0 * phi).sin() + 0.1 * (4.0 * phi + 1.0).cos() + 0.2 * (m / 100.0).sin();
+            step(&model, &mut state, &RippleInput::new(y, ReferenceValues::new(phi, m / 100.0, m))).unwrap();
+        }
+        for i in 0..5 {
+            let g = posterior(&state, i).unwrap();
+            let (z, v) = state.learned(i).unwrap();
+            assert_eq!(g.mean_nm, z);
+            assert_eq!(g.cov_nm2[0][0].max(g.cov_nm2[1][1]), v);
+            assert_eq!(g.cov_nm2[0][1], g.cov_nm2[1][0]);
+            assert!(g.information().is_some(), "order {i}: {g:?}");
+        }
+        // The 2× line: 0.3 sin 2φ is the sin coefficient.
+        let g = posterior(&state, 0).unwrap();
+        assert!((g.mean_nm[1] - 0.3).abs() < 0.01 && g.mean_nm[0].abs() < 0.01, "{g:?}");
+    }
 }
