@@ -168,9 +168,8 @@ impl<const M: usize> RunLearner for Learner<M> {
                 None => new_entry(o, &prior, i >= base_len),
             };
             let Some(e) = evidence else {
-                if entry.runs == 0 {
-                    lines.push(format!("{}: nothing learned in this run (too little motion of its line)", label(o)));
-                }
+                let kept = if entry.runs == 0 { "its prior" } else { "the file's coefficients" };
+                lines.push(format!("{}: nothing learned in this run (its line hardly moved); kept {kept}", label(o)));
                 orders.push(entry);
                 continue;
             };
