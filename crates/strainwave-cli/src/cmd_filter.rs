@@ -1,10 +1,11 @@
 //! `strainwave filter`: the real-time ripple and misalignment canceller over a
 //! recording, streaming in constant memory (or the offline smoother with `--smooth`).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-use anyhow::Result;
-use strainwave_io::RecordingWriter;
+use anyhow::{bail, Result};
+use strainwave_io::{IoError, RecordingWriter};
+use strainwave_joint::run::RowSink;
 use strainwave_joint::{filter_recording, FilterOptions, JointConfig};
 
 /// Arguments of `filter`.
@@ -13,16 +14,18 @@ pub struct Args {
     /// Joint configuration (gear, channels, calibration, filter); see examples/joint-taghirad.toml.
     #[arg(long)]
     pub config: PathBuf,
-    /// Input recording (.csv, .parquet; `-` for CSV on standard input).
-    #[arg(long = "in")]
-    pub input: PathBuf,
+    /// Input recording (.csv, .parquet; `-` for CSV on standard input). With --learn,
+    /// several recordings may follow (`--in a.csv b.csv`): each run is learned from and
+    /// merged into FILE in turn; --out then takes the last run's output, or is left out.
+    #[arg(long = "in", required = true, num_args = 1..)]
+    pub input: Vec<PathBuf>,
     /// Output recording: the input columns plus torque, ripple, misalignment, innovation, nis,
     /// filter_flags; then torque_denoised when the config sets `filter.torque_bandwidth_hz`
     /// (causal, the clean torque filtered as a torque state: group delay at DC
     /// (1 − α)/(α fs) with α = 1 − exp(−2π f/fs), about 1/(2π f), e.g. 16 ms at 10 Hz; load
     /// steps restart it); then, with --smooth, torque_smoothed and torque_smoothed_sd.
-    #[arg(long)]
-    pub out: PathBuf,
+    #[arg(long, required_unless_present = "learn")]
+    pub out: Option<PathBuf>,
     /// Offline: forward filter plus Rauch–Tung–Striebel smoother (zero phase; reads the whole
     /// recording). `torque` stays the measurement minus the smoothed ripple and misalignment;
     /// torque_smoothed is that torque smoothed as a level-and-rate torque state (40 Hz, zero
@@ -30,8 +33,11 @@ pub struct Args {
     /// sharp), torque_smoothed_sd its 1σ.
     #[arg(long)]
     pub smooth: bool,
-    /// Commissioning: learn the ripple and misalignment coefficients over this run (the
-    /// `full` model uses its learning tuning) and write them to FILE, for `filter.learned`.
+    /// Learn from this run (any run: a canceller of the same joint learns cold beside
+    /// the output filter) and write what it learned to FILE, for `filter.learned`. An
+    /// existing FILE of the same joint is merged with the run by the coefficients'
+    /// covariances; a FILE of another joint is refused. An order analysis of the
+    /// innovation adds the lines the model lacks (reported). See docs/commissioning.md.
     #[arg(long, value_name = "FILE", conflicts_with = "smooth")]
     pub learn: Option<PathBuf>,
     /// Prefix for the added columns (when the input already has a `torque` column).
@@ -49,18 +55,38 @@ pub struct Args {
 
 /// Runs `filter`.
 pub fn run(a: &Args) -> Result<()> {
-    for out in std::iter::once(&a.out).chain(&a.learn) {
-        strainwave_io::output::refuse_input_as_output(out, [a.input.as_path(), a.config.as_path()])?;
+    if a.input.len() > 1 && a.learn.is_none() {
+        bail!("several --in recordings need --learn (each is learned from in turn)");
+    }
+    let inputs: Vec<&Path> = a.input.iter().map(PathBuf::as_path).collect();
+    for out in a.out.iter().chain(&a.learn) {
+        strainwave_io::output::refuse_input_as_output(out, inputs.iter().copied().chain([a.config.as_path()]))?;
+    }
+    if let (Some(out), Some(learn)) = (&a.out, &a.learn) {
+        if strainwave_io::output::same_file(out, learn) || out == learn {
+            bail!("{}: --out and --learn name the same file", out.display());
+        }
     }
     let cfg = JointConfig::load(&a.config)?;
-    let to_stdout = a.out.as_os_str() == "-";
-    let scratch_dir = match a.out.parent() {
+    let last = a.input.len() - 1;
+    for (i, input) in a.input.iter().enumerate() {
+        // Only the last run's output is kept; the others go nowhere.
+        let out = if i == last { a.out.as_deref() } else { None };
+        filter_one(a, &cfg, input, out)?;
+    }
+    Ok(())
+}
+
+/// One recording through the filter (and the learning beside it).
+fn filter_one(a: &Args, cfg: &JointConfig, input: &Path, out: Option<&Path>) -> Result<()> {
+    let to_stdout = out.is_some_and(|o| o.as_os_str() == "-");
+    let scratch_dir = match out.and_then(Path::parent) {
         _ if to_stdout => None,
         Some(p) if !p.as_os_str().is_empty() => Some(p.to_path_buf()),
         _ => Some(PathBuf::from(".")),
     };
     let opts = FilterOptions {
-        input_name: a.input.display().to_string(),
+        input_name: input.display().to_string(),
         smooth: a.smooth,
         learn: a.learn.clone(),
         prefix: a.prefix.clone(),
@@ -68,12 +94,15 @@ pub fn run(a: &Args) -> Result<()> {
         streaming_output: to_stdout,
         scratch_dir,
     };
-    let mut r = strainwave_io::RecordingReader::open(&a.input)?;
+    let mut r = strainwave_io::RecordingReader::open(input)?;
     let progress = crate::progress::Progress::new("filter", a.quiet, None);
-    let summary =
-        filter_recording(&cfg, &mut r, |columns| Ok(RecordingWriter::create(&a.out, columns)?), &opts, &mut |rows| {
-            progress.set(rows)
-        })?;
+    let create = |columns: &[&str]| -> Result<Sink> {
+        Ok(match out {
+            Some(o) => Sink::File(Box::new(RecordingWriter::create(o, columns)?)),
+            None => Sink::Discard(0),
+        })
+    };
+    let summary = filter_recording(cfg, &mut r, create, &opts, &mut |rows| progress.set(rows))?;
     progress.finish();
     if a.quiet {
         return Ok(());
@@ -86,7 +115,8 @@ pub fn run(a: &Args) -> Result<()> {
     }
     let how = if a.smooth { " (zero phase, offline)" } else { "" };
     let verb = if a.smooth { "smoothed" } else { "filtered" };
-    eprintln!("{verb} {} rows of {} -> {}{how}", summary.rows, a.input.display(), a.out.display());
+    let dest = out.map_or("nowhere (learning only)".to_string(), |o| o.display().to_string());
+    eprintln!("{verb} {} rows of {} -> {dest}{how}", summary.rows, input.display());
     if summary.extrapolated > 0 {
         eprintln!(
             "warning: {} samples used the calibration outside its speed range (its extrapolation policy)",
@@ -97,4 +127,34 @@ pub fn run(a: &Args) -> Result<()> {
         eprintln!("warning: {w}");
     }
     Ok(())
+}
+
+/// Where the rows go: a recording, or nowhere when only learning.
+enum Sink {
+    File(Box<RecordingWriter>),
+    Discard(u64),
+}
+
+impl RowSink for Sink {
+    fn write_row(&mut self, row: &[f64]) -> Result<(), IoError> {
+        match self {
+            Sink::File(w) => w.write_row(row),
+            Sink::Discard(n) => {
+                *n += 1;
+                Ok(())
+            }
+        }
+    }
+    fn flush(&mut self) -> Result<(), IoError> {
+        match self {
+            Sink::File(w) => w.flush(),
+            Sink::Discard(_) => Ok(()),
+        }
+    }
+    fn finish(self) -> Result<u64, IoError> {
+        match self {
+            Sink::File(w) => w.finish(),
+            Sink::Discard(n) => Ok(n),
+        }
+    }
 }

@@ -220,10 +220,11 @@ fn bad_inputs_are_one_line_errors_and_write_nothing() {
     };
     let cases = [
         (with("ratio = 100.0", "ratio = 0.0"), "gear.ratio"),
-        (with("output_angle = \"output_angle\"", "output_angle = \"link_angle\""), "no column `link_angle`"),
+        (with("motor_velocity = \"motor_velocity\"", "motor_velocity = \"tacho\""), "no column `tacho`"),
+        (with("output_angle = \"output_angle\"", "output_angle = \"link_angle\""), "learned on another joint"),
         (with("noise_nm = 0.0162", "noise_nm = -1.0"), "noise_nm"),
         (with("model = \"full\"", "model = \"magic\""), "filter.model"),
-        (with("model = \"full\"", "model = \"product\""), "has 5 orders, the model has 3"),
+        (with("model = \"full\"", "model = \"product\""), "orders [2 relative, 4 relative, 2 relative load-scaled"),
         (with("learned = \"joint-taghirad-learned.toml\"", "learned = \"missing.toml\""), "`filter.learned`: "),
         (with("gain_nm_per_v = 6.611", "file = \"nope.toml\""), "`calibration.file`: "),
         (with("[filter]", "[filter]\ncutoff = 3"), "cutoff"),

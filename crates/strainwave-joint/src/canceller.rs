@@ -89,6 +89,66 @@ pub fn build_model<V: ModelVisitor>(cfg: &JointConfig, with_learned_priors: bool
     }
 }
 
+/// Largest number of orders a model holds: the config's plus the discovered ones (the
+/// C ABI's `SW_MAX_ORDERS`, and the sizes the command line is built for).
+pub const MAX_ORDERS: usize = 8;
+
+/// [`build_model`], with `extra` orders (the ones a learned file discovered) appended
+/// after the config's. Without extras the model is exactly [`build_model`]'s.
+pub fn build_model_with<V: ModelVisitor>(
+    cfg: &JointConfig,
+    with_learned_priors: bool,
+    extra: &[Order<f64>],
+    visitor: V,
+) -> Result<V::Output> {
+    build_model(cfg, with_learned_priors, Extend { cfg, extra, visitor })
+}
+
+/// Appends orders to a built model, keeping its noise, bias, initial variances, phase
+/// source and limits.
+struct Extend<'a, V> {
+    cfg: &'a JointConfig,
+    extra: &'a [Order<f64>],
+    visitor: V,
+}
+
+impl<V: ModelVisitor> ModelVisitor for Extend<'_, V> {
+    type Output = V::Output;
+    fn visit<const M: usize>(self, base: RippleModel<f64, M>) -> Result<V::Output> {
+        if self.extra.is_empty() {
+            return self.visitor.visit(base);
+        }
+        let config = self.cfg.path.display().to_string();
+        let orders: Vec<Order<f64>> = base.orders().iter().chain(self.extra).copied().collect();
+        let core = |e: strainwave_core::Error| {
+            anyhow!("{config}: {}", in_config_terms(e, false, self.cfg.filter.sample_rate_hz))
+        };
+        let (p0_osc, p0_bias) = base.initial_variance_nm2();
+        macro_rules! with_m {
+            ($($m:literal)*) => {
+                match orders.len() {
+                    $($m => {
+                        let arr: [Order<f64>; $m] = orders.clone().try_into().map_err(|_| anyhow!("orders"))?;
+                        let mut model = RippleModel::new(arr, base.r_nm2(), base.sample_rate_hz())
+                            .map_err(core)?
+                            .with_phase_source(base.phase_source());
+                        if let Some(q) = base.bias_q_nm2() {
+                            model = model.with_bias_state(q).map_err(core)?;
+                        }
+                        let model = model
+                            .with_initial_variance(p0_osc, p0_bias)
+                            .and_then(|m| m.with_limits(*base.limits()))
+                            .map_err(core)?;
+                        self.visitor.visit(model)
+                    })*
+                    n => bail!("{config}: the model and the learned file's discovered orders make {n} orders, at most {MAX_ORDERS}"),
+                }
+            };
+        }
+        with_m!(1 2 3 4 5 6 7 8)
+    }
+}
+
 /// A core error in the words of the config file: a parameter the user did not write
 /// is named by the key it comes from (`noise_nm`, not the variance `r_nm2` made of it).
 pub fn in_config_terms(e: strainwave_core::Error, orders_model: bool, sample_rate_hz: f64) -> String {

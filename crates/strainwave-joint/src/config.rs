@@ -29,6 +29,9 @@ pub struct JointConfig {
     /// The file it was read from, for messages (empty when built in code).
     #[serde(skip)]
     pub path: PathBuf,
+    /// Warnings found at load (two channels reading one column), one line each.
+    #[serde(skip)]
+    pub warnings: Vec<String>,
 }
 
 /// `[gear]`.
@@ -212,7 +215,41 @@ impl JointConfig {
             bail!("{}: `filter.sample_rate_hz` must be positive", path.display());
         }
         c.denoiser().with_context(|| format!("{}", path.display()))?;
+        c.warnings = c.duplicate_channels();
         Ok(c)
+    }
+
+    /// The mapped channels, `(key, channel)`, in the order of `[channels]`.
+    pub fn channel_list(&self) -> Vec<(&'static str, &Channel)> {
+        let ch = &self.channels;
+        let optional = [
+            ("motor_angle", &ch.motor_angle),
+            ("output_angle", &ch.output_angle),
+            ("motor_velocity", &ch.motor_velocity),
+            ("expected_torque", &ch.expected_torque),
+        ];
+        let mut out = vec![("time", &ch.time), ("torque", &ch.torque)];
+        out.extend(optional.into_iter().filter_map(|(k, c)| c.as_ref().map(|c| (k, c))));
+        out
+    }
+
+    /// One warning per pair of channels that read the same column: a copy-paste slip
+    /// that would feed, say, the motor angle as the output angle.
+    pub fn duplicate_channels(&self) -> Vec<String> {
+        let list = self.channel_list();
+        let mut out = Vec::new();
+        for (i, (a, ca)) in list.iter().enumerate() {
+            for (b, cb) in &list[i + 1..] {
+                if ca.column_name() == cb.column_name() {
+                    out.push(format!(
+                        "{}: `channels.{a}` and `channels.{b}` both read column `{}`",
+                        self.path.display(),
+                        ca.column_name()
+                    ));
+                }
+            }
+        }
+        out
     }
 
     /// The gear; errors name `gear.ratio` / `gear.fixed`.
@@ -302,5 +339,19 @@ mod tests {
         assert_eq!(c.orders_noise_variance_nm2().unwrap(), 4e-4);
         let c = load(&BASE.replace("noise_nm = 0.02", "noise_nm = 0.02\nr_nm2 = 4e-4")).unwrap();
         assert!(c.orders_noise_variance_nm2().unwrap_err().to_string().contains("keep `noise_nm`"));
+    }
+
+    #[test]
+    fn two_channels_on_one_column_are_a_warning() {
+        assert!(load(BASE).unwrap().warnings.is_empty());
+        let text = BASE.replace(
+            "torque = \"t\"\n",
+            "torque = \"t\"\nmotor_angle = \"a\"\noutput_angle = { column = \"a\", scale = 0.01 }\n",
+        );
+        let c = load(&text).unwrap();
+        assert_eq!(c.warnings.len(), 1, "{:?}", c.warnings);
+        let w = &c.warnings[0];
+        assert!(w.contains("`channels.motor_angle` and `channels.output_angle` both read column `a`"), "{w}");
+        assert!(w.contains(".toml: ") && !w.contains('\n'), "{w}");
     }
 }

@@ -17,7 +17,7 @@ use strainwave_core::gear::FixedElement;
 use strainwave_core::ripple::{Limits, PhaseSource, Reference, RippleModel};
 use strainwave_io::Channel;
 
-use crate::canceller::{build_model, ModelVisitor};
+use crate::canceller::{build_model_with, ModelVisitor};
 use crate::config::{JointConfig, MAX_TABLE_LEN};
 use crate::learned::LearnedFile;
 
@@ -62,16 +62,15 @@ struct PlainModel {
 /// Builds the model and applies the learned file, as `filter` does.
 struct Extract<'a> {
     cfg: &'a JointConfig,
-    learned: Option<&'a Path>,
+    learned: Option<(&'a LearnedFile, &'a Path)>,
 }
 
 impl ModelVisitor for Extract<'_> {
     type Output = PlainModel;
     fn visit<const M: usize>(self, model: RippleModel<f64, M>) -> Result<PlainModel> {
         let model = match self.learned {
-            Some(path) => {
-                let field = || format!("{}: `filter.learned`", self.cfg.path.display());
-                LearnedFile::load(path).with_context(field)?.apply(model, path).with_context(field)?
+            Some((file, path)) => {
+                file.apply(model, path).with_context(|| format!("{}: `filter.learned`", self.cfg.path.display()))?
             }
             None => model,
         };
@@ -110,7 +109,14 @@ pub fn export_c(cfg: &JointConfig, learned: Option<&Path>, name: &str, precision
     check_identifier(name)?;
     let config = cfg.path.display().to_string();
     let learned = learned.or(cfg.filter.learned.as_deref());
-    let model = build_model(cfg, learned.is_some(), Extract { cfg, learned })?;
+    let field = || format!("{config}: `filter.learned`");
+    let file = learned.map(|p| LearnedFile::load_for(p, cfg).with_context(field)).transpose()?;
+    let extras = match (&file, learned) {
+        (Some((f, _)), Some(p)) => f.extras(p).with_context(field)?,
+        _ => Vec::new(),
+    };
+    let pair = file.as_ref().zip(learned).map(|((f, _), p)| (f, p));
+    let model = build_model_with(cfg, learned.is_some(), &extras, Extract { cfg, learned: pair })?;
     if model.orders.len() > C_MAX_ORDERS {
         bail!("{config}: the C ABI holds at most {C_MAX_ORDERS} orders, the model has {}", model.orders.len());
     }

@@ -8,8 +8,12 @@
 
 pub mod canceller;
 pub mod config;
+pub mod discover;
 pub mod export_c;
+pub mod identity;
+pub mod learn;
 pub mod learned;
+pub mod merge;
 pub mod one_line;
 pub mod row_check;
 pub mod run;

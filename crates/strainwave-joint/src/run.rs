@@ -14,7 +14,7 @@ use strainwave_core::ripple::{
 };
 use strainwave_io::{BoundChannel, IoError, RecordingReader, RecordingWriter};
 
-use crate::canceller::{build_model, in_config_terms, ModelVisitor};
+use crate::canceller::{build_model_with, in_config_terms, ModelVisitor};
 use crate::config::{JointConfig, ModelChoice, MAX_TABLE_LEN};
 use crate::learned::LearnedFile;
 use crate::row_check::RowCheck;
@@ -81,7 +81,8 @@ pub struct FilterOptions {
     /// Offline smoother (forward filter plus Rauch–Tung–Striebel pass) instead of the
     /// real-time filter.
     pub smooth: bool,
-    /// Learn the coefficients over this run and write them to this file.
+    /// Learn from this run, cold, beside the output filter, and merge what was learned
+    /// into this file (see [`crate::learn`]).
     pub learn: Option<PathBuf>,
     /// Prefix of the added columns.
     pub prefix: String,
@@ -126,10 +127,22 @@ pub fn filter_recording<S: RowSource, W: RowSink>(
              the misalignment needs several output revolutions (see `filter --learn`)"
         ));
     }
-    // Learning (commissioning, or no learned file yet) or operating from learned priors.
-    let with_learned_priors = opts.learn.is_none() && cfg.filter.learned.is_some();
-    let run = Run { cfg, opts, source, create, progress };
-    let mut summary = build_model(cfg, with_learned_priors, run)?;
+    // Operating from learned priors when the config has them (a `--learn` run may
+    // create the file the config names); learning runs beside it, cold (crate::learn).
+    let learned = match &cfg.filter.learned {
+        Some(path) if opts.learn.is_none() || path.exists() => {
+            let field = || format!("{config}: `filter.learned`");
+            let (file, warning) = LearnedFile::load_for(path, cfg).with_context(field)?;
+            notes.extend(warning);
+            Some((file.extras(path).with_context(field)?, file, path.as_path()))
+        }
+        _ => None,
+    };
+    let session = opts.learn.as_deref().map(|p| crate::learn::Session::start(cfg, p)).transpose()?;
+    let extras = learned.as_ref().map(|l| l.0.clone()).unwrap_or_default();
+    let run = Run { cfg, opts, source, create, progress, learned: learned.as_ref().map(|l| (&l.1, l.2)), session };
+    let mut summary = build_model_with(cfg, learned.is_some(), &extras, run)?;
+    summary.warnings.splice(0..0, cfg.warnings.iter().cloned());
     if let Some(d) = cfg.denoiser()? {
         notes.push(format!(
             "torque_denoised: {} Hz, group delay at DC {:.2} ms",
@@ -228,6 +241,8 @@ struct Run<'a, S, C> {
     source: &'a mut S,
     create: C,
     progress: &'a mut dyn FnMut(u64),
+    learned: Option<(&'a LearnedFile, &'a std::path::Path)>,
+    session: Option<crate::learn::Session>,
 }
 
 impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> ModelVisitor for Run<'_, S, C> {
@@ -239,17 +254,16 @@ impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> ModelVisitor for
 
 impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
     fn stream<const M: usize>(self, model: &RippleModel<f64, M>) -> Result<FilterSummary> {
-        let Run { cfg, opts, source: r, create, progress } = self;
+        let Run { cfg, opts, source: r, create, progress, learned, mut session } = self;
         let config = cfg.path.display().to_string();
         let input = opts.input_name.as_str();
         let learned_model;
-        let model = match (&cfg.filter.learned, &opts.learn) {
-            (Some(path), None) => {
-                let field = || format!("{config}: `filter.learned`");
-                learned_model = LearnedFile::load(path).with_context(field)?.apply(*model, path).with_context(field)?;
+        let model = match learned {
+            Some((file, path)) => {
+                learned_model = file.apply(*model, path).with_context(|| format!("{config}: `filter.learned`"))?;
                 &learned_model
             }
-            _ => model,
+            None => model,
         };
         let gear = cfg.gear().with_context(|| config.clone())?;
         let cal = cfg.calibration().with_context(|| config.clone())?;
@@ -308,6 +322,9 @@ impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
                 first_t.get_or_insert(t);
                 last_t = Some(t);
             }
+            if let Some(l) = session.as_mut() {
+                l.observe(&sample);
+            }
             let o: RippleOutput<f64> = step(model, &mut state, &sample).map_err(|e| {
                 let why = in_config_terms(e, cfg.filter.model == ModelChoice::Orders, cfg.filter.sample_rate_hz);
                 anyhow!("{input}: data row {n}: {why}")
@@ -347,18 +364,17 @@ impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
         // The learned file is written and synced before the output replaces anything:
         // a `--learn` that cannot be written leaves `--out` as it was.
         let rows = r.rows_read();
-        let learned = match &opts.learn {
-            Some(path) => Some(
-                LearnedFile::from_state(model, &state)
-                    .stage(path, &format!("learned by strainwave filter from {input} ({rows} rows)"))?,
-            ),
+        let learned = match session {
+            Some(l) => Some(l.stage(&format!("learned by strainwave filter, last from {input} ({rows} rows)"))?),
             None => None,
         };
         let rows = w.finish()?;
-        if let Some(file) = learned {
+        let mut notes = Vec::new();
+        if let Some((file, mut lines)) = learned {
             file.commit()?;
+            notes.append(&mut lines);
         }
         let span = first_t.zip(last_t).map(|(t0, t1)| t1 - t0);
-        Ok(FilterSummary { rows, notes: Vec::new(), extrapolated, warnings: check.warnings(input, rows, span) })
+        Ok(FilterSummary { rows, notes, extrapolated, warnings: check.warnings(input, rows, span) })
     }
 }

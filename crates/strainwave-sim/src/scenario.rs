@@ -47,6 +47,36 @@ pub struct Scenario {
     /// External torque on the load, the sum of these components.
     #[serde(default)]
     pub external_torque: Vec<ExternalTorque>,
+    /// Further lines the sensor picks up (an order no canceller model lists, say).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub extra_lines: Vec<ExtraLine>,
+}
+
+/// The angle an extra line is periodic in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LineReference {
+    /// Relative wave generator–flexspline angle (counted in `true_ripple`).
+    Relative,
+    /// Output angle (counted in `true_misalignment`).
+    Output,
+    /// Motor angle (counted in `true_ripple`).
+    Motor,
+}
+
+/// A sensor-side line `amplitude_nm · sin(multiple · θ + phase_rad)` in output N·m.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExtraLine {
+    /// The angle `θ`.
+    pub reference: LineReference,
+    /// Multiple of `θ`.
+    pub multiple: f64,
+    /// Amplitude, N·m.
+    pub amplitude_nm: f64,
+    /// Phase, rad.
+    #[serde(default)]
+    pub phase_rad: f64,
 }
 
 /// Which gear element is fixed, as written in TOML.

@@ -4,7 +4,7 @@ use crate::error::SimError;
 use crate::joint::{JointModel, JointState, SpeedController};
 use crate::profile::{external_torque_nm, Command, MotionProfile};
 use crate::rng::Rng;
-use crate::scenario::{ExternalTorque, Scenario};
+use crate::scenario::{ExternalTorque, LineReference, Scenario};
 use crate::sensors::TorqueSensor;
 
 /// Measured columns, in order. `measured_torque` is the bridge voltage times the
@@ -182,7 +182,20 @@ impl Simulator {
         let r = &s.ripple;
         let mesh = (r.amplitude_2x_nm + r.amplitude_2x_per_nm * tau.abs()) * (2.0 * phi + r.phase_2x_rad).sin()
             + (r.amplitude_4x_nm + r.amplitude_4x_per_nm * tau.abs()) * (4.0 * phi + r.phase_4x_rad).sin();
-        let mis = s.misalignment.amplitude_nm * (x.output_angle_rad + s.misalignment.phase_rad).sin();
+        let mut mis = s.misalignment.amplitude_nm * (x.output_angle_rad + s.misalignment.phase_rad).sin();
+        let mut mesh = mesh;
+        for l in &s.extra_lines {
+            let theta = match l.reference {
+                LineReference::Relative => phi,
+                LineReference::Output => x.output_angle_rad,
+                LineReference::Motor => x.motor_angle_rad,
+            };
+            let v = l.amplitude_nm * (l.multiple * theta + l.phase_rad).sin();
+            match l.reference {
+                LineReference::Output => mis += v,
+                _ => mesh += v,
+            }
+        }
 
         // Measurements.
         let reading = self.sensor.read(tau + mesh + mis, phi, &mut self.rng);

@@ -236,3 +236,37 @@ fn integrator_converges_against_a_finer_step() {
     let floor = strainwave_sim::Simulator::new(&s).unwrap().sensor().noise_floor_nm();
     assert!(err < 0.2 * floor, "max |Δτ| between step sizes: {err} N·m, noise floor {floor} N·m");
 }
+
+/// An extra line adds `A sin(n θ + p)` to the sensed torque and to its truth column
+/// (`true_ripple` for the relative and motor angles, `true_misalignment` for the
+/// output), and nothing else: the dynamics and the other columns stay the same.
+#[test]
+fn extra_lines_add_to_the_reading_and_its_truth() {
+    use strainwave_sim::scenario::{ExtraLine, LineReference};
+    let mut base = strainwave_sim::presets::preset("taghirad").unwrap();
+    base.duration_s = 0.5;
+    let mut with = base.clone();
+    with.extra_lines = vec![
+        ExtraLine { reference: LineReference::Relative, multiple: 3.0, amplitude_nm: 0.3, phase_rad: 0.9 },
+        ExtraLine { reference: LineReference::Output, multiple: 2.0, amplitude_nm: 0.1, phase_rad: 0.0 },
+    ];
+    let (a, _) = strainwave_sim::simulate(&base).unwrap();
+    let (b, _) = strainwave_sim::simulate(&with).unwrap();
+    let col = |r: &strainwave_sim::Recording, n: &str| r.column(n).unwrap().to_vec();
+    let (phi, out) = (col(&a, "true_relative_angle"), col(&a, "true_output_angle"));
+    assert_eq!(phi, col(&b, "true_relative_angle"));
+    assert_eq!(col(&a, "true_torque"), col(&b, "true_torque"));
+    let (ra, rb) = (col(&a, "true_ripple"), col(&b, "true_ripple"));
+    let (ma, mb) = (col(&a, "true_misalignment"), col(&b, "true_misalignment"));
+    for k in 0..phi.len() {
+        assert!((rb[k] - ra[k] - 0.3 * (3.0 * phi[k] + 0.9).sin()).abs() < 1e-12, "row {k}");
+        assert!((mb[k] - ma[k] - 0.1 * (2.0 * out[k]).sin()).abs() < 1e-12, "row {k}");
+    }
+    // The reading carries it (up to the ADC step, 0.032 N·m).
+    let (ta, tb) = (col(&a, "measured_torque"), col(&b, "measured_torque"));
+    let worst = (0..phi.len()).map(|k| (tb[k] - ta[k] - (rb[k] - ra[k]) - (mb[k] - ma[k])).abs()).fold(0.0, f64::max);
+    assert!(worst < 0.04, "{worst}");
+    // A negative amplitude is refused, naming the key.
+    with.extra_lines[0].amplitude_nm = -1.0;
+    assert!(with.validate().unwrap_err().to_string().contains("extra_lines.amplitude_nm"));
+}

@@ -50,6 +50,11 @@ impl Scenario {
         fin(r.phase_2x_rad, "ripple.phase_2x_rad")?;
         fin(r.phase_4x_rad, "ripple.phase_4x_rad")?;
         fin(self.misalignment.phase_rad, "misalignment.phase_rad")?;
+        for l in &self.extra_lines {
+            pos(l.multiple, "extra_lines.multiple")?;
+            nonneg(l.amplitude_nm, "extra_lines.amplitude_nm")?;
+            fin(l.phase_rad, "extra_lines.phase_rad")?;
+        }
         let s = &self.sensor;
         pos(s.gauge_factor, "sensor.gauge_factor")?;
         pos(s.excitation_v, "sensor.excitation_v")?;

@@ -1,0 +1,170 @@
+//! `strainwave filter --learn` end to end: several runs in one call, order discovery
+//! reported, the joint identity of a learned file, and the duplicate-channel warning.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn run(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_strainwave")).args(args).output().expect("run strainwave")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("sw-learn-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn assert_user_error(o: &Output, needles: &[&str]) {
+    let e = stderr(o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    for n in needles {
+        assert!(e.contains(n), "`{n}` not in: {e}");
+    }
+    assert_eq!(e.trim_end().lines().count(), 1, "one line: {e}");
+}
+
+/// A copy of the example taghirad config in `d`, its learned file `learned` (absolute).
+fn config(d: &Path, learned: &Path, edit: impl Fn(String) -> String) -> PathBuf {
+    let text = std::fs::read_to_string(root().join("examples/joint-taghirad.toml")).unwrap();
+    let text = text.replace("\"joint-taghirad-learned.toml\"", &format!("{:?}", s(learned)));
+    let p = d.join("joint.toml");
+    std::fs::write(&p, edit(text)).unwrap();
+    p
+}
+
+fn simulate(d: &Path, preset: &str, seconds: &str) -> PathBuf {
+    let f = d.join(format!("{preset}-{seconds}.csv"));
+    let o = run(&["simulate", "--preset", preset, "--duration", seconds, "--out", s(&f), "-q"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    f
+}
+
+/// Two recordings in one call, learning only: each is merged into the file in turn
+/// (runs = 2) and each run's order analysis is reported.
+#[test]
+fn several_runs_in_one_call_merge_into_the_file() {
+    let d = tmp("several");
+    let (a, b) = (simulate(&d, "taghirad-commissioning", "8"), simulate(&d, "taghirad", "4"));
+    let learned = d.join("learned.toml");
+    let cfg = config(&d, &learned, |t| t);
+    let o = run(&["filter", "--config", s(&cfg), "--learn", s(&learned), "--in", s(&a), s(&b)]);
+    let e = stderr(&o);
+    assert!(o.status.success(), "{e}");
+    assert_eq!(e.matches("note: order analysis of the innovation:").count(), 2, "{e}");
+    assert_eq!(e.matches("-> nowhere (learning only)").count(), 2, "{e}");
+    let text = std::fs::read_to_string(&learned).unwrap();
+    assert!(text.contains("[joint]") && text.contains("fingerprint = "), "{text}");
+    // The 2× ripple line turns in both runs: both added to it.
+    let first = text.split("[[orders]]").nth(1).unwrap();
+    assert!(first.contains("multiple = 2.0") && first.contains("runs = 2"), "{first}");
+
+    // Several inputs without --learn, and --out naming the learned file, are refused.
+    let out = d.join("f.csv");
+    let o = run(&["filter", "--config", s(&cfg), "--in", s(&a), s(&b), "--out", s(&out)]);
+    assert_user_error(&o, &["several --in recordings need --learn"]);
+    let o = run(&["filter", "--config", s(&cfg), "--in", s(&a), "--out", s(&learned), "--learn", s(&learned)]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(std::fs::read_to_string(&learned).unwrap() == text, "the learned file changed");
+
+    // A run that fails part way (a torque cell that is not a number) leaves the file as it was.
+    let good = std::fs::read_to_string(&a).unwrap();
+    let mut lines: Vec<String> = good.lines().take(3000).map(String::from).collect();
+    let broken = lines[2000].splitn(7, ',').enumerate().map(|(i, c)| if i == 5 { "x" } else { c }).collect::<Vec<_>>();
+    lines[2000] = broken.join(",");
+    let bad = d.join("bad.csv");
+    std::fs::write(&bad, lines.join("\n") + "\n").unwrap();
+    let o = run(&["filter", "--config", s(&cfg), "--learn", s(&learned), "--in", s(&bad)]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("bad.csv"), "{}", stderr(&o));
+    assert!(std::fs::read_to_string(&learned).unwrap() == text, "the learned file changed");
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// The case: the flexspline-fixed joint's learned file with the taghirad config
+/// is refused, naming the file and the fixed element.
+#[test]
+fn a_learned_file_of_another_joint_is_refused() {
+    let d = tmp("identity");
+    let rec = simulate(&d, "taghirad", "1");
+    let other = root().join("examples/joint-flexspline-fixed-learned.toml");
+    let cfg = config(&d, &other, |t| t);
+    let o = run(&["filter", "--config", s(&cfg), "--in", s(&rec), "--out", s(&d.join("f.csv"))]);
+    assert_user_error(
+        &o,
+        &[
+            "joint-flexspline-fixed-learned.toml: learned on another joint",
+            "gear.fixed flexspline in the file, circular_spline",
+        ],
+    );
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// Two channels on one column: a warning naming both keys and the column.
+#[test]
+fn two_channels_on_one_column_are_a_warning() {
+    let d = tmp("dup");
+    let rec = simulate(&d, "taghirad", "1");
+    let learned = root().join("examples/joint-taghirad-learned.toml");
+    let cfg =
+        config(&d, &learned, |t| t.replace("motor_velocity = \"motor_velocity\"", "motor_velocity = \"output_angle\""));
+    let o = run(&["filter", "--config", s(&cfg), "--in", s(&rec), "--out", s(&d.join("f.csv"))]);
+    let e = stderr(&o);
+    assert!(o.status.success(), "{e}");
+    let w: Vec<&str> = e.lines().filter(|l| l.contains("both read")).collect();
+    assert_eq!(w.len(), 1, "{e}");
+    assert!(
+        w[0].starts_with("warning: ")
+            && w[0].contains(
+                "joint.toml: `channels.output_angle` and `channels.motor_velocity` both read column `output_angle`"
+            ),
+        "{}",
+        w[0]
+    );
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// A joint with a 3× relative line no model lists: the order analysis reports it and
+/// the learned file holds it as a sixth order.
+#[test]
+fn an_unmodelled_line_is_discovered_and_reported() {
+    let d = tmp("discover");
+    let preset =
+        std::fs::read_to_string(root().join("crates/strainwave-sim/presets/taghirad-commissioning.toml")).unwrap();
+    let scenario = format!(
+        "{}\n[[extra_lines]]\nreference = \"relative\"\nmultiple = 3.0\namplitude_nm = 0.3\nphase_rad = 0.9\n",
+        preset.replace("noise_v_rms = 0.002", "noise_v_rms = 0.0227")
+    );
+    let sc = d.join("joint-3x.toml");
+    std::fs::write(&sc, scenario).unwrap();
+    let rec = d.join("comm.csv");
+    let o = run(&["simulate", "--scenario", s(&sc), "--duration", "10", "--out", s(&rec), "-q"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let learned = d.join("learned.toml");
+    let cfg = config(&d, &learned, |t| t.replace("noise_nm = 0.0162", "noise_nm = 0.150"));
+    let o = run(&["filter", "--config", s(&cfg), "--in", s(&rec), "--learn", s(&learned)]);
+    let e = stderr(&o);
+    assert!(o.status.success(), "{e}");
+    let found: Vec<&str> = e.lines().filter(|l| l.starts_with("note: discovered")).collect();
+    assert_eq!(found.len(), 1, "{e}");
+    assert!(
+        found[0].starts_with("note: discovered 3 relative: 0.") && found[0].contains("; added to "),
+        "{}",
+        found[0]
+    );
+    let text = std::fs::read_to_string(&learned).unwrap();
+    assert_eq!(text.matches("[[orders]]").count(), 6, "{text}");
+    assert!(text.contains("discovered = true"), "{text}");
+    std::fs::remove_dir_all(&d).unwrap();
+}
