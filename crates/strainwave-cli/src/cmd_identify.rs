@@ -398,13 +398,88 @@ fn compliance_options(cfg: &ArmConfig, windup_offset: bool) -> Result<Compliance
     opts.friction = cfg.friction.as_ref().map(|f| FrictionFitOptions {
         coulomb: f.coulomb,
         viscous: f.viscous,
-        stribeck_speed_rad_s: f.stribeck_speed_rad_s,
+        stribeck_speed_rad_s: stribeck_candidates(cfg).ok().and_then(|c| c.first().copied()),
         load_dependent: f.load_dependent,
         inertia: f.rotor_inertia,
         smoothing_speed_rad_s: f.smoothing_speed_rad_s,
         rate_span: f.rate_span,
     });
     Ok(opts)
+}
+
+/// The Stribeck speeds to choose from (empty: no Stribeck term).
+fn stribeck_candidates(cfg: &ArmConfig) -> Result<Vec<f64>> {
+    match cfg.friction.as_ref().and_then(|f| f.stribeck_speed_rad_s.as_ref()) {
+        None => Ok(Vec::new()),
+        Some(c) => c.candidates("friction.stribeck_speed_rad_s"),
+    }
+}
+
+/// Chooses the Stribeck speed among `candidates` by blocked cross-validation on `rows`
+/// alone: `rows` cut into `folds` contiguous pieces, each predicted by a model (kinematic
+/// error included) identified on the others; the speed with the least pooled squared
+/// error wins. A fold where some candidate cannot be identified (its training rows do
+/// not excite a term, e.g. a joint that never stops) is left out for every candidate.
+/// Returns the speed, the pooled RMS per candidate and the folds scored.
+#[allow(clippy::too_many_arguments)]
+fn choose_stribeck_speed(
+    candidates: &[f64],
+    folds: usize,
+    rows: &[usize],
+    gear: &Gear<f64>,
+    plan: &KinematicPlan,
+    angles: &JointAngles,
+    reference: &[f64],
+    opts: &ComplianceFitOptions,
+) -> Result<(f64, Vec<f64>, usize)> {
+    let pieces = strainwave_analysis::ident::holdout_blocks(rows.len(), folds)?;
+    // Squared error and count per candidate and fold (None: not identifiable there).
+    let mut sse: Vec<Vec<Option<(f64, usize)>>> = Vec::with_capacity(candidates.len());
+    let mut first_error = None;
+    for &vs in candidates {
+        let mut o = opts.clone();
+        if let Some(f) = o.friction.as_mut() {
+            f.stribeck_speed_rad_s = Some(vs);
+        }
+        let per_fold = pieces
+            .iter()
+            .map(|piece| {
+                let train: Vec<usize> = rows[..piece.start].iter().chain(&rows[piece.end..]).copied().collect();
+                let pred = plan.fit(gear, angles, &train).and_then(|kin| {
+                    let o = ComplianceFitOptions { train_rows: Some(train), ..o.clone() };
+                    let fit = fit_compliance(gear, &kin, angles, reference, &o)?;
+                    Ok(fit.predict_reference(gear, kin, angles)?)
+                });
+                match pred {
+                    Ok(pred) => {
+                        let test = &rows[piece.clone()];
+                        Some((test.iter().map(|&k| (pred[k] - reference[k]).powi(2)).sum::<f64>(), test.len()))
+                    }
+                    Err(e) => {
+                        first_error.get_or_insert_with(|| format!("{e:#}"));
+                        None
+                    }
+                }
+            })
+            .collect();
+        sse.push(per_fold);
+    }
+    let scored: Vec<usize> = (0..pieces.len()).filter(|&f| sse.iter().all(|c| c[f].is_some())).collect();
+    if scored.is_empty() {
+        bail!(
+            "friction.stribeck_speed_rad_s: no fold where every candidate of {candidates:?} can be identified ({})",
+            first_error.unwrap_or_default()
+        );
+    }
+    let rms: Vec<f64> = sse
+        .iter()
+        .map(|c| {
+            let (e, n) = scored.iter().filter_map(|&f| c[f]).fold((0.0, 0), |(e, n), (a, b)| (e + a, n + b));
+            (e / n as f64).sqrt()
+        })
+        .collect();
+    let best = (0..candidates.len()).min_by(|&a, &b| rms[a].total_cmp(&rms[b])).unwrap_or(0);
+    Ok((candidates[best], rms, scored.len()))
 }
 
 /// Explains a negative stiffness with the settings that fix it.
@@ -450,14 +525,36 @@ pub fn run(a: &Args) -> Result<()> {
     let all: Vec<usize> = (0..n).collect();
     let kin = plan.fit(&gear, &ld_angles, &all).context("kinematic-error fit")?;
     // Without a no-load run nothing fixes the zero of the wind-up: fit it.
-    let opts = compliance_options(&cfg, nl.is_none())?;
-    let fit = fit_compliance(&gear, &kin, &ld_angles, &reference, &opts)
-        .map_err(anyhow::Error::from)
-        .map_err(stiffness_hint)
-        .context("compliance fit")?;
+    let mut opts = compliance_options(&cfg, nl.is_none())?;
+    let stribeck = stribeck_candidates(&cfg)?;
+    let fit_all = |opts: &ComplianceFitOptions| {
+        fit_compliance(&gear, &kin, &ld_angles, &reference, opts)
+            .map_err(anyhow::Error::from)
+            .map_err(stiffness_hint)
+            .context("compliance fit")
+    };
+    // The first candidate's fit comes first: a wrong direction or a still joint is
+    // reported as such, not as a failed choice.
+    let mut fit = fit_all(&opts)?;
+    if stribeck.len() > 1 {
+        let folds = a.holdout.unwrap_or(5);
+        let (vs, rms, scored) =
+            choose_stribeck_speed(&stribeck, folds, &all, &gear, &plan, &ld_angles, &reference, &opts)
+                .context("choosing the Stribeck speed")?;
+        if let Some(f) = opts.friction.as_mut() {
+            f.stribeck_speed_rad_s = Some(vs);
+        }
+        let tried: Vec<String> = stribeck.iter().zip(&rms).map(|(v, r)| format!("{v} ({r:.2} N·m)")).collect();
+        notes.push(format!(
+            "friction.stribeck_speed_rad_s = {vs} chosen by {folds}-block cross-validation ({scored} blocks \
+             identifiable; RMS per candidate: {})",
+            tried.join(", ")
+        ));
+        fit = fit_all(&opts)?;
+    }
     let holdout = match a.holdout {
         None => None,
-        Some(k) => Some(holdout_scores(k, &gear, &plan, &ld_angles, &reference, &opts)?),
+        Some(k) => Some(holdout_scores(k, &gear, &plan, &ld_angles, &reference, &opts, &stribeck)?),
     };
     let peak = reference.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let model = ModelFile {
@@ -527,6 +624,9 @@ pub struct Holdout {
     pub plain: FitMetrics,
     /// Blocks whose fit did not converge.
     pub unconverged: usize,
+    /// The Stribeck speed each block's model chose on its own training rows (when
+    /// candidates were given), rad/s.
+    pub stribeck_speeds_rad_s: Vec<f64>,
 }
 
 fn holdout_scores(
@@ -536,16 +636,30 @@ fn holdout_scores(
     angles: &JointAngles,
     reference: &[f64],
     opts: &ComplianceFitOptions,
+    stribeck: &[f64],
 ) -> Result<Holdout> {
     let n = reference.len();
     let mut unconverged = 0;
+    let mut stribeck_speeds_rad_s = Vec::new();
     let model = blocked_holdout(reference, blocks, |b, block| {
         let rows = training_rows(n, block);
         let kin = plan.fit(gear, angles, &rows).map_err(|e| strainwave_analysis::AnalysisError::Invalid {
             what: "holdout kinematic fit",
             why: format!("block {}: {e:#}", b + 1),
         })?;
-        let o = ComplianceFitOptions { train_rows: Some(rows), ..opts.clone() };
+        let mut o = ComplianceFitOptions { train_rows: Some(rows.clone()), ..opts.clone() };
+        if stribeck.len() > 1 {
+            // Chosen on this block's training rows only (K − 1 inner blocks).
+            let (vs, ..) = choose_stribeck_speed(stribeck, blocks - 1, &rows, gear, plan, angles, reference, opts)
+                .map_err(|e| strainwave_analysis::AnalysisError::Invalid {
+                    what: "holdout Stribeck speed",
+                    why: format!("block {}: {e:#}", b + 1),
+                })?;
+            if let Some(f) = o.friction.as_mut() {
+                f.stribeck_speed_rad_s = Some(vs);
+            }
+            stribeck_speeds_rad_s.push(vs);
+        }
         let fit = fit_compliance(gear, &kin, angles, reference, &o)?;
         if !fit.converged() {
             unconverged += 1;
@@ -563,5 +677,5 @@ fn holdout_scores(
         Ok(block.clone().map(|k| c[0] * torsion[k] + c[1]).collect())
     })
     .context("holdout of the plain linear fit")?;
-    Ok(Holdout { blocks, model, plain, unconverged })
+    Ok(Holdout { blocks, model, plain, unconverged, stribeck_speeds_rad_s })
 }
