@@ -276,3 +276,26 @@ fn lara8_joint3_current_torque_model_blocked_holdout() {
     assert!(ours.r_squared > 0.87 && ours.rms < 24.0, "{ours:?}");
     assert!(plain.r_squared < 0.75 && ours.r_squared > plain.r_squared + 0.15, "{plain:?}");
 }
+
+/// Training rows that turn one way only (the middle of the sweep), inside a run that
+/// also stops: the direction term is the constant there and is dropped, not a rank
+/// error (cross-validation folds and holdout blocks meet this).
+#[test]
+fn kinematic_fit_on_rows_that_turn_one_way() {
+    let log = load().expect("log");
+    let g = gear();
+    let n = log.torque_nm.len();
+    let (m, l) = angles(&log, 0..n);
+    let a = JointAngles { motor_angle_rad: &m, link_angle_rad: &l, sample_rate_hz: FS_HZ };
+    let kopts = KinematicFitOptions { slow_trend_degree: 15, ..Default::default() };
+    let basis = KinematicBasis::Fourier { output_harmonics: 0, mesh_harmonics: 4, mesh_angle: MeshAngle::Motor };
+    let all: Vec<usize> = (0..n).collect();
+    let with_stops = fit_kinematic_error_on(&g, &a, basis, &kopts, &all).unwrap();
+    assert!(with_stops.direction_offset_rad != 0.0, "the whole run stops and turns: the term is fitted");
+    let one_way: Vec<usize> = (400..1400).collect();
+    let fit = fit_kinematic_error_on(&g, &a, basis, &kopts, &one_way).unwrap();
+    assert_eq!(fit.direction_offset_rad, 0.0);
+    // It fits the torsion of those rows as well as the whole run's fit does its own.
+    assert!(fit.metrics.r_squared > 0.99 && fit.metrics.samples == one_way.len(), "{:?}", fit.metrics);
+    assert!(fit.metrics.rms < 2.0 * with_stops.metrics.rms, "{:?} {:?}", fit.metrics, with_stops.metrics);
+}

@@ -13,6 +13,7 @@ use strainwave_analysis::calibration::{
 };
 
 mod report;
+mod summary;
 
 pub use report::{
     affine_report, din_groups, din_report, din_series, fit_plots, gain_report, speed_report, stacked_svg,
@@ -128,6 +129,10 @@ pub struct Args {
     /// Write the calibration here (TOML; read by `filter` and `estimate`).
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
+    /// Write a JSON summary here: coefficients with standard errors, fit statistics,
+    /// rows used and left out (written atomically).
+    #[arg(long, value_name = "FILE")]
+    pub summary_json: Option<PathBuf>,
     /// Write the fit and its residuals as SVG.
     #[arg(long, value_name = "FILE.svg")]
     pub plot: Option<PathBuf>,
@@ -263,7 +268,7 @@ fn pooled(exps: &[ExperimentRows]) -> ExperimentRows {
 
 /// Runs `calibrate`.
 pub fn run(a: &Args) -> Result<()> {
-    for out in a.out.iter().chain(&a.plot) {
+    for out in a.out.iter().chain(&a.plot).chain(&a.summary_json) {
         strainwave_io::output::refuse_input_as_output(out, a.inputs.iter().map(|p| p.as_path()))
             .with_context(|| format!("{}", out.display()))?;
     }
@@ -291,18 +296,28 @@ pub fn run(a: &Args) -> Result<()> {
         exps.len(),
         names.join(", ")
     );
+    let rows_read: usize = exps.iter().map(|e| e.reference.len()).sum();
     if let Some(hold) = a.held {
         out += &keep_held(&mut exps, hold, a.held_band)?;
     }
+    let rows_held: usize = exps.iter().map(|e| e.reference.len()).sum();
     let fs = a.full_scale;
     let all = pooled(&exps);
     let speed_col = a.speed.as_deref().unwrap_or("");
+    // Coefficients with standard errors, where they come from, per-experiment fits,
+    // and the speed model's row counts, for --summary-json.
+    let coefficients;
+    let se_source;
+    let mut experiments = Vec::new();
+    let mut speed_rows = serde_json::Value::Null;
     let mut file = match a.model {
         Model::Gain => {
             let fit = if a.with_offset { GainFit::WithOffset } else { GainFit::ThroughOrigin };
             let e: Vec<Experiment> = exps.iter().map(|e| Experiment::new(&e.label, &e.reference, &e.sensor)).collect();
             let g = calibrate_gain(&e, fit, fs).context("fitting the gain")?;
             out += &gain_report(&g);
+            let (c, source, per) = summary::gain(&g);
+            (coefficients, se_source, experiments) = (c, source, per);
             g.to_file()
         }
         Model::Static | Model::Dynamic => {
@@ -310,6 +325,8 @@ pub fn run(a: &Args) -> Result<()> {
             let f = fit_affine(&all.sensor, &all.reference, fs)
                 .with_context(|| format!("fitting the {name} model to {}", names.join(", ")))?;
             out += &affine_report(name, &f);
+            coefficients = summary::affine(&f);
+            se_source = "residuals of the least-squares fit";
             if a.model == Model::Dynamic && a.speed.is_some() {
                 let bins = SpeedDependence::Table(speed_bins(a));
                 match fit_speed_dependent(&all.sensor, &all.reference, &all.speed, &bins, a.extrapolation.into(), fs) {
@@ -339,6 +356,13 @@ pub fn run(a: &Args) -> Result<()> {
                     format!("fitting the speed model to {} (speed column `{speed_col}`)", names.join(", "))
                 })?;
             out += &speed_report(&f, speed_col);
+            let (c, source) = summary::speed(&f, &all.sensor, &all.reference, &all.speed);
+            (coefficients, se_source) = (c, source);
+            speed_rows = serde_json::json!({
+                "unbinned": f.rows_unbinned,
+                "extrapolated": f.rows_extrapolated,
+                "rejected": f.rows_rejected,
+            });
             f.to_file()
         }
     };
@@ -374,6 +398,28 @@ pub fn run(a: &Args) -> Result<()> {
         let plots =
             fit_plots(&format!("{} model", a.model.name()), &all.sensor, &all.reference, &ev.torque_nm, &a.sensor);
         strainwave_io::output::write_file(p, stacked_svg(&plots)).context("--plot")?;
+        let _ = writeln!(out, "wrote {}", p.display());
+    }
+    if let Some(p) = &a.summary_json {
+        let v = serde_json::json!({
+            "model": a.model.name(),
+            "inputs": names,
+            "reference": a.reference,
+            "sensor": a.sensor,
+            "speed": a.speed,
+            "experiments": exps.len(),
+            "rows": {
+                "read": rows_read,
+                "used": rows_held,
+                "skipped_not_held": rows_read - rows_held,
+                "speed_model": speed_rows,
+            },
+            "coefficients": coefficients,
+            "std_error_source": se_source,
+            "per_experiment": experiments,
+            "fit": file.metrics.as_ref().map(|m| summary::statistics(m, &all.reference)),
+        });
+        strainwave_io::output::write_file(p, summary::document(v)).context("--summary-json")?;
         let _ = writeln!(out, "wrote {}", p.display());
     }
     if let Some(p) = &a.out {

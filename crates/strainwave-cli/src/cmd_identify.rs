@@ -28,9 +28,11 @@ use strainwave_core::torsion::MeshAngle;
 mod config;
 mod load;
 mod report;
+mod stribeck;
 pub use config::{ArmConfig, Channels, EncodersConfig, GearConfig, Order};
 pub use load::refuse_count_scaling;
 use load::{load_run, sample_rate};
+use stribeck::{choose_stribeck_speed, stribeck_candidates};
 
 /// Arguments of `identify`.
 #[derive(clap::Args, Debug)]
@@ -398,7 +400,7 @@ fn compliance_options(cfg: &ArmConfig, windup_offset: bool) -> Result<Compliance
     opts.friction = cfg.friction.as_ref().map(|f| FrictionFitOptions {
         coulomb: f.coulomb,
         viscous: f.viscous,
-        stribeck_speed_rad_s: f.stribeck_speed_rad_s,
+        stribeck_speed_rad_s: stribeck_candidates(cfg).ok().and_then(|c| c.first().copied()),
         load_dependent: f.load_dependent,
         inertia: f.rotor_inertia,
         smoothing_speed_rad_s: f.smoothing_speed_rad_s,
@@ -450,14 +452,36 @@ pub fn run(a: &Args) -> Result<()> {
     let all: Vec<usize> = (0..n).collect();
     let kin = plan.fit(&gear, &ld_angles, &all).context("kinematic-error fit")?;
     // Without a no-load run nothing fixes the zero of the wind-up: fit it.
-    let opts = compliance_options(&cfg, nl.is_none())?;
-    let fit = fit_compliance(&gear, &kin, &ld_angles, &reference, &opts)
-        .map_err(anyhow::Error::from)
-        .map_err(stiffness_hint)
-        .context("compliance fit")?;
+    let mut opts = compliance_options(&cfg, nl.is_none())?;
+    let stribeck = stribeck_candidates(&cfg)?;
+    let fit_all = |opts: &ComplianceFitOptions| {
+        fit_compliance(&gear, &kin, &ld_angles, &reference, opts)
+            .map_err(anyhow::Error::from)
+            .map_err(stiffness_hint)
+            .context("compliance fit")
+    };
+    // The first candidate's fit comes first: a wrong direction or a still joint is
+    // reported as such, not as a failed choice.
+    let mut fit = fit_all(&opts)?;
+    if stribeck.len() > 1 {
+        let folds = a.holdout.unwrap_or(5);
+        let (vs, rms, scored) =
+            choose_stribeck_speed(&stribeck, folds, &all, &gear, &plan, &ld_angles, &reference, &opts)
+                .context("choosing the Stribeck speed")?;
+        if let Some(f) = opts.friction.as_mut() {
+            f.stribeck_speed_rad_s = Some(vs);
+        }
+        let tried: Vec<String> = stribeck.iter().zip(&rms).map(|(v, r)| format!("{v} ({r:.2} N·m)")).collect();
+        notes.push(format!(
+            "friction.stribeck_speed_rad_s = {vs} chosen by {folds}-block cross-validation ({scored} blocks \
+             identifiable; RMS per candidate: {})",
+            tried.join(", ")
+        ));
+        fit = fit_all(&opts)?;
+    }
     let holdout = match a.holdout {
         None => None,
-        Some(k) => Some(holdout_scores(k, &gear, &plan, &ld_angles, &reference, &opts)?),
+        Some(k) => Some(holdout_scores(k, &gear, &plan, &ld_angles, &reference, &opts, &stribeck)?),
     };
     let peak = reference.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let model = ModelFile {
@@ -527,6 +551,9 @@ pub struct Holdout {
     pub plain: FitMetrics,
     /// Blocks whose fit did not converge.
     pub unconverged: usize,
+    /// The Stribeck speed each block's model chose on its own training rows (when
+    /// candidates were given), rad/s.
+    pub stribeck_speeds_rad_s: Vec<f64>,
 }
 
 fn holdout_scores(
@@ -536,16 +563,30 @@ fn holdout_scores(
     angles: &JointAngles,
     reference: &[f64],
     opts: &ComplianceFitOptions,
+    stribeck: &[f64],
 ) -> Result<Holdout> {
     let n = reference.len();
     let mut unconverged = 0;
+    let mut stribeck_speeds_rad_s = Vec::new();
     let model = blocked_holdout(reference, blocks, |b, block| {
         let rows = training_rows(n, block);
         let kin = plan.fit(gear, angles, &rows).map_err(|e| strainwave_analysis::AnalysisError::Invalid {
             what: "holdout kinematic fit",
             why: format!("block {}: {e:#}", b + 1),
         })?;
-        let o = ComplianceFitOptions { train_rows: Some(rows), ..opts.clone() };
+        let mut o = ComplianceFitOptions { train_rows: Some(rows.clone()), ..opts.clone() };
+        if stribeck.len() > 1 {
+            // Chosen on this block's training rows only (K − 1 inner blocks).
+            let (vs, ..) = choose_stribeck_speed(stribeck, blocks - 1, &rows, gear, plan, angles, reference, opts)
+                .map_err(|e| strainwave_analysis::AnalysisError::Invalid {
+                    what: "holdout Stribeck speed",
+                    why: format!("block {}: {e:#}", b + 1),
+                })?;
+            if let Some(f) = o.friction.as_mut() {
+                f.stribeck_speed_rad_s = Some(vs);
+            }
+            stribeck_speeds_rad_s.push(vs);
+        }
         let fit = fit_compliance(gear, &kin, angles, reference, &o)?;
         if !fit.converged() {
             unconverged += 1;
@@ -563,5 +604,5 @@ fn holdout_scores(
         Ok(block.clone().map(|k| c[0] * torsion[k] + c[1]).collect())
     })
     .context("holdout of the plain linear fit")?;
-    Ok(Holdout { blocks, model, plain, unconverged })
+    Ok(Holdout { blocks, model, plain, unconverged, stribeck_speeds_rad_s })
 }

@@ -292,3 +292,102 @@ fn speeds_outside_the_table_reject_or_clamp() {
     let text = read_calibration(&cal);
     assert!(text.contains("extrapolation = \"clamp\"") && text.contains("speed_rad_s = ["), "{text}");
 }
+
+/// `--summary-json` read back: coefficients and standard errors against the closed-form
+/// least-squares values, R² and rows, for a static fit with `--held`, a gain over two
+/// experiments and a speed table; the file replaces an old one whole and never an input.
+#[test]
+fn summary_json_reads_back() {
+    let d = tmp("summary");
+    let p = d.join("ramp.csv");
+    // A held staircase of loads with a deterministic scatter, ramps between the steps.
+    let (alpha, beta) = (1.25, -0.4);
+    let mut rows = Vec::new();
+    let mut t = 0.0;
+    for step in 0..8 {
+        let load = -20.0 + 5.0 * step as f64;
+        for k in 0..40 {
+            let ramp = if k < 10 { (10 - k) as f64 * 0.4 } else { 0.0 };
+            let x = (load - ramp - beta) / alpha + 0.02 * (((k * 7 + step * 3) % 11) as f64 - 5.0) / 5.0;
+            rows.push(vec![t, load - ramp, x, 0.5 * step as f64]);
+            t += 0.01;
+        }
+    }
+    write_csv(&p, "time,reference_torque,sensor,speed", &rows);
+    let json = d.join("summary.json");
+    std::fs::write(&json, "old contents, longer than nothing at all").unwrap();
+    let args = ["calibrate", "--in", s(&p), "--reference", "reference_torque", "--sensor", "sensor"];
+    let out = ok(&[&args[..], &["--model", "static", "--held", "0.2", "--summary-json", s(&json)]].concat());
+    assert!(out.contains("wrote") && out.contains("summary.json"), "{out}");
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(v["model"], "static");
+    // The rows the library's --held filter keeps (band: 2 % of the reference's span).
+    let (time, reference): (Vec<f64>, Vec<f64>) = rows.iter().map(|r| (r[0], r[1])).unzip();
+    let span = reference.iter().copied().fold(f64::MIN, f64::max) - reference.iter().copied().fold(f64::MAX, f64::min);
+    let held = held_rows(&time, &reference, 0.2, 0.02 * span).unwrap();
+    let (read, used) = (v["rows"]["read"].as_u64().unwrap(), v["rows"]["used"].as_u64().unwrap());
+    assert_eq!(read, 320);
+    assert_eq!(v["rows"]["skipped_not_held"].as_u64().unwrap(), read - used);
+    let used_rows: Vec<&Vec<f64>> = rows.iter().zip(&held).filter(|(_, &h)| h).map(|(r, _)| r).collect();
+    assert_eq!(used_rows.len() as u64, used);
+    assert!(used > 40 && used < 320, "{used}");
+    let n = used as f64;
+    let (mx, my) = (used_rows.iter().map(|r| r[2]).sum::<f64>() / n, used_rows.iter().map(|r| r[1]).sum::<f64>() / n);
+    let sxx: f64 = used_rows.iter().map(|r| (r[2] - mx).powi(2)).sum();
+    let sxy: f64 = used_rows.iter().map(|r| (r[2] - mx) * (r[1] - my)).sum();
+    let syy: f64 = used_rows.iter().map(|r| (r[1] - my).powi(2)).sum();
+    let a = sxy / sxx;
+    let b = my - a * mx;
+    let sse: f64 = used_rows.iter().map(|r| (r[1] - a * r[2] - b).powi(2)).sum();
+    let s2 = sse / (n - 2.0);
+    let (se_a, se_b) = ((s2 / sxx).sqrt(), (s2 * (1.0 / n + mx * mx / sxx)).sqrt());
+    let c = v["coefficients"].as_array().unwrap();
+    let get = |i: usize, k: &str| c[i][k].as_f64().unwrap();
+    assert_eq!((c[0]["name"].as_str(), c[1]["name"].as_str()), (Some("alpha"), Some("beta_nm")));
+    assert!((get(0, "value") - a).abs() < 1e-9 && (get(1, "value") - b).abs() < 1e-9, "{c:?} {a} {b}");
+    assert!((get(0, "std_error") / se_a - 1.0).abs() < 1e-6, "{} {se_a}", get(0, "std_error"));
+    assert!((get(1, "std_error") / se_b - 1.0).abs() < 1e-6, "{} {se_b}", get(1, "std_error"));
+    assert!((a - alpha).abs() < 5.0 * se_a + 1e-3, "{a} ± {se_a}");
+    let fit = &v["fit"];
+    assert_eq!(fit["rows"].as_u64(), Some(used));
+    assert!((fit["r_squared"].as_f64().unwrap() - (1.0 - sse / syy)).abs() < 1e-9, "{fit}");
+    assert!((fit["rms_error_nm"].as_f64().unwrap() - (sse / n).sqrt()).abs() < 1e-9, "{fit}");
+    assert!(!std::fs::read_dir(&d).unwrap().any(|e| e.unwrap().file_name().to_string_lossy().contains("tmp")));
+
+    // Two experiments by a column: the gain's standard error is the spread over √2.
+    let g = d.join("gain.json");
+    let exp_rows: Vec<Vec<f64>> = (0..40)
+        .map(|k| {
+            let e = (k / 20) as f64;
+            let x = 0.1 + 0.05 * (k % 20) as f64;
+            vec![k as f64 * 0.01, (6.0 + 0.2 * e) * x, x, e]
+        })
+        .collect();
+    let pg = d.join("gain.csv");
+    write_csv(&pg, "time,reference_torque,sensor,exp", &exp_rows);
+    let gargs = ["calibrate", "--in", s(&pg), "--reference", "reference_torque", "--sensor", "sensor"];
+    ok(&[&gargs[..], &["--experiment-column", "exp", "--summary-json", s(&g), "--quiet"]].concat());
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&g).unwrap()).unwrap();
+    assert_eq!(v["per_experiment"].as_array().map(|a| a.len()), Some(2));
+    let gain = &v["coefficients"][0];
+    assert!((gain["value"].as_f64().unwrap() - 6.1).abs() < 1e-9, "{gain}");
+    // Sample std of {6.0, 6.2} is 0.1·√2; over √2 experiments: 0.1.
+    assert!((gain["std_error"].as_f64().unwrap() - 0.1).abs() < 1e-9, "{gain}");
+    assert_eq!(v["rows"]["used"].as_u64(), Some(40));
+
+    // A speed table: per-bin coefficients with standard errors.
+    let tj = d.join("table.json");
+    let targs = ["--model", "speed-table", "--speed", "speed", "--bins", "2", "--summary-json", s(&tj), "--quiet"];
+    ok(&[&args[..], &targs[..]].concat());
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&tj).unwrap()).unwrap();
+    let bins = v["coefficients"].as_array().unwrap();
+    assert_eq!(bins.len(), 2);
+    let rows_in_bins: u64 = bins.iter().map(|b| b["rows"].as_u64().unwrap()).sum();
+    assert_eq!(rows_in_bins, 320);
+    assert!(bins.iter().all(|b| b["alpha_std_error"].as_f64().is_some_and(|e| e > 0.0)), "{bins:?}");
+
+    // The summary may not overwrite an input.
+    let e = user_error(&[&args[..], &["--model", "static", "--summary-json", s(&p)]].concat());
+    assert!(e.contains("ramp.csv"), "{e}");
+    assert!(std::fs::read_to_string(&p).unwrap().starts_with("time,reference_torque"));
+}

@@ -353,7 +353,13 @@ pub fn fit_kinematic_error_on(
             "a slow trend is confounded with output-angle terms: use mesh harmonics only",
         ));
     }
-    let design = kinematic_design(&basis, gear, angles, opts);
+    let mut design = kinematic_design(&basis, gear, angles, opts);
+    let nt = basis.n_terms();
+    if design.direction && rows.iter().all(|&k| design.columns[nt][k] == design.columns[nt][rows[0]]) {
+        // The run turns both ways, but these rows only one: the term is the constant.
+        design.columns.remove(nt);
+        design.direction = false;
+    }
     let (all, d) = solve_kinematic(basis, &design, rows)?;
     let fitted = predict_rows(&design, &all, rows);
     let target: Vec<f64> = rows.iter().map(|&k| design.torsion[k]).collect();

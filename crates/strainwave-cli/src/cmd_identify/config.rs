@@ -180,9 +180,10 @@ pub struct FrictionConfig {
     /// Viscous friction.
     #[serde(default = "yes")]
     pub viscous: bool,
-    /// Stribeck excess with this decay speed, rad/s (absent: none).
+    /// Stribeck excess with this decay speed, rad/s (absent: none), or a list of
+    /// candidate speeds chosen by blocked cross-validation on the training rows.
     #[serde(default)]
-    pub stribeck_speed_rad_s: Option<f64>,
+    pub stribeck_speed_rad_s: Option<SpeedChoice>,
     /// Friction growing with the link torque, `μ |τ_link|` (strain wave gears' mesh friction).
     #[serde(default)]
     pub load_dependent: bool,
@@ -195,6 +196,33 @@ pub struct FrictionConfig {
     /// Samples the speed and acceleration differences span.
     #[serde(default = "span")]
     pub rate_span: usize,
+}
+
+/// A fixed speed or candidates to choose from by cross-validation.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(untagged)]
+pub enum SpeedChoice {
+    /// This speed, rad/s.
+    Fixed(f64),
+    /// Candidate speeds, rad/s.
+    Candidates(Vec<f64>),
+}
+
+impl SpeedChoice {
+    /// The candidates (one for a fixed speed), checked: 1 ..= 12 positive finite values.
+    pub fn candidates(&self, key: &str) -> Result<Vec<f64>> {
+        let c = match self {
+            SpeedChoice::Fixed(v) => vec![*v],
+            SpeedChoice::Candidates(c) => c.clone(),
+        };
+        if c.is_empty() || c.len() > 12 {
+            anyhow::bail!("{key}: give 1 to 12 speeds, got {}", c.len());
+        }
+        if let Some(bad) = c.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
+            anyhow::bail!("{key}: {bad} is not a positive speed (rad/s)");
+        }
+        Ok(c)
+    }
 }
 
 fn smoothing() -> f64 {

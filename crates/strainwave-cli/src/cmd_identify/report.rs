@@ -92,6 +92,7 @@ impl Summary<'_> {
                 "model": metrics(&h.model),
                 "plain_linear": metrics(&h.plain),
                 "unconverged_blocks": h.unconverged,
+                "stribeck_speeds_rad_s": h.stribeck_speeds_rad_s,
             })),
         });
         let mut s = serde_json::to_string_pretty(&v).unwrap_or_default();
@@ -164,6 +165,13 @@ impl Summary<'_> {
             ));
         }
         if let Some(h) = self.holdout {
+            if !h.stribeck_speeds_rad_s.is_empty() {
+                let v: Vec<String> = h.stribeck_speeds_rad_s.iter().map(|v| v.to_string()).collect();
+                out.push_str(&format!(
+                    "note: holdout blocks chose Stribeck speeds {} rad/s on their own training rows\n",
+                    v.join(", ")
+                ));
+            }
             if h.unconverged > 0 {
                 out.push_str(&format!("note: {} holdout blocks did not converge\n", h.unconverged));
             }
