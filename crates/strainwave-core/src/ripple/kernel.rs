@@ -103,13 +103,21 @@ impl<T: Copy, const J: usize> Lanes<T, J> {
     }
     /// `f` of each lane.
     #[inline(always)]
-    pub(super) fn map<U>(self, f: impl Fn(T) -> U) -> Lanes<U, J> {
-        Lanes(core::array::from_fn(|l| f(self.0[l])))
+    pub(super) fn map<U: Copy + Default>(self, f: impl Fn(T) -> U) -> Lanes<U, J> {
+        let mut out = [U::default(); J];
+        for l in 0..J {
+            out[l] = f(self.0[l]);
+        }
+        Lanes(out)
     }
     /// `f` of each pair of lanes.
     #[inline(always)]
-    pub(super) fn zip<U: Copy, R>(self, o: Lanes<U, J>, f: impl Fn(T, U) -> R) -> Lanes<R, J> {
-        Lanes(core::array::from_fn(|l| f(self.0[l], o.0[l])))
+    pub(super) fn zip<U: Copy, R: Copy + Default>(self, o: Lanes<U, J>, f: impl Fn(T, U) -> R) -> Lanes<R, J> {
+        let mut out = [R::default(); J];
+        for l in 0..J {
+            out[l] = f(self.0[l], o.0[l]);
+        }
+        Lanes(out)
     }
 }
 
@@ -117,7 +125,16 @@ impl<const J: usize> Lanes<bool, J> {
     /// Lane-wise `if self { a } else { b }`.
     #[inline(always)]
     pub(super) fn sel<T: Copy>(self, a: Lanes<T, J>, b: Lanes<T, J>) -> Lanes<T, J> {
-        Lanes(core::array::from_fn(|l| if self.0[l] { a.0[l] } else { b.0[l] }))
+        let mut out = b;
+        for l in 0..J {
+            out.0[l] = if self.0[l] { a.0[l] } else { b.0[l] };
+        }
+        out
+    }
+    /// Whether every lane is set.
+    #[inline(always)]
+    pub(super) fn all(self) -> bool {
+        self.0.iter().fold(true, |a, &b| a & b)
     }
     /// Whether some lane is set.
     #[inline(always)]
@@ -130,7 +147,11 @@ impl<T: Real, const J: usize> Lanes<T, J> {
     /// `self + a b`, see [`madd`].
     #[inline(always)]
     fn madd<const F: bool>(self, a: Self, b: Self) -> Self {
-        Lanes(core::array::from_fn(|l| madd::<T, F>(self.0[l], a.0[l], b.0[l])))
+        let mut out = self;
+        for l in 0..J {
+            out.0[l] = madd::<T, F>(self.0[l], a.0[l], b.0[l]);
+        }
+        out
     }
     #[inline(always)]
     fn abs(self) -> Self {
@@ -158,10 +179,25 @@ impl<T: Real, const J: usize> Lanes<T, J> {
     }
 }
 
+/// `unroll!(n, |i| body)`: `for i in 0..n body` written out for `n ≤ 8`, so that every index is a constant
+/// and each per-order value stays in a register (a loop beyond 8).
+macro_rules! unroll {
+    ($n:expr, |$i:ident| $body:block) => {{
+        unroll!(@ $i $n $body 0 1 2 3 4 5 6 7);
+        for $i in 8..$n $body
+    }};
+    (@ $i:ident $n:tt $body:block $($k:literal)*) => {$(
+        if $k < $n {
+            let $i: usize = $k;
+            $body
+        }
+    )*};
+}
+
 /// Lane-wise binary operators.
 macro_rules! lanewise {
     ($($tr:ident $f:ident $op:tt),*) => {$(
-        impl<T: Copy + $tr<Output = T>, const J: usize> $tr for Lanes<T, J> {
+        impl<T: Copy + Default + $tr<Output = T>, const J: usize> $tr for Lanes<T, J> {
             type Output = Self;
             #[inline(always)]
             fn $f(self, o: Self) -> Self {
@@ -172,7 +208,7 @@ macro_rules! lanewise {
 }
 lanewise!(Add add +, Sub sub -, Mul mul *, Div div /, BitAnd bitand &, BitOr bitor |);
 
-impl<T: Copy + Neg<Output = T>, const J: usize> Neg for Lanes<T, J> {
+impl<T: Copy + Default + Neg<Output = T>, const J: usize> Neg for Lanes<T, J> {
     type Output = Self;
     #[inline(always)]
     fn neg(self) -> Self {
@@ -308,7 +344,7 @@ fn lanes<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: boo
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
     out: &mut BankOutput<T, J>,
-    mut trace: Option<&mut StepTrace<T, M>>,
+    trace: Option<&mut StepTrace<T, M>>,
 ) -> Lanes<bool, J> {
     let (plan, lim, orders) = (&model.plan, &model.limits, &model.orders);
     let k = Lanes::<T, J>::splat;
@@ -316,7 +352,6 @@ fn lanes<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: boo
     let angle_input = model.phase_source == PhaseSource::Angle;
     let dt = input.dt_s.unwrap_or(plan.dt_s);
     let dt_ok = finite(dt) & (dt > T::ZERO);
-    let q_bias = model.bias_q_nm2.unwrap_or(T::ZERO);
     let rv = &input.references;
     let refs = [Lanes(rv.relative), Lanes(rv.output), Lanes(rv.motor)];
     let (torque, expected) = (Lanes(input.torque_nm), Lanes(input.expected_torque_nm));
@@ -346,34 +381,33 @@ fn lanes<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: boo
     // Each reference: its increment, whether it jumped, its phase and phasor.
     let (mut delta, mut jump, mut mean) = ([zero; 3], [no; 3], [zero; 3]);
     let mut base = [Lanes::splat(Doubling::new(T::ONE, T::ZERO)); 3];
-    for r in 0..3 {
-        if !plan.uses[r] {
-            continue;
+    unroll!(3, |r| {
+        if plan.uses[r] {
+            let (v, last) = (refs[r], Lanes(bank.last[r]));
+            let d = if angle_input { (v - last).map(wrap) } else { (v + last) * k(T::HALF) * total_dt };
+            // A glitch: an increment too large, or too different from the last one.
+            let expected_d = Lanes(bank.last_delta[r]) * n_samples;
+            let changed = Lanes(bank.delta_known) & !(d - expected_d).abs().le(k(lim.max_step_change_rad));
+            let jumped = counted & (!d.abs().le(k(lim.max_angle_step_rad)) | changed);
+            let accept = counted & !jumped;
+            let per_sample = pending.zip(zero, |a, b| a == b).sel(d, d / n_samples);
+            // Mean increment over ~16 samples: encoder jitter at standstill averages out of
+            // it, so it alone decides whether an order is held.
+            let m = Lanes(bank.mean_delta[r]);
+            mean[r] = accept.sel(m.madd::<F>(per_sample - m, k(T::from_f64(HOLD_AVERAGE))), m);
+            bank.mean_delta[r] = mean[r].0;
+            bank.last_delta[r] = accept.sel(per_sample, Lanes(bank.last_delta[r])).0;
+            jump[r] = jumped;
+            delta[r] = counted.sel(d, zero);
+            // The phase: the angle itself, or the accumulated increments.
+            let psi = Lanes(bank.psi[r]);
+            let next = if angle_input { v } else { psi + delta[r] }.map(wrap);
+            let psi = (if angle_input { skip } else { skip | jumped }).sel(psi, next);
+            bank.psi[r] = psi.0;
+            bank.last[r] = skip.sel(last, v).0;
+            base[r] = psi.map(sin_cos_with::<T, F>);
         }
-        let (v, last) = (refs[r], Lanes(bank.last[r]));
-        let d = if angle_input { (v - last).map(wrap) } else { (v + last) * k(T::HALF) * total_dt };
-        // A glitch: an increment too large, or too different from the last one.
-        let expected_d = Lanes(bank.last_delta[r]) * n_samples;
-        let changed = Lanes(bank.delta_known) & !(d - expected_d).abs().le(k(lim.max_step_change_rad));
-        let jumped = counted & (!d.abs().le(k(lim.max_angle_step_rad)) | changed);
-        let accept = counted & !jumped;
-        let per_sample = pending.zip(zero, |a, b| a == b).sel(d, d / n_samples);
-        // Mean increment over ~16 samples: encoder jitter at standstill averages out of
-        // it, so it alone decides whether an order is held.
-        let m = Lanes(bank.mean_delta[r]);
-        mean[r] = accept.sel(m.madd::<F>(per_sample - m, k(T::from_f64(HOLD_AVERAGE))), m);
-        bank.mean_delta[r] = mean[r].0;
-        bank.last_delta[r] = accept.sel(per_sample, Lanes(bank.last_delta[r])).0;
-        jump[r] = jumped;
-        delta[r] = counted.sel(d, zero);
-        // The phase: the angle itself, or the accumulated increments.
-        let psi = Lanes(bank.psi[r]);
-        let next = if angle_input { v } else { psi + delta[r] }.map(wrap);
-        let psi = (if angle_input { skip } else { skip | jumped }).sel(psi, next);
-        bank.psi[r] = psi.0;
-        bank.last[r] = skip.sel(last, v).0;
-        base[r] = psi.map(sin_cos_with::<T, F>);
-    }
+    });
     let any_jump = jump[0] | jump[1] | jump[2];
     for s in &mut bank.steps {
         *s = s.wrapping_add(1);
@@ -402,8 +436,10 @@ fn lanes<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: boo
     let load = (expected + Lanes(bank.b)).abs();
     let load = load.finite().sel(load, zero);
     let (mut keep, mut couple, mut pred, mut upd) = ([no; M], [no; M], [no; M], [no; M]);
-    let (mut inc, mut q) = ([zero; M], [zero; M]);
-    for i in 0..M {
+    let (mut inc, mut q, mut all_active) = ([zero; M], [zero; M], Lanes::splat(true));
+    let (k_off, k_held, k_active) =
+        (Lanes::splat(OrderStatus::Off), Lanes::splat(OrderStatus::Held), Lanes::splat(OrderStatus::Active));
+    unroll!(M, |i| {
         // The order's reference by selects, not by index: the per-reference values
         // then stay in registers.
         let (o, r) = (&orders[i], plan.reference[i]);
@@ -416,18 +452,14 @@ fn lanes<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: boo
         let stays_off = was_off & !abs_a.lt(k(plan.on_below_rad));
         let off = !reset & (stays_off | (!was_off & k(plan.off_above_rad).lt(abs_a)));
         let held = reset | (!off & mean_a.lt(k(plan.hold_below_rad)));
-        let status = Lanes(core::array::from_fn(|l| match (skip.0[l], off.0[l], held.0[l]) {
-            (true, _, _) => prev.0[l],
-            (_, true, _) => OrderStatus::Off,
-            (_, _, true) => OrderStatus::Held,
-            _ => OrderStatus::Active,
-        }));
+        let status = skip.sel(prev, off.sel(k_off, held.sel(k_held, k_active)));
         bank.status[i] = status.0;
         let off = status.map(|s| s == OrderStatus::Off);
         let active = status.map(|s| s == OrderStatus::Active);
         let zeroed = !skip & (reset | off);
         (keep[i], couple[i], pred[i], upd[i]) = (!zeroed, skip | active, !off, meas_ok & active);
         inc[i] = zeroed.sel(zero, a);
+        all_active = all_active & active;
         let q_i = (k(o.q_per_sample_nm2) * n_noise).madd::<F>(k(o.q_per_rad_nm2), abs_a);
         q[i] = (off | skip).sel(zero, q_i);
         flag(StepFlags::ORDER_OFF, off);
@@ -450,13 +482,71 @@ fn lanes<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: boo
         };
         let scale = if o.load_scaled { load } else { one };
         bank.phasor[i] = [(ph.map(|p| p.c) * scale).0, (ph.map(|p| p.s) * scale).0];
+    });
+
+    let pending_none = pending.zip(zero, |a, b| a == b);
+    let common = (counted & meas_ok & !gap & !any_jump & pending_none & all_active).all();
+    let d = Decisions { keep, couple, pred, upd, inc, q, meas_ok, gap, n_noise, infl, flags };
+    if common {
+        // The common sample: every decision is known, so the update has no select left.
+        let yes = Lanes::splat(true);
+        let (keep, couple, pred, upd) = ([yes; M], [yes; M], [yes; M], [yes; M]);
+        let n_noise = one;
+        let infl = k(lim.covariance_inflation);
+        let flags = [StepFlags::empty(); J];
+        let d = Decisions { keep, couple, pred, upd, meas_ok: yes, gap: no, n_noise, infl, flags, ..d };
+        update::<T, M, J, F, BIAS, TRACE>(model, bank, input, d, out, trace)
+    } else {
+        update::<T, M, J, F, BIAS, TRACE>(model, bank, input, d, out, trace)
     }
+}
+
+/// What the first half of a step decided for each joint.
+#[derive(Clone, Copy)]
+struct Decisions<T, const M: usize, const J: usize> {
+    /// Per order: state kept (else restarted from its prior), coupled with the others,
+    /// predicted, updated.
+    keep: [Lanes<bool, J>; M],
+    couple: [Lanes<bool, J>; M],
+    pred: [Lanes<bool, J>; M],
+    upd: [Lanes<bool, J>; M],
+    /// Per order: the applied phase increment, rad, and the process noise, N·m².
+    inc: [Lanes<T, J>; M],
+    q: [Lanes<T, J>; M],
+    /// Measurement used; time gap.
+    meas_ok: Lanes<bool, J>,
+    gap: Lanes<bool, J>,
+    /// Samples of bias noise since the last counted sample; covariance inflation.
+    n_noise: Lanes<T, J>,
+    infl: Lanes<T, J>,
+    flags: [StepFlags; J],
+}
+
+/// The second half of a step: the time update, the prediction that is output and the
+/// measurement update, as `d` decided. Returns which covariances went bad.
+#[allow(clippy::too_many_lines)]
+#[inline(always)]
+fn update<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool, const TRACE: bool>(
+    model: &RippleModel<T, M>,
+    bank: &mut RippleBank<T, M, J>,
+    input: &BankInput<T, J>,
+    d: Decisions<T, M, J>,
+    out: &mut BankOutput<T, J>,
+    mut trace: Option<&mut StepTrace<T, M>>,
+) -> Lanes<bool, J> {
+    let (plan, lim, orders) = (&model.plan, &model.limits, &model.orders);
+    let k = Lanes::<T, J>::splat;
+    let (zero, one, no) = (k(T::ZERO), k(T::ONE), Lanes::splat(false));
+    let q_bias = model.bias_q_nm2.unwrap_or(T::ZERO);
+    let (torque, expected) = (Lanes(input.torque_nm), Lanes(input.expected_torque_nm));
+    let y = torque - expected;
+    let Decisions { keep, couple, pred, upd, inc, q, meas_ok, gap, n_noise, infl, mut flags } = d;
 
     // Time update: inflation `ρ (P_00 + P_11)/2 · I₂` (rotation invariant, like Q) and
     // process noise on the diagonal blocks; a reset order restarts from its prior and
     // forgets its covariances, an order not active is decoupled from the others.
     let grow = infl * k(T::HALF);
-    for i in 0..M {
+    unroll!(M, |i| {
         let d = &mut bank.p[i][i];
         let (v0, v1) = (Lanes(d[0][0]), Lanes(d[1][1]));
         let trace = v0 + v1;
@@ -471,13 +561,15 @@ fn lanes<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: boo
                 bank.pb[i][r] = couple[i].sel(Lanes(bank.pb[i][r]), zero).0;
             }
         }
-        for j in i + 1..M {
-            let both = couple[i] & couple[j];
-            for v in bank.p[i][j].iter_mut().flatten() {
-                *v = both.sel(Lanes(*v), zero).0;
+        unroll!(M, |j| {
+            if j > i {
+                let both = couple[i] & couple[j];
+                for v in bank.p[i][j].iter_mut().flatten() {
+                    *v = both.sel(Lanes(*v), zero).0;
+                }
             }
-        }
-    }
+        });
+    });
     if BIAS {
         // A time gap brings the bias variance back up to its initial value.
         let (v, p0) = (Lanes(bank.pbb), k(model.p0_bias_nm2));
@@ -490,7 +582,7 @@ fn lanes<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: boo
     let (mut ripple, mut mis) = (zero, zero);
     let (mut any_ripple, mut any_mis) = (false, false);
     let mut h = [[zero; 2]; M];
-    for i in 0..M {
+    unroll!(M, |i| {
         let (c, s) = (Lanes(bank.phasor[i][0]), Lanes(bank.phasor[i][1]));
         let v = pred[i].sel((c * Lanes(bank.z[i][0])).madd::<F>(s, Lanes(bank.z[i][1])), zero);
         if orders[i].reference.is_ripple() {
@@ -501,20 +593,20 @@ fn lanes<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: boo
             any_mis = true;
         }
         h[i] = [upd[i].sel(c, zero), upd[i].sel(s, zero)];
-    }
+    });
 
     // Gains g = P hᵀ from the upper blocks of the symmetric P, and the bias entry.
     let mut g = [[zero; 2]; M];
-    for i in 0..M {
+    unroll!(M, |i| {
         if BIAS {
             g[i] = [meas_ok.sel(Lanes(bank.pb[i][0]), zero), meas_ok.sel(Lanes(bank.pb[i][1]), zero)];
         }
-        for j in 0..M {
+        unroll!(M, |j| {
             let (t0, t1) = block_times::<T, M, J, F>(bank, i, j, h[j]);
             let first = !BIAS && j == 0;
             g[i] = [sum_from(first, g[i][0], t0), sum_from(first, g[i][1], t1)];
-        }
-    }
+        });
+    });
     let mut gb = zero;
     if BIAS {
         gb = meas_ok.sel(Lanes(bank.pbb), zero);
@@ -527,19 +619,18 @@ fn lanes<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: boo
     // an innovation beyond the NIS limit is a jump of the bias, not of the oscillators.
     // The update is then the exact limit Var(b) → ∞ (gain 0 here, completed below).
     let mut s = if BIAS { gb } else { zero };
-    for i in 0..M {
+    unroll!(M, |i| {
         s = sum_from(!BIAS && i == 0, s, (h[i][0] * g[i][0]).madd::<F>(h[i][1], g[i][1]));
-    }
+    });
     let s_var = k(model.r_nm2) + s;
     let e = y - (ripple + mis + Lanes(bank.b));
     let e_used = meas_ok.sel(e, zero);
-    let load_step = if BIAS && lim.load_step_nis > T::ZERO {
-        (k(lim.load_step_nis) * s_var).lt(e_used * e_used)
-    } else {
-        no
-    };
+    let load_step =
+        if BIAS && lim.load_step_nis > T::ZERO { (k(lim.load_step_nis) * s_var).lt(e_used * e_used) } else { no };
     let inv = load_step.sel(zero, one / s_var);
-    flag(StepFlags::LOAD_STEP, load_step);
+    for l in 0..J {
+        flags[l].set(StepFlags::LOAD_STEP, load_step.0[l]);
+    }
     if let Some(tr) = trace.as_deref_mut().filter(|_| TRACE) {
         let row_b = if BIAS { meas_ok.sel(one, zero) } else { zero };
         let lane0 = [q_bias * n_noise.0[0], row_b.0[0], gb.0[0], s_var.0[0], e_used.0[0], y.0[0]];
@@ -550,30 +641,33 @@ fn lanes<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: boo
     // `g_i g_j` times `1/S`, so that it waits on the division for one multiply–add).
     // Variances never fall below their exact lower bound `P_ii R / S`.
     let floor = k(model.r_nm2) * inv;
-    for i in 0..M {
+    let (mut diag, mut z) = ([[zero; 2]; M], [[zero; 2]; M]);
+    unroll!(M, |i| {
         let [g0, g1] = g[i];
         let (k0, k1) = (g0 * inv, g1 * inv);
-        bank.z[i][0] = Lanes(bank.z[i][0]).madd::<F>(k0, e_used).0;
-        bank.z[i][1] = Lanes(bank.z[i][1]).madd::<F>(k1, e_used).0;
+        z[i] = [Lanes(bank.z[i][0]).madd::<F>(k0, e_used), Lanes(bank.z[i][1]).madd::<F>(k1, e_used)];
+        bank.z[i] = [z[i][0].0, z[i][1].0];
         let d = &mut bank.p[i][i];
         let (v0, v1) = (Lanes(d[0][0]), Lanes(d[1][1]));
-        d[0][0] = v0.madd::<F>(-(g0 * g0), inv).max(v0 * floor).0;
-        d[1][1] = v1.madd::<F>(-(g1 * g1), inv).max(v1 * floor).0;
+        diag[i] = [v0.madd::<F>(-(g0 * g0), inv).max(v0 * floor), v1.madd::<F>(-(g1 * g1), inv).max(v1 * floor)];
+        (d[0][0], d[1][1]) = (diag[i][0].0, diag[i][1].0);
         let off = Lanes(d[0][1]).madd::<F>(-(g0 * g1), inv).0;
         (d[0][1], d[1][0]) = (off, off);
-        for j in i + 1..M {
-            let b = &mut bank.p[i][j];
-            for (r, gr) in [g0, g1].into_iter().enumerate() {
-                for c in 0..2 {
-                    b[r][c] = Lanes(b[r][c]).madd::<F>(-(gr * g[j][c]), inv).0;
+        unroll!(M, |j| {
+            if j > i {
+                let b = &mut bank.p[i][j];
+                for (r, gr) in [g0, g1].into_iter().enumerate() {
+                    for c in 0..2 {
+                        b[r][c] = Lanes(b[r][c]).madd::<F>(-(gr * g[j][c]), inv).0;
+                    }
                 }
             }
-        }
+        });
         if BIAS {
             bank.pb[i][0] = Lanes(bank.pb[i][0]).madd::<F>(-k0, gb).0;
             bank.pb[i][1] = Lanes(bank.pb[i][1]).madd::<F>(-k1, gb).0;
         }
-    }
+    });
     if BIAS {
         let kb = gb * inv;
         bank.b = Lanes(bank.b).madd::<F>(kb, e_used).0;
@@ -605,32 +699,36 @@ fn lanes<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: boo
     (out.innovation_nm, out.innovation_variance_nm2) = (e.0, s_var.0);
     out.nis = (e * e / s_var).0;
     out.flags = flags;
-    !healthy(BIAS, bank, s_var)
+    let bias = if BIAS { Some(Lanes(bank.pbb)) } else { None };
+    !healthy(diag, z, Lanes(bank.b), bias, s_var)
 }
 
-/// Which joints' states are usable after an update with innovation variance `s_var`:
-/// one sum catches any NaN/∞, one minimum any negative variance.
+/// Which joints' states are usable after an update: the new variances `diag` (the
+/// diagonal of each oscillator block), means `z`, bias `b`, its variance (with the
+/// bias state) and the innovation variance `s_var`. One sum catches any NaN/∞, one
+/// minimum any negative variance; the values come in registers, not from the state.
 #[inline(always)]
 pub(super) fn healthy<T: Real, const M: usize, const J: usize>(
-    bias: bool,
-    bank: &RippleBank<T, M, J>,
+    diag: [[Lanes<T, J>; 2]; M],
+    z: [[Lanes<T, J>; 2]; M],
+    b: Lanes<T, J>,
+    pbb: Option<Lanes<T, J>>,
     s_var: Lanes<T, J>,
 ) -> Lanes<bool, J> {
     // The two entries of each pair apart, then together: two independent chains.
     let zero = Lanes::splat(T::ZERO);
     let (mut sum, mut least) = ([zero; 2], [s_var; 2]);
-    for i in 0..M {
-        let d = &bank.p[i][i];
+    unroll!(M, |i| {
         for r in 0..2 {
-            sum[r] = sum_from(i == 0, sum[r], Lanes(d[r][r]) + Lanes(bank.z[i][r]));
-            least[r] = least[r].min(Lanes(d[r][r]));
+            sum[r] = sum_from(i == 0, sum[r], diag[i][r] + z[i][r]);
+            least[r] = least[r].min(diag[i][r]);
         }
-    }
-    let mut total = (sum[0] + sum[1]) + (s_var + Lanes(bank.b));
+    });
+    let mut total = (sum[0] + sum[1]) + (s_var + b);
     let mut low = least[0].min(least[1]);
-    if bias {
-        total = total + Lanes(bank.pbb);
-        low = low.min(Lanes(bank.pbb));
+    if let Some(v) = pbb {
+        total = total + v;
+        low = low.min(v);
     }
     total.finite() & zero.le(low) & zero.lt(s_var)
 }
@@ -903,12 +1001,20 @@ pub(super) mod tests {
         eprintln!("numbers that differ in their last bits: {differ}");
     }
 
+    /// [`healthy`] of the state in `bank` after an update with innovation variance `s`.
+    fn health_of(bias: bool, bank: &RippleBank<f64, 3, 2>, s: f64) -> [bool; 2] {
+        let lanes = |v: [f64; 2]| Lanes(v);
+        let diag = core::array::from_fn(|i| [lanes(bank.p[i][i][0][0]), lanes(bank.p[i][i][1][1])]);
+        let z = core::array::from_fn(|i| [lanes(bank.z[i][0]), lanes(bank.z[i][1])]);
+        healthy(diag, z, lanes(bank.b), bias.then_some(lanes(bank.pbb)), Lanes::splat(s)).0
+    }
+
     /// Each corruption of joint 0 is caught, and joint 1 (untouched) stays healthy.
     #[test]
     fn health_check_catches_each_bad_entry() {
         let model = RippleModel::<f64, 3>::product(1000.0, 0.05).unwrap();
         let fresh = RippleBank::<f64, 3, 2>::new(&model);
-        assert!(healthy(true, &fresh, Lanes::splat(1.0)).0[0] && healthy(true, &fresh, Lanes::splat(1.0)).0[1]);
+        assert!(health_of(true, &fresh, 1.0)[0] && health_of(true, &fresh, 1.0)[1]);
         let corruptions: [fn(&mut RippleBank<f64, 3, 2>); 8] = [
             |b| b.p[2][2][1][1][0] = f64::NAN,
             |b| b.p[1][1][0][0][0] = f64::INFINITY,
@@ -922,15 +1028,15 @@ pub(super) mod tests {
         for (k, corrupt) in corruptions.iter().enumerate() {
             let mut bank = fresh;
             corrupt(&mut bank);
-            assert!(!healthy(true, &bank, Lanes::splat(1.0)).0[0], "corruption {k} passed");
-            assert!(healthy(true, &bank, Lanes::splat(1.0)).0[1], "corruption {k} reached joint 1");
+            assert!(!health_of(true, &bank, 1.0)[0], "corruption {k} passed");
+            assert!(health_of(true, &bank, 1.0)[1], "corruption {k} reached joint 1");
         }
         for s_var in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-            assert!(!healthy(true, &fresh, Lanes::splat(s_var)).0[0], "S = {s_var}");
+            assert!(!health_of(true, &fresh, s_var)[0], "S = {s_var}");
         }
         // Without the bias state its entries are not read.
         let mut bank = fresh;
         bank.pbb[0] = -1.0;
-        assert!(healthy(false, &bank, Lanes::splat(1.0)).0[0]);
+        assert!(health_of(false, &bank, 1.0)[0]);
     }
 }
