@@ -15,18 +15,18 @@
 //! which is the same filter: identical `ŷ`, `x̂ = Φ(ψ) ẑ`, `P_x = Φ(ψ) P_z Φ(ψ)ᵀ`.
 //! `Φ` never multiplies `P`; a step costs one symmetric mat-vec and one rank-1 update.
 //!
-//! Every quantity of the step is a [`Lanes`] value, one entry per joint, and every
-//! operation on it is a loop over the joints that the compiler turns into SIMD
-//! instructions across joints (for one joint, plain scalar code). Every per-joint
-//! decision (skipped sample, first sample, gap, jump, order active, held or off, load
-//! step) is a select, so the joints never branch apart.
+//! One joint's step is scalar code (`lane`); a bank runs it for each joint. Every
+//! per-joint decision (skipped sample, first sample, gap, jump, order active, held or
+//! off, load step) is a select, so the common sample takes no branch of its own.
 //!
 //! The CPU-specific build is chosen in one place, `run`: on x86-64 CPUs with AVX2 and
 //! FMA (std builds) the same generic step is compiled with its multiply–adds fused,
 //! else the portable build runs. The decisions are the same in both; the numbers agree
 //! to rounding.
 
-use core::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
+// Lane loops index several arrays by the same joint index (structure of arrays), and
+// `!(x <= limit)` is deliberate: NaN must count as out of range.
+#![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 
 use super::bank::{BankInput, BankOutput, RippleBank};
 use super::filter::{RotatingGaussian, StepTrace};
@@ -90,140 +90,6 @@ impl<T: Real, const M: usize> Plan<T, M> {
     }
 }
 
-/// One value per joint. Each operation is a loop over the joints, small enough for the
-/// compiler to unroll and turn into SIMD instructions; masks are `Lanes<bool, J>`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) struct Lanes<T, const J: usize>(pub(super) [T; J]);
-
-impl<T: Copy, const J: usize> Lanes<T, J> {
-    /// `x` in every lane.
-    #[inline(always)]
-    pub(super) fn splat(x: T) -> Self {
-        Self([x; J])
-    }
-    /// `f` of each lane.
-    #[inline(always)]
-    pub(super) fn map<U: Copy + Default>(self, f: impl Fn(T) -> U) -> Lanes<U, J> {
-        let mut out = [U::default(); J];
-        for l in 0..J {
-            out[l] = f(self.0[l]);
-        }
-        Lanes(out)
-    }
-    /// `f` of each pair of lanes.
-    #[inline(always)]
-    pub(super) fn zip<U: Copy, R: Copy + Default>(self, o: Lanes<U, J>, f: impl Fn(T, U) -> R) -> Lanes<R, J> {
-        let mut out = [R::default(); J];
-        for l in 0..J {
-            out[l] = f(self.0[l], o.0[l]);
-        }
-        Lanes(out)
-    }
-}
-
-impl<const J: usize> Lanes<bool, J> {
-    /// Lane-wise `if self { a } else { b }`.
-    #[inline(always)]
-    pub(super) fn sel<T: Copy>(self, a: Lanes<T, J>, b: Lanes<T, J>) -> Lanes<T, J> {
-        let mut out = b;
-        for l in 0..J {
-            out.0[l] = if self.0[l] { a.0[l] } else { b.0[l] };
-        }
-        out
-    }
-    /// Whether every lane is set.
-    #[inline(always)]
-    pub(super) fn all(self) -> bool {
-        self.0.iter().fold(true, |a, &b| a & b)
-    }
-    /// Whether some lane is set.
-    #[inline(always)]
-    pub(super) fn any(self) -> bool {
-        self.0.iter().fold(false, |a, &b| a | b)
-    }
-}
-
-impl<T: Real, const J: usize> Lanes<T, J> {
-    /// `self + a b`, see [`madd`].
-    #[inline(always)]
-    fn madd<const F: bool>(self, a: Self, b: Self) -> Self {
-        let mut out = self;
-        for l in 0..J {
-            out.0[l] = madd::<T, F>(self.0[l], a.0[l], b.0[l]);
-        }
-        out
-    }
-    #[inline(always)]
-    fn abs(self) -> Self {
-        self.map(T::abs)
-    }
-    #[inline(always)]
-    fn max(self, o: Self) -> Self {
-        self.zip(o, T::max)
-    }
-    #[inline(always)]
-    fn min(self, o: Self) -> Self {
-        self.zip(o, T::min)
-    }
-    #[inline(always)]
-    fn finite(self) -> Lanes<bool, J> {
-        self.map(finite)
-    }
-    #[inline(always)]
-    fn lt(self, o: Self) -> Lanes<bool, J> {
-        self.zip(o, |a, b| a < b)
-    }
-    #[inline(always)]
-    fn le(self, o: Self) -> Lanes<bool, J> {
-        self.zip(o, |a, b| a <= b)
-    }
-}
-
-/// `unroll!(n, |i| body)`: `for i in 0..n body` written out for `n ≤ 8`, so that every index is a constant
-/// and each per-order value stays in a register (a loop beyond 8).
-macro_rules! unroll {
-    ($n:expr, |$i:ident| $body:block) => {{
-        unroll!(@ $i $n $body 0 1 2 3 4 5 6 7);
-        for $i in 8..$n $body
-    }};
-    (@ $i:ident $n:tt $body:block $($k:literal)*) => {$(
-        if $k < $n {
-            let $i: usize = $k;
-            $body
-        }
-    )*};
-}
-
-/// Lane-wise binary operators.
-macro_rules! lanewise {
-    ($($tr:ident $f:ident $op:tt),*) => {$(
-        impl<T: Copy + Default + $tr<Output = T>, const J: usize> $tr for Lanes<T, J> {
-            type Output = Self;
-            #[inline(always)]
-            fn $f(self, o: Self) -> Self {
-                self.zip(o, |a, b| a $op b)
-            }
-        }
-    )*};
-}
-lanewise!(Add add +, Sub sub -, Mul mul *, Div div /, BitAnd bitand &, BitOr bitor |);
-
-impl<T: Copy + Default + Neg<Output = T>, const J: usize> Neg for Lanes<T, J> {
-    type Output = Self;
-    #[inline(always)]
-    fn neg(self) -> Self {
-        self.map(|a| -a)
-    }
-}
-
-impl<const J: usize> Not for Lanes<bool, J> {
-    type Output = Self;
-    #[inline(always)]
-    fn not(self) -> Self {
-        self.map(|a| !a)
-    }
-}
-
 /// Steps `J` joints sharing `model` by one sample, writing their results into `out`
 /// (a buffer the caller keeps: nothing is copied per sample). A joint whose covariance
 /// went bad is reset and flagged [`StepFlags::COVARIANCE_RESET`]; the others are
@@ -266,8 +132,7 @@ pub(crate) fn run<T: Real, const M: usize, const J: usize, const TRACE: bool>(
         // The one `unsafe` of the core crate. A function compiled for CPU features may
         // only be called where the CPU has them; the check above makes sure it does.
         // Why have it at all: a multiply–add is one instruction instead of two on the
-        // step's dependency chain, the lanes of a bank fill 256-bit registers, and
-        // x86-64 builds assume neither by default.
+        // step's dependency chain, and x86-64 builds do not assume FMA by default.
         #[allow(unsafe_code)]
         // SAFETY: the CPU executes AVX2 and FMA instructions (checked just above).
         unsafe {
@@ -304,24 +169,29 @@ fn run_fma<T: Real, const M: usize, const J: usize, const TRACE: bool>(
     advance::<T, M, J, true, TRACE>(model, bank, input, out, trace);
 }
 
-/// Every joint's step, then the reset of joints whose covariance went bad.
+/// Every joint's step: `lane` for each, then the reset of joints whose covariance
+/// went bad.
 #[inline(always)]
 fn advance<T: Real, const M: usize, const J: usize, const F: bool, const TRACE: bool>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
     out: &mut BankOutput<T, J>,
-    trace: Option<&mut StepTrace<T, M>>,
+    mut trace: Option<&mut StepTrace<T, M>>,
 ) {
     let has_bias = model.bias_q_nm2.is_some();
-    let bad = if has_bias {
-        lanes::<T, M, J, F, true, TRACE>(model, bank, input, out, trace)
-    } else {
-        lanes::<T, M, J, F, false, TRACE>(model, bank, input, out, trace)
-    };
-    if bad.any() {
+    let mut bad = [false; J];
+    for l in 0..J {
+        let tr = if TRACE && l == 0 { trace.as_deref_mut() } else { None };
+        bad[l] = if has_bias {
+            lane::<T, M, J, F, true, TRACE>(model, bank, input, l, out, tr)
+        } else {
+            lane::<T, M, J, F, false, TRACE>(model, bank, input, l, out, tr)
+        };
+    }
+    if bad.iter().any(|&b| b) {
         for l in 0..J {
-            if bad.0[l] {
+            if bad[l] {
                 bank.reset_lane(model, l);
                 out.flags[l].insert(StepFlags::COVARIANCE_RESET);
                 if has_bias {
@@ -332,259 +202,203 @@ fn advance<T: Real, const M: usize, const J: usize, const F: bool, const TRACE: 
     }
 }
 
-/// Every joint's whole step but the reset of a bad covariance: the decisions (input
+/// Joint `l`'s whole step but the reset of a bad covariance: the decisions (input
 /// validity, reference increments `Δθ = wrap_π(θ(k) − θ(k−1))` or `(ω(k−1) + ω(k))/2 · dt`,
 /// encoder jumps and time gaps, each order's status), the phase bookkeeping and
 /// phasors, the time update, the prediction that is output and the measurement
-/// update, every decision applied as a select. Returns which covariances went bad.
+/// update, every decision applied as a select. Returns whether the covariance went bad.
 #[allow(clippy::too_many_lines)]
 #[inline(always)]
-fn lanes<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool, const TRACE: bool>(
+fn lane<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool, const TRACE: bool>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
+    l: usize,
     out: &mut BankOutput<T, J>,
     trace: Option<&mut StepTrace<T, M>>,
-) -> Lanes<bool, J> {
+) -> bool {
     let (plan, lim, orders) = (&model.plan, &model.limits, &model.orders);
-    let k = Lanes::<T, J>::splat;
-    let (zero, one, no) = (k(T::ZERO), k(T::ONE), Lanes::splat(false));
     let angle_input = model.phase_source == PhaseSource::Angle;
     let dt = input.dt_s.unwrap_or(plan.dt_s);
     let dt_ok = finite(dt) & (dt > T::ZERO);
-    let rv = &input.references;
-    let refs = [Lanes(rv.relative), Lanes(rv.output), Lanes(rv.motor)];
-    let (torque, expected) = (Lanes(input.torque_nm), Lanes(input.expected_torque_nm));
+    let q_bias = model.bias_q_nm2.unwrap_or(T::ZERO);
+    let refs = [input.references.relative[l], input.references.output[l], input.references.motor[l]];
+    let (torque, expected) = (input.torque_nm[l], input.expected_torque_nm[l]);
     let y = torque - expected;
 
     // The sample: skipped (a used reference or `dt` not finite: the state stays as it
     // was, the next increment spans the gap), first, or after a time gap.
-    let mut refs_ok = Lanes::splat(dt_ok);
+    let mut refs_ok = dt_ok;
     for r in 0..3 {
-        if plan.uses[r] {
-            refs_ok = refs_ok & refs[r].finite();
-        }
+        refs_ok &= !plan.uses[r] | finite(refs[r]);
     }
     let skip = !refs_ok;
-    let pending = Lanes(bank.pending_samples);
-    let n_samples = pending + one;
-    let total_dt = Lanes(bank.pending_dt) + k(dt);
-    let first = !Lanes(bank.has_last);
-    // `!(x <= limit)`: NaN counts as out of range.
-    let gap = !skip & !first & !total_dt.le(k(plan.max_gap_s));
-    let meas_ok = !skip & y.finite();
+    let pending = bank.pending_samples[l];
+    let n_samples = pending + T::ONE;
+    let total_dt = bank.pending_dt[l] + dt;
+    let first = !bank.has_last[l];
+    let gap = !skip & !first & !(total_dt <= plan.max_gap_s);
+    let meas_ok = !skip & finite(y);
     // The initial state is the prior of the first sample: no noise before it.
     let counted = !skip & !first;
-    let n_noise = counted.sel(n_samples, zero);
-    let infl = counted.sel(k(lim.covariance_inflation), zero);
+    let n_noise = if counted { n_samples } else { T::ZERO };
+    let infl = if counted { lim.covariance_inflation } else { T::ZERO };
 
     // Each reference: its increment, whether it jumped, its phase and phasor.
-    let (mut delta, mut jump, mut mean) = ([zero; 3], [no; 3], [zero; 3]);
-    let mut base = [Lanes::splat(Doubling::new(T::ONE, T::ZERO)); 3];
-    unroll!(3, |r| {
-        if plan.uses[r] {
-            let (v, last) = (refs[r], Lanes(bank.last[r]));
-            let d = if angle_input { (v - last).map(wrap) } else { (v + last) * k(T::HALF) * total_dt };
-            // A glitch: an increment too large, or too different from the last one.
-            let expected_d = Lanes(bank.last_delta[r]) * n_samples;
-            let changed = Lanes(bank.delta_known) & !(d - expected_d).abs().le(k(lim.max_step_change_rad));
-            let jumped = counted & (!d.abs().le(k(lim.max_angle_step_rad)) | changed);
-            let accept = counted & !jumped;
-            let per_sample = pending.zip(zero, |a, b| a == b).sel(d, d / n_samples);
-            // Mean increment over ~16 samples: encoder jitter at standstill averages out of
-            // it, so it alone decides whether an order is held.
-            let m = Lanes(bank.mean_delta[r]);
-            mean[r] = accept.sel(m.madd::<F>(per_sample - m, k(T::from_f64(HOLD_AVERAGE))), m);
-            bank.mean_delta[r] = mean[r].0;
-            bank.last_delta[r] = accept.sel(per_sample, Lanes(bank.last_delta[r])).0;
-            jump[r] = jumped;
-            delta[r] = counted.sel(d, zero);
-            // The phase: the angle itself, or the accumulated increments.
-            let psi = Lanes(bank.psi[r]);
-            let next = if angle_input { v } else { psi + delta[r] }.map(wrap);
-            let psi = (if angle_input { skip } else { skip | jumped }).sel(psi, next);
-            bank.psi[r] = psi.0;
-            bank.last[r] = skip.sel(last, v).0;
-            base[r] = psi.map(sin_cos_with::<T, F>);
+    let (mut delta, mut jump, mut mean) = ([T::ZERO; 3], [false; 3], [T::ZERO; 3]);
+    let mut base = [Doubling::new(T::ONE, T::ZERO); 3];
+    for r in 0..3 {
+        if !plan.uses[r] {
+            continue;
         }
-    });
-    let any_jump = jump[0] | jump[1] | jump[2];
-    for s in &mut bank.steps {
-        *s = s.wrapping_add(1);
+        let (v, last) = (refs[r], bank.last[r][l]);
+        let d = if angle_input { wrap(v - last) } else { (v + last) * T::HALF * total_dt };
+        // A glitch: an increment too large, or too different from the last one.
+        let expected_d = bank.last_delta[r][l] * n_samples;
+        let changed = bank.delta_known[l] & !((d - expected_d).abs() <= lim.max_step_change_rad);
+        let jumped = counted & (!(d.abs() <= lim.max_angle_step_rad) | changed);
+        let accept = counted & !jumped;
+        let per_sample = if pending == T::ZERO { d } else { d / n_samples };
+        // Mean increment over ~16 samples: encoder jitter at standstill averages out of
+        // it, so it alone decides whether an order is held.
+        let m = bank.mean_delta[r][l];
+        mean[r] = if accept { madd::<T, F>(m, per_sample - m, T::from_f64(HOLD_AVERAGE)) } else { m };
+        bank.mean_delta[r][l] = mean[r];
+        bank.last_delta[r][l] = if accept { per_sample } else { bank.last_delta[r][l] };
+        jump[r] = jumped;
+        delta[r] = if counted { d } else { T::ZERO };
+        // The phase: the angle itself, or the accumulated increments.
+        let psi = bank.psi[r][l];
+        let next = wrap(if angle_input { v } else { psi + delta[r] });
+        let psi = if skip | (!angle_input & jumped) { psi } else { next };
+        bank.psi[r][l] = psi;
+        bank.last[r][l] = if skip { last } else { v };
     }
-    bank.has_last = (!first | !skip).0;
-    // After a jump or a gap the next increment sets a new baseline.
-    bank.delta_known = skip.sel(Lanes(bank.delta_known), !first & !gap & !any_jump).0;
-    bank.pending_samples = skip.sel(n_samples, zero).0;
-    let pending_dt = Lanes(bank.pending_dt) + k(if dt_ok { dt } else { plan.dt_s });
-    bank.pending_dt = skip.sel(pending_dt, zero).0;
-    let mut flags = [StepFlags::empty(); J];
-    let mut flag = |f: StepFlags, on: Lanes<bool, J>| {
-        for l in 0..J {
-            flags[l].set(f, on.0[l]);
+    for r in 0..3 {
+        if plan.uses[r] {
+            base[r] = sin_cos_with::<T, F>(bank.psi[r][l]);
         }
-    };
-    flag(StepFlags::ANGLE_SKIPPED, skip);
-    flag(StepFlags::MEASUREMENT_SKIPPED, !skip & !meas_ok);
-    flag(StepFlags::GAP_RESET, gap);
-    flag(StepFlags::JUMP_RESET, !gap & any_jump);
+    }
+    let any_jump = jump[0] | jump[1] | jump[2];
+    bank.steps[l] = bank.steps[l].wrapping_add(1);
+    bank.has_last[l] |= !skip;
+    // After a jump or a gap the next increment sets a new baseline.
+    bank.delta_known[l] = if skip { bank.delta_known[l] } else { !first & !gap & !any_jump };
+    bank.pending_samples[l] = if skip { n_samples } else { T::ZERO };
+    let pending_dt = bank.pending_dt[l] + if dt_ok { dt } else { plan.dt_s };
+    bank.pending_dt[l] = if skip { pending_dt } else { T::ZERO };
+    let mut flags = StepFlags::empty();
+    flags.set(StepFlags::ANGLE_SKIPPED, skip);
+    flags.set(StepFlags::MEASUREMENT_SKIPPED, !skip & !meas_ok);
+    flags.set(StepFlags::GAP_RESET, gap);
+    flags.set(StepFlags::JUMP_RESET, !gap & any_jump);
 
     // Each order: its status (active, held or off), what the time update does with it
     // (keep its state or restart from its prior, keep its covariances with the others),
     // its process noise `q_i = q_s + q_rad |a_i|` and its phasor (times the load
     // `|T_exp + b̂(k|k−1)|` for a load-scaled order).
-    let load = (expected + Lanes(bank.b)).abs();
-    let load = load.finite().sel(load, zero);
-    let (mut keep, mut couple, mut pred, mut upd) = ([no; M], [no; M], [no; M], [no; M]);
-    let (mut inc, mut q, mut all_active) = ([zero; M], [zero; M], Lanes::splat(true));
-    let (k_off, k_held, k_active) =
-        (Lanes::splat(OrderStatus::Off), Lanes::splat(OrderStatus::Held), Lanes::splat(OrderStatus::Active));
-    unroll!(M, |i| {
+    let load = (expected + bank.b[l]).abs();
+    let load = if finite(load) { load } else { T::ZERO };
+    let (mut keep, mut couple, mut pred, mut upd) = ([true; M], [true; M], [true; M], [false; M]);
+    let (mut inc, mut q) = ([T::ZERO; M], [T::ZERO; M]);
+    for i in 0..M {
         // The order's reference by selects, not by index: the per-reference values
         // then stay in registers.
-        let (o, r) = (&orders[i], plan.reference[i]);
+        let r = plan.reference[i];
         let reset = gap | pick(&jump, r);
-        let a = reset.sel(zero, k(o.multiple) * pick(&delta, r));
+        let a = if reset { T::ZERO } else { orders[i].multiple * pick(&delta, r) };
         let abs_a = a.abs();
-        let mean_a = (k(o.multiple) * pick(&mean, r)).abs();
-        let prev = Lanes(bank.status[i]);
-        let was_off = prev.map(|s| s == OrderStatus::Off);
-        let stays_off = was_off & !abs_a.lt(k(plan.on_below_rad));
-        let off = !reset & (stays_off | (!was_off & k(plan.off_above_rad).lt(abs_a)));
-        let held = reset | (!off & mean_a.lt(k(plan.hold_below_rad)));
-        let status = skip.sel(prev, off.sel(k_off, held.sel(k_held, k_active)));
-        bank.status[i] = status.0;
-        let off = status.map(|s| s == OrderStatus::Off);
-        let active = status.map(|s| s == OrderStatus::Active);
+        let mean_a = (orders[i].multiple * pick(&mean, r)).abs();
+        let prev = bank.status[i][l];
+        let was_off = prev == OrderStatus::Off;
+        let off = !reset & ((was_off & !(abs_a < plan.on_below_rad)) | (!was_off & (abs_a > plan.off_above_rad)));
+        let held = reset | (!off & (mean_a < plan.hold_below_rad));
+        let status = if skip {
+            prev
+        } else if off {
+            OrderStatus::Off
+        } else if held {
+            OrderStatus::Held
+        } else {
+            OrderStatus::Active
+        };
+        bank.status[i][l] = status;
+        let (off, active) = (status == OrderStatus::Off, status == OrderStatus::Active);
         let zeroed = !skip & (reset | off);
-        (keep[i], couple[i], pred[i], upd[i]) = (!zeroed, skip | active, !off, meas_ok & active);
-        inc[i] = zeroed.sel(zero, a);
-        all_active = all_active & active;
-        let q_i = (k(o.q_per_sample_nm2) * n_noise).madd::<F>(k(o.q_per_rad_nm2), abs_a);
-        q[i] = (off | skip).sel(zero, q_i);
-        flag(StepFlags::ORDER_OFF, off);
-        flag(StepFlags::ORDER_HELD, status.map(|s| s == OrderStatus::Held));
+        keep[i] = !zeroed;
+        couple[i] = skip | active;
+        pred[i] = !off;
+        upd[i] = meas_ok & active;
+        inc[i] = if zeroed { T::ZERO } else { a };
+        let q_i = madd::<T, F>(orders[i].q_per_sample_nm2 * n_noise, orders[i].q_per_rad_nm2, abs_a);
+        q[i] = if off | skip { T::ZERO } else { q_i };
+        flags.set(StepFlags::ORDER_OFF, off);
+        flags.set(StepFlags::ORDER_HELD, status == OrderStatus::Held);
         let b = pick(&base, r);
-        let ph = match plan.power[i] {
+        let n = plan.power[i];
+        let ph = match n {
             1 => b,
-            2 => b.map(|b| b.doubled::<F>()),
-            4 => b.map(|b| b.doubled::<F>().doubled::<F>()),
+            2 => b.doubled::<F>(),
+            4 => b.doubled::<F>().doubled::<F>(),
             0 => {
                 // A fractional multiple: its own accumulated phase.
-                let psi = (Lanes(bank.order_psi[i]) + inc[i]).map(wrap);
-                bank.order_psi[i] = psi.0;
-                psi.map(sin_cos_with::<T, F>)
+                let psi = wrap(bank.order_psi[i][l] + inc[i]);
+                bank.order_psi[i][l] = psi;
+                sin_cos_with::<T, F>(psi)
             }
-            n => b.map(|b| {
+            n => {
                 let (c, s) = phasor_power_with::<T, F>(b.c, b.s, n);
                 Doubling::new(c, s)
-            }),
+            }
         };
-        let scale = if o.load_scaled { load } else { one };
-        bank.phasor[i] = [(ph.map(|p| p.c) * scale).0, (ph.map(|p| p.s) * scale).0];
-    });
-
-    let pending_none = pending.zip(zero, |a, b| a == b);
-    let common = (counted & meas_ok & !gap & !any_jump & pending_none & all_active).all();
-    let d = Decisions { keep, couple, pred, upd, inc, q, meas_ok, gap, n_noise, infl, flags };
-    if common {
-        // The common sample: every decision is known, so the update has no select left.
-        let yes = Lanes::splat(true);
-        let (keep, couple, pred, upd) = ([yes; M], [yes; M], [yes; M], [yes; M]);
-        let n_noise = one;
-        let infl = k(lim.covariance_inflation);
-        let flags = [StepFlags::empty(); J];
-        let d = Decisions { keep, couple, pred, upd, meas_ok: yes, gap: no, n_noise, infl, flags, ..d };
-        update::<T, M, J, F, BIAS, TRACE>(model, bank, input, d, out, trace)
-    } else {
-        update::<T, M, J, F, BIAS, TRACE>(model, bank, input, d, out, trace)
+        let scale = if orders[i].load_scaled { load } else { T::ONE };
+        bank.phasor[i][0][l] = ph.c * scale;
+        bank.phasor[i][1][l] = ph.s * scale;
     }
-}
-
-/// What the first half of a step decided for each joint.
-#[derive(Clone, Copy)]
-struct Decisions<T, const M: usize, const J: usize> {
-    /// Per order: state kept (else restarted from its prior), coupled with the others,
-    /// predicted, updated.
-    keep: [Lanes<bool, J>; M],
-    couple: [Lanes<bool, J>; M],
-    pred: [Lanes<bool, J>; M],
-    upd: [Lanes<bool, J>; M],
-    /// Per order: the applied phase increment, rad, and the process noise, N·m².
-    inc: [Lanes<T, J>; M],
-    q: [Lanes<T, J>; M],
-    /// Measurement used; time gap.
-    meas_ok: Lanes<bool, J>,
-    gap: Lanes<bool, J>,
-    /// Samples of bias noise since the last counted sample; covariance inflation.
-    n_noise: Lanes<T, J>,
-    infl: Lanes<T, J>,
-    flags: [StepFlags; J],
-}
-
-/// The second half of a step: the time update, the prediction that is output and the
-/// measurement update, as `d` decided. Returns which covariances went bad.
-#[allow(clippy::too_many_lines)]
-#[inline(always)]
-fn update<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool, const TRACE: bool>(
-    model: &RippleModel<T, M>,
-    bank: &mut RippleBank<T, M, J>,
-    input: &BankInput<T, J>,
-    d: Decisions<T, M, J>,
-    out: &mut BankOutput<T, J>,
-    mut trace: Option<&mut StepTrace<T, M>>,
-) -> Lanes<bool, J> {
-    let (plan, lim, orders) = (&model.plan, &model.limits, &model.orders);
-    let k = Lanes::<T, J>::splat;
-    let (zero, one, no) = (k(T::ZERO), k(T::ONE), Lanes::splat(false));
-    let q_bias = model.bias_q_nm2.unwrap_or(T::ZERO);
-    let (torque, expected) = (Lanes(input.torque_nm), Lanes(input.expected_torque_nm));
-    let y = torque - expected;
-    let Decisions { keep, couple, pred, upd, inc, q, meas_ok, gap, n_noise, infl, mut flags } = d;
 
     // Time update: inflation `ρ (P_00 + P_11)/2 · I₂` (rotation invariant, like Q) and
     // process noise on the diagonal blocks; a reset order restarts from its prior and
     // forgets its covariances, an order not active is decoupled from the others.
-    let grow = infl * k(T::HALF);
-    unroll!(M, |i| {
+    let grow = infl * T::HALF;
+    for i in 0..M {
         let d = &mut bank.p[i][i];
-        let (v0, v1) = (Lanes(d[0][0]), Lanes(d[1][1]));
+        let (v0, v1) = (d[0][0][l], d[1][1][l]);
         let trace = v0 + v1;
-        let fresh = k(plan.p0_nm2[i]) + q[i];
-        d[0][0] = keep[i].sel(v0.madd::<F>(grow, trace) + q[i], fresh).0;
-        d[1][1] = keep[i].sel(v1.madd::<F>(grow, trace) + q[i], fresh).0;
-        let off = keep[i].sel(Lanes(d[0][1]), zero).0;
-        (d[0][1], d[1][0]) = (off, off);
+        let fresh = plan.p0_nm2[i] + q[i];
+        d[0][0][l] = if keep[i] { madd::<T, F>(v0, grow, trace) + q[i] } else { fresh };
+        d[1][1][l] = if keep[i] { madd::<T, F>(v1, grow, trace) + q[i] } else { fresh };
+        let off = if keep[i] { d[0][1][l] } else { T::ZERO };
+        d[0][1][l] = off;
+        d[1][0][l] = off;
         for r in 0..2 {
-            bank.z[i][r] = keep[i].sel(Lanes(bank.z[i][r]), k(orders[i].prior_nm[r])).0;
+            bank.z[i][r][l] = if keep[i] { bank.z[i][r][l] } else { orders[i].prior_nm[r] };
             if BIAS {
-                bank.pb[i][r] = couple[i].sel(Lanes(bank.pb[i][r]), zero).0;
+                bank.pb[i][r][l] = if couple[i] { bank.pb[i][r][l] } else { T::ZERO };
             }
         }
-        unroll!(M, |j| {
-            if j > i {
-                let both = couple[i] & couple[j];
-                for v in bank.p[i][j].iter_mut().flatten() {
-                    *v = both.sel(Lanes(*v), zero).0;
-                }
+        for j in i + 1..M {
+            let both = couple[i] & couple[j];
+            for v in bank.p[i][j].iter_mut().flatten() {
+                v[l] = if both { v[l] } else { T::ZERO };
             }
-        });
-    });
+        }
+    }
     if BIAS {
         // A time gap brings the bias variance back up to its initial value.
-        let (v, p0) = (Lanes(bank.pbb), k(model.p0_bias_nm2));
-        let v = (gap & v.lt(p0)).sel(p0, v);
-        bank.pbb = (v.madd::<F>(v, infl) + k(q_bias) * n_noise).0;
+        let v = bank.pbb[l];
+        let v = if gap & (v < model.p0_bias_nm2) { model.p0_bias_nm2 } else { v };
+        bank.pbb[l] = madd::<T, F>(v, v, infl) + q_bias * n_noise;
     }
 
     // Prediction ŷ(k) = h ẑ(k|k−1) (every order not off) and the update row h (the
     // orders updated; the bias entry is 1 when the measurement is used).
-    let (mut ripple, mut mis) = (zero, zero);
+    let (mut ripple, mut mis) = (T::ZERO, T::ZERO);
     let (mut any_ripple, mut any_mis) = (false, false);
-    let mut h = [[zero; 2]; M];
-    unroll!(M, |i| {
-        let (c, s) = (Lanes(bank.phasor[i][0]), Lanes(bank.phasor[i][1]));
-        let v = pred[i].sel((c * Lanes(bank.z[i][0])).madd::<F>(s, Lanes(bank.z[i][1])), zero);
+    let mut h = [[T::ZERO; 2]; M];
+    for i in 0..M {
+        let (c, s) = (bank.phasor[i][0][l], bank.phasor[i][1][l]);
+        let v = madd::<T, F>(c * bank.z[i][0][l], s, bank.z[i][1][l]);
+        let v = if pred[i] { v } else { T::ZERO };
         if orders[i].reference.is_ripple() {
             ripple = sum_from(!any_ripple, ripple, v);
             any_ripple = true;
@@ -592,158 +406,168 @@ fn update<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bo
             mis = sum_from(!any_mis, mis, v);
             any_mis = true;
         }
-        h[i] = [upd[i].sel(c, zero), upd[i].sel(s, zero)];
-    });
+        h[i] = if upd[i] { [c, s] } else { [T::ZERO; 2] };
+    }
 
     // Gains g = P hᵀ from the upper blocks of the symmetric P, and the bias entry.
-    let mut g = [[zero; 2]; M];
-    unroll!(M, |i| {
+    let mut g = [[T::ZERO; 2]; M];
+    for i in 0..M {
         if BIAS {
-            g[i] = [meas_ok.sel(Lanes(bank.pb[i][0]), zero), meas_ok.sel(Lanes(bank.pb[i][1]), zero)];
+            g[i] = if meas_ok { [bank.pb[i][0][l], bank.pb[i][1][l]] } else { [T::ZERO; 2] };
         }
-        unroll!(M, |j| {
-            let (t0, t1) = block_times::<T, M, J, F>(bank, i, j, h[j]);
+        for j in 0..M {
+            let (t0, t1) = block_times::<T, M, J, F>(bank, i, j, l, h[j]);
             let first = !BIAS && j == 0;
             g[i] = [sum_from(first, g[i][0], t0), sum_from(first, g[i][1], t1)];
-        });
-    });
-    let mut gb = zero;
+        }
+    }
+    let mut gb = T::ZERO;
     if BIAS {
-        gb = meas_ok.sel(Lanes(bank.pbb), zero);
+        gb = if meas_ok { bank.pbb[l] } else { T::ZERO };
         for j in 0..M {
-            gb = gb + (Lanes(bank.pb[j][0]) * h[j][0]).madd::<F>(Lanes(bank.pb[j][1]), h[j][1]);
+            gb += madd::<T, F>(bank.pb[j][0][l] * h[j][0], bank.pb[j][1][l], h[j][1]);
         }
     }
 
     // Innovation `e = y − ŷ`, its variance `S = R + h g`, and the load-step decision:
     // an innovation beyond the NIS limit is a jump of the bias, not of the oscillators.
     // The update is then the exact limit Var(b) → ∞ (gain 0 here, completed below).
-    let mut s = if BIAS { gb } else { zero };
-    unroll!(M, |i| {
-        s = sum_from(!BIAS && i == 0, s, (h[i][0] * g[i][0]).madd::<F>(h[i][1], g[i][1]));
-    });
-    let s_var = k(model.r_nm2) + s;
-    let e = y - (ripple + mis + Lanes(bank.b));
-    let e_used = meas_ok.sel(e, zero);
-    let load_step =
-        if BIAS && lim.load_step_nis > T::ZERO { (k(lim.load_step_nis) * s_var).lt(e_used * e_used) } else { no };
-    let inv = load_step.sel(zero, one / s_var);
-    for l in 0..J {
-        flags[l].set(StepFlags::LOAD_STEP, load_step.0[l]);
+    let mut s = if BIAS { gb } else { T::ZERO };
+    for i in 0..M {
+        s = sum_from(!BIAS && i == 0, s, madd::<T, F>(h[i][0] * g[i][0], h[i][1], g[i][1]));
     }
+    let s_var = model.r_nm2 + s;
+    let e = y - (ripple + mis + bank.b[l]);
+    let e_used = if meas_ok { e } else { T::ZERO };
+    let load_step = BIAS & (lim.load_step_nis > T::ZERO) & (e_used * e_used > lim.load_step_nis * s_var);
+    let inv = if load_step { T::ZERO } else { T::ONE / s_var };
+    flags.set(StepFlags::LOAD_STEP, load_step);
+    let mut trace = trace;
     if let Some(tr) = trace.as_deref_mut().filter(|_| TRACE) {
-        let row_b = if BIAS { meas_ok.sel(one, zero) } else { zero };
-        let lane0 = [q_bias * n_noise.0[0], row_b.0[0], gb.0[0], s_var.0[0], e_used.0[0], y.0[0]];
-        record(tr, bank, (inc, q, [keep, pred], h, g), lane0, gap.0[0] & BIAS, load_step.0[0]);
+        let row_b = if BIAS && meas_ok { T::ONE } else { T::ZERO };
+        let masks = [keep, pred];
+        record(
+            tr,
+            bank,
+            l,
+            (inc, q, masks, h, g),
+            [q_bias * n_noise, row_b, gb, s_var, e_used, y],
+            BIAS & gap,
+            load_step,
+        );
     }
 
     // Measurement update `ẑ += g e / S`, `P −= g gᵀ / S` (upper blocks; each product
     // `g_i g_j` times `1/S`, so that it waits on the division for one multiply–add).
     // Variances never fall below their exact lower bound `P_ii R / S`.
-    let floor = k(model.r_nm2) * inv;
-    let (mut diag, mut z) = ([[zero; 2]; M], [[zero; 2]; M]);
-    unroll!(M, |i| {
+    let floor = model.r_nm2 * inv;
+    for i in 0..M {
         let [g0, g1] = g[i];
         let (k0, k1) = (g0 * inv, g1 * inv);
-        z[i] = [Lanes(bank.z[i][0]).madd::<F>(k0, e_used), Lanes(bank.z[i][1]).madd::<F>(k1, e_used)];
-        bank.z[i] = [z[i][0].0, z[i][1].0];
+        bank.z[i][0][l] = madd::<T, F>(bank.z[i][0][l], k0, e_used);
+        bank.z[i][1][l] = madd::<T, F>(bank.z[i][1][l], k1, e_used);
         let d = &mut bank.p[i][i];
-        let (v0, v1) = (Lanes(d[0][0]), Lanes(d[1][1]));
-        diag[i] = [v0.madd::<F>(-(g0 * g0), inv).max(v0 * floor), v1.madd::<F>(-(g1 * g1), inv).max(v1 * floor)];
-        (d[0][0], d[1][1]) = (diag[i][0].0, diag[i][1].0);
-        let off = Lanes(d[0][1]).madd::<F>(-(g0 * g1), inv).0;
-        (d[0][1], d[1][0]) = (off, off);
-        unroll!(M, |j| {
-            if j > i {
-                let b = &mut bank.p[i][j];
-                for (r, gr) in [g0, g1].into_iter().enumerate() {
-                    for c in 0..2 {
-                        b[r][c] = Lanes(b[r][c]).madd::<F>(-(gr * g[j][c]), inv).0;
-                    }
-                }
-            }
-        });
-        if BIAS {
-            bank.pb[i][0] = Lanes(bank.pb[i][0]).madd::<F>(-k0, gb).0;
-            bank.pb[i][1] = Lanes(bank.pb[i][1]).madd::<F>(-k1, gb).0;
+        let (v0, v1) = (d[0][0][l], d[1][1][l]);
+        d[0][0][l] = madd::<T, F>(v0, -(g0 * g0), inv).max(v0 * floor);
+        d[1][1][l] = madd::<T, F>(v1, -(g1 * g1), inv).max(v1 * floor);
+        let off = madd::<T, F>(d[0][1][l], -(g0 * g1), inv);
+        d[0][1][l] = off;
+        d[1][0][l] = off;
+        for j in i + 1..M {
+            let [gj0, gj1] = g[j];
+            let b = &mut bank.p[i][j];
+            b[0][0][l] = madd::<T, F>(b[0][0][l], -(g0 * gj0), inv);
+            b[0][1][l] = madd::<T, F>(b[0][1][l], -(g0 * gj1), inv);
+            b[1][0][l] = madd::<T, F>(b[1][0][l], -(g1 * gj0), inv);
+            b[1][1][l] = madd::<T, F>(b[1][1][l], -(g1 * gj1), inv);
         }
-    });
+        if BIAS {
+            bank.pb[i][0][l] = madd::<T, F>(bank.pb[i][0][l], -k0, gb);
+            bank.pb[i][1][l] = madd::<T, F>(bank.pb[i][1][l], -k1, gb);
+        }
+    }
     if BIAS {
         let kb = gb * inv;
-        bank.b = Lanes(bank.b).madd::<F>(kb, e_used).0;
-        let v = Lanes(bank.pbb);
-        bank.pbb = v.madd::<F>(-kb, gb).max(v * k(model.r_nm2) * inv).0;
+        bank.b[l] = madd::<T, F>(bank.b[l], kb, e_used);
+        let v = bank.pbb[l];
+        bank.pbb[l] = madd::<T, F>(v, -kb, gb).max(v * model.r_nm2 * inv);
         // The load-step limit: the bias takes the whole innovation, the oscillators
         // learn nothing, and `Var(b) = R + h P_zz hᵀ`, `Cov(z, b) = −P_zz hᵀ` (no
         // cancellation, PSD by construction); `P_zz hᵀ = g − Cov(z, b)` as h's bias
         // entry is 1.
-        let mut s_z = zero;
+        let mut s_z = T::ZERO;
         for i in 0..M {
             for r in 0..2 {
-                let pzh = g[i][r] - Lanes(bank.pb[i][r]);
-                s_z = s_z + h[i][r] * pzh;
-                bank.pb[i][r] = load_step.sel(-pzh, Lanes(bank.pb[i][r])).0;
+                let pzh = g[i][r] - bank.pb[i][r][l];
+                s_z += h[i][r] * pzh;
+                bank.pb[i][r][l] = if load_step { -pzh } else { bank.pb[i][r][l] };
             }
         }
-        bank.pbb = load_step.sel(k(model.r_nm2) + s_z, Lanes(bank.pbb)).0;
-        bank.b = load_step.sel(Lanes(bank.b) + e_used, Lanes(bank.b)).0;
+        bank.pbb[l] = if load_step { model.r_nm2 + s_z } else { bank.pbb[l] };
+        bank.b[l] = if load_step { bank.b[l] + e_used } else { bank.b[l] };
     }
     if let Some(tr) = trace.filter(|_| TRACE) {
-        tr.posterior = gaussian(bank, 0);
+        tr.posterior = gaussian(bank, l);
     }
 
     // Outputs, and whether the covariance went bad.
     let clean = torque - ripple - mis;
-    (out.torque_nm, out.ripple_nm, out.misalignment_nm) = (clean.0, ripple.0, mis.0);
-    out.torque_state_nm = if BIAS { (expected + Lanes(bank.b)).0 } else { clean.0 };
-    (out.innovation_nm, out.innovation_variance_nm2) = (e.0, s_var.0);
-    out.nis = (e * e / s_var).0;
-    out.flags = flags;
-    let bias = if BIAS { Some(Lanes(bank.pbb)) } else { None };
-    !healthy(diag, z, Lanes(bank.b), bias, s_var)
+    out.torque_nm[l] = clean;
+    out.ripple_nm[l] = ripple;
+    out.misalignment_nm[l] = mis;
+    out.torque_state_nm[l] = if BIAS { expected + bank.b[l] } else { clean };
+    out.innovation_nm[l] = e;
+    out.innovation_variance_nm2[l] = s_var;
+    out.nis[l] = e * e / s_var;
+    out.flags[l] = flags;
+    !healthy(BIAS, bank, l, s_var)
 }
 
-/// Which joints' states are usable after an update: the new variances `diag` (the
-/// diagonal of each oscillator block), means `z`, bias `b`, its variance (with the
-/// bias state) and the innovation variance `s_var`. One sum catches any NaN/∞, one
-/// minimum any negative variance; the values come in registers, not from the state.
+/// Whether joint `l`'s state is usable after an update with innovation variance
+/// `s_var`: one sum catches any NaN/∞, one minimum any negative variance.
 #[inline(always)]
 pub(super) fn healthy<T: Real, const M: usize, const J: usize>(
-    diag: [[Lanes<T, J>; 2]; M],
-    z: [[Lanes<T, J>; 2]; M],
-    b: Lanes<T, J>,
-    pbb: Option<Lanes<T, J>>,
-    s_var: Lanes<T, J>,
-) -> Lanes<bool, J> {
+    bias: bool,
+    bank: &RippleBank<T, M, J>,
+    l: usize,
+    s_var: T,
+) -> bool {
     // The two entries of each pair apart, then together: two independent chains.
-    let zero = Lanes::splat(T::ZERO);
-    let (mut sum, mut least) = ([zero; 2], [s_var; 2]);
-    unroll!(M, |i| {
+    let mut sum = [T::ZERO; 2];
+    let mut least = [s_var; 2];
+    for i in 0..M {
+        let d = &bank.p[i][i];
         for r in 0..2 {
-            sum[r] = sum_from(i == 0, sum[r], diag[i][r] + z[i][r]);
-            least[r] = least[r].min(diag[i][r]);
+            sum[r] = sum_from(i == 0, sum[r], d[r][r][l] + bank.z[i][r][l]);
+            least[r] = least[r].min(d[r][r][l]);
         }
-    });
-    let mut total = (sum[0] + sum[1]) + (s_var + b);
-    let mut low = least[0].min(least[1]);
-    if let Some(v) = pbb {
-        total = total + v;
-        low = low.min(v);
     }
-    total.finite() & zero.le(low) & zero.lt(s_var)
+    let mut total = (sum[0] + sum[1]) + (s_var + bank.b[l]);
+    let mut low = least[0].min(least[1]);
+    if bias {
+        total += bank.pbb[l];
+        low = low.min(bank.pbb[l]);
+    }
+    finite(total) & (low >= T::ZERO) & (s_var > T::ZERO)
 }
 
-/// `P_ij h_j` (two entries of `g_i`), from the upper blocks of the symmetric P.
+/// `P_ij h_j` for joint `l` (two entries of `g_i`), from the upper blocks of the
+/// symmetric P.
 #[inline(always)]
 fn block_times<T: Real, const M: usize, const J: usize, const F: bool>(
     bank: &RippleBank<T, M, J>,
     i: usize,
     j: usize,
-    [h0, h1]: [Lanes<T, J>; 2],
-) -> (Lanes<T, J>, Lanes<T, J>) {
-    let (a, b, t) = if j >= i { (i, j, false) } else { (j, i, true) };
-    let p = |r: usize, c: usize| Lanes(if t { bank.p[a][b][c][r] } else { bank.p[a][b][r][c] });
-    ((p(0, 0) * h0).madd::<F>(p(0, 1), h1), (p(1, 0) * h0).madd::<F>(p(1, 1), h1))
+    l: usize,
+    [h0, h1]: [T; 2],
+) -> (T, T) {
+    if j >= i {
+        let b = &bank.p[i][j];
+        (madd::<T, F>(b[0][0][l] * h0, b[0][1][l], h1), madd::<T, F>(b[1][0][l] * h0, b[1][1][l], h1))
+    } else {
+        let b = &bank.p[j][i];
+        (madd::<T, F>(b[0][0][l] * h0, b[1][0][l], h1), madd::<T, F>(b[0][1][l] * h0, b[1][1][l], h1))
+    }
 }
 
 /// `c + a b`: rounded once (fused) in the build `F = true` (compiled for FMA), else
@@ -760,7 +584,7 @@ pub(super) fn madd<T: Real, const F: bool>(c: T, a: T, b: T) -> T {
 /// `acc + t`, or `t` itself for a sum's first term: sums start from their first term,
 /// not from 0 (one addition fewer, and `0 + (−0)` would turn −0 into +0).
 #[inline(always)]
-fn sum_from<V: Add<Output = V>>(first: bool, acc: V, t: V) -> V {
+fn sum_from<T: Real>(first: bool, acc: T, t: T) -> T {
     if first {
         t
     } else {
@@ -805,29 +629,27 @@ fn gaussian<T: Real, const M: usize, const J: usize>(bank: &RippleBank<T, M, J>,
     g
 }
 
-/// Per order, lane-wise: increments, process noise, [kept, predicted], update row, gains.
-type OrderLanes<T, const M: usize, const J: usize> =
-    ([Lanes<T, J>; M], [Lanes<T, J>; M], [[Lanes<bool, J>; M]; 2], [[Lanes<T, J>; 2]; M], [[Lanes<T, J>; 2]; M]);
+/// Per order: increments, process noise, [kept, predicted], update row, gains.
+type OrderQuantities<T, const M: usize> = ([T; M], [T; M], [[bool; M]; 2], [[T; 2]; M], [[T; 2]; M]);
 
-/// Joint 0's quantities of this step into `tr`, before the measurement update;
+/// Joint `l`'s quantities of this step into `tr`, before the measurement update;
 /// `scalars`: bias noise, update row and gain entries, `S`, the innovation used, `y`.
 #[inline(never)]
 fn record<T: Real, const M: usize, const J: usize>(
     tr: &mut StepTrace<T, M>,
     bank: &RippleBank<T, M, J>,
-    (inc, q, [kept, predicted], h, g): OrderLanes<T, M, J>,
+    l: usize,
+    (inc, q, [kept, predicted], h, g): OrderQuantities<T, M>,
     [q_b, row_b, g_b, s_var, e_used, y]: [T; 6],
     reinflated: bool,
     load_step: bool,
 ) {
+    (tr.increment_rad, tr.q_nm2, tr.kept, tr.predicted, tr.update_row, tr.gain_numerator) =
+        (inc, q, kept, predicted, h, g);
     for i in 0..M {
-        (tr.increment_rad[i], tr.q_nm2[i]) = (inc[i].0[0], q[i].0[0]);
-        (tr.kept[i], tr.predicted[i]) = (kept[i].0[0], predicted[i].0[0]);
-        tr.update_row[i] = [h[i][0].0[0], h[i][1].0[0]];
-        tr.gain_numerator[i] = [g[i][0].0[0], g[i][1].0[0]];
-        tr.phasor[i] = [bank.phasor[i][0][0], bank.phasor[i][1][0]];
+        tr.phasor[i] = [bank.phasor[i][0][l], bank.phasor[i][1][l]];
     }
-    tr.prior = gaussian(bank, 0);
+    tr.prior = gaussian(bank, l);
     (tr.q_bias_nm2, tr.update_row_bias, tr.gain_numerator_bias) = (q_b, row_b, g_b);
     (tr.innovation_variance_nm2, tr.innovation_used_nm, tr.measurement_nm) = (s_var, e_used, y);
     tr.bias_reinflated = reinflated;
@@ -1001,20 +823,12 @@ pub(super) mod tests {
         eprintln!("numbers that differ in their last bits: {differ}");
     }
 
-    /// [`healthy`] of the state in `bank` after an update with innovation variance `s`.
-    fn health_of(bias: bool, bank: &RippleBank<f64, 3, 2>, s: f64) -> [bool; 2] {
-        let lanes = |v: [f64; 2]| Lanes(v);
-        let diag = core::array::from_fn(|i| [lanes(bank.p[i][i][0][0]), lanes(bank.p[i][i][1][1])]);
-        let z = core::array::from_fn(|i| [lanes(bank.z[i][0]), lanes(bank.z[i][1])]);
-        healthy(diag, z, lanes(bank.b), bias.then_some(lanes(bank.pbb)), Lanes::splat(s)).0
-    }
-
     /// Each corruption of joint 0 is caught, and joint 1 (untouched) stays healthy.
     #[test]
     fn health_check_catches_each_bad_entry() {
         let model = RippleModel::<f64, 3>::product(1000.0, 0.05).unwrap();
         let fresh = RippleBank::<f64, 3, 2>::new(&model);
-        assert!(health_of(true, &fresh, 1.0)[0] && health_of(true, &fresh, 1.0)[1]);
+        assert!(healthy(true, &fresh, 0, 1.0) && healthy(true, &fresh, 1, 1.0));
         let corruptions: [fn(&mut RippleBank<f64, 3, 2>); 8] = [
             |b| b.p[2][2][1][1][0] = f64::NAN,
             |b| b.p[1][1][0][0][0] = f64::INFINITY,
@@ -1028,15 +842,15 @@ pub(super) mod tests {
         for (k, corrupt) in corruptions.iter().enumerate() {
             let mut bank = fresh;
             corrupt(&mut bank);
-            assert!(!health_of(true, &bank, 1.0)[0], "corruption {k} passed");
-            assert!(health_of(true, &bank, 1.0)[1], "corruption {k} reached joint 1");
+            assert!(!healthy(true, &bank, 0, 1.0), "corruption {k} passed");
+            assert!(healthy(true, &bank, 1, 1.0), "corruption {k} reached joint 1");
         }
         for s_var in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-            assert!(!health_of(true, &fresh, s_var)[0], "S = {s_var}");
+            assert!(!healthy(true, &fresh, 0, s_var), "S = {s_var}");
         }
         // Without the bias state its entries are not read.
         let mut bank = fresh;
         bank.pbb[0] = -1.0;
-        assert!(health_of(false, &bank, 1.0)[0]);
+        assert!(healthy(false, &bank, 0, 1.0));
     }
 }

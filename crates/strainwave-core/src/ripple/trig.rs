@@ -135,7 +135,7 @@ const fn scaled<const N: usize>(c: [f64; N]) -> [f64; N] {
 }
 
 /// A phasor `(cos x, sin x)` with its double `(2 cos x, 2 sin x)`.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug)]
 pub(super) struct Doubling<T> {
     pub(super) c: T,
     pub(super) s: T,
