@@ -6,6 +6,9 @@ use anyhow::{bail, Context, Result};
 use strainwave_io::RecordingWriter;
 use strainwave_sim::{presets, Scenario, Simulator};
 
+mod arm;
+mod bench;
+
 /// Arguments of `simulate`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -102,7 +105,7 @@ pub fn run(a: &Args) -> Result<()> {
         strainwave_io::output::refuse_input_as_output(out, a.scenario.as_deref())?;
     }
     // The arm and bench twins have their own presets.
-    if crate::sim_arm::run(a)? || crate::sim_bench::run(a)? {
+    if arm::run(a)? || bench::run(a)? {
         return Ok(());
     }
     if a.print_scenario {

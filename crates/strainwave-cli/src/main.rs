@@ -25,8 +25,6 @@ mod progress;
 mod recording_args;
 mod report;
 mod signals;
-mod sim_arm;
-mod sim_bench;
 mod stdout;
 
 use std::process::ExitCode;

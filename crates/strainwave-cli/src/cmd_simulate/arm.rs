@@ -18,11 +18,11 @@ pub fn arm_preset(name: &str) -> Option<Result<ArmScenario>> {
 }
 
 /// Runs the preset when it is one of this twin's; `Ok(false)` otherwise.
-pub fn run(a: &crate::cmd_simulate::Args) -> Result<bool> {
+pub fn run(a: &super::Args) -> Result<bool> {
     let Some(name) = a.preset.as_deref() else { return Ok(false) };
     let Some(scenario) = arm_preset(name) else { return Ok(false) };
     let mut s = scenario?;
-    crate::cmd_simulate::overridden(&mut s, a.duration, a.seed)?;
+    super::overridden(&mut s, a.duration, a.seed)?;
     if a.print_scenario {
         crate::stdout::print(&s.to_toml())?;
         return Ok(true);

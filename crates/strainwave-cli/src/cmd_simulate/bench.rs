@@ -4,12 +4,12 @@ use anyhow::{bail, Result};
 use strainwave_sim::bench::{preset, BenchSimulator, PRESET_NAMES};
 
 /// Runs the preset when it is one of this twin's; `Ok(false)` otherwise.
-pub fn run(a: &crate::cmd_simulate::Args) -> Result<bool> {
+pub fn run(a: &super::Args) -> Result<bool> {
     let Some(name) = a.preset.as_deref().filter(|n| PRESET_NAMES.contains(n)) else {
         return Ok(false);
     };
     let mut s = preset(name)?;
-    crate::cmd_simulate::overridden(&mut s, a.duration, a.seed)?;
+    super::overridden(&mut s, a.duration, a.seed)?;
     if a.print_scenario {
         crate::stdout::print(&s.to_toml())?;
         return Ok(true);
