@@ -17,7 +17,7 @@ use std::io::{BufReader, BufWriter, Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, bail, Context, Result};
-use strainwave_analysis::smoother::torque::{LevelEstimate, TorqueTrack};
+use strainwave_analysis::smoother::torque::{TorqueEstimate, TorqueTrack};
 use strainwave_analysis::smoother::{CheckpointStore, CheckpointedSmoother, SmootherError};
 use strainwave_core::denoise::TorqueDenoiser;
 use strainwave_core::ripple::{ReferenceValues, RippleInput, RippleModel, RippleState, StepFlags};
@@ -31,8 +31,9 @@ use crate::run::{FilterOptions, FilterSummary, RowSink, RowSource};
 pub const BLOCK_ROWS: usize = 4096;
 
 /// Values per row the smoother adds: torque, ripple, misalignment, innovation, nis, flags,
-/// and the smoothed torque's backward prediction (mean, variance; ∞: none).
-const ADDED: usize = 8;
+/// and the smoothed torque's backward prediction (level and rate, their covariance;
+/// `P_ττ = ∞`: none).
+const ADDED: usize = 11;
 /// The canceller's input as stored: torque, expected torque, three references, dt (NaN:
 /// none); then the causal denoised torque of the forward pass (NaN: none).
 const INPUT: usize = 7;
@@ -209,12 +210,12 @@ pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
         for x in s.smoothed.iter().rev() {
             let p = backward.predicted();
             // Restarted here: its prediction crossed a step and is dropped.
-            predicted.push(if backward.push(x.torque_nm, false) { LevelEstimate::NONE } else { p });
+            predicted.push(if backward.push(x.torque_nm, false) { TorqueEstimate::NONE } else { p });
         }
         values.clear();
         for ((s, f), p) in s.smoothed.iter().zip(&s.filtered).zip(predicted.iter().rev()) {
             values.extend_from_slice(&[s.torque_nm, s.ripple_nm, s.misalignment_nm, f.innovation_nm, f.nis]);
-            values.extend_from_slice(&[f.flags.bits() as f64, p.mean_nm, p.var_nm2]);
+            values.extend_from_slice(&[f.flags.bits() as f64, p.mean[0], p.mean[1], p.cov[0], p.cov[1], p.cov[2]]);
         }
         added.write_rows(range.start, &values)?;
     }
@@ -236,8 +237,9 @@ pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
             line.push(denoised);
         }
         forward.push(extra[0], false);
-        let back = LevelEstimate { mean_nm: extra[6], var_nm2: extra[7] };
-        let (t, sd) = forward.filtered().combine(back).map_or((extra[0], f64::NAN), |e| (e.mean_nm, e.var_nm2.sqrt()));
+        let back = TorqueEstimate { mean: [extra[6], extra[7]], cov: [extra[8], extra[9], extra[10]] };
+        let (t, sd) =
+            forward.filtered().combine(back).map_or((extra[0], f64::NAN), |e| (e.level_nm(), e.level_sd_nm()));
         line.extend_from_slice(&[t, sd]);
         w.write_row(&line)?;
         line.resize(width + INPUT, 0.0);

@@ -106,7 +106,7 @@ const FULL_LOAD_RIPPLE_BANDWIDTH_HZ: f64 = 0.01;
 const FULL_MISALIGNMENT_BANDWIDTH_HZ: f64 = 0.01;
 const FULL_MISALIGNMENT_AT_LINE_HZ: f64 = 0.25;
 const FULL_BIAS_BANDWIDTH_HZ: f64 = 100.0;
-const COMMISSIONING_BIAS_BANDWIDTH_HZ: f64 = 1.0;
+const COMMISSIONING_BIAS_BANDWIDTH_HZ: f64 = 0.1;
 /// Prior 1σ of the misalignment, N·m: learned over revolutions, never seized from the
 /// first load transient.
 const MISALIGNMENT_PRIOR_NM: f64 = 0.1;
