@@ -192,7 +192,7 @@ pub fn run(a: &Args) -> Result<()> {
             Some(c) => c.denoiser()?.map(|d| (c.filter.torque_bandwidth_hz.unwrap_or(f64::NAN), d.group_delay_s())),
             None => None,
         };
-        sections.push(denoised_section(delay));
+        sections.push(denoised_section(delay, cfg.is_some()));
     }
     // Errors against the truth.
     if truth_at.is_some() {

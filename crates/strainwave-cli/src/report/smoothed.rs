@@ -163,8 +163,9 @@ impl SmoothedTorque {
 }
 
 /// The section on `torque_denoised`: its bandwidth and group delay at DC when the config
-/// sets `filter.torque_bandwidth_hz` (`delay`: bandwidth Hz, delay s), else how to find them.
-pub fn denoised_section(delay: Option<(f64, f64)>) -> Section {
+/// sets `filter.torque_bandwidth_hz` (`delay`: bandwidth Hz, delay s), else how to find
+/// them (`config_given`: a joint config was passed, without the key).
+pub fn denoised_section(delay: Option<(f64, f64)>, config_given: bool) -> Section {
     let body = match delay {
         Some((bw, d)) => format!(
             "<p><code>torque_denoised</code> is the causal torque state at {} Hz \
@@ -173,6 +174,10 @@ pub fn denoised_section(delay: Option<(f64, f64)>) -> Section {
             esc(&format!("{bw}")),
             1e3 * d
         ),
+        None if config_given => "<p><code>torque_denoised</code> is the causal torque state; its group delay at DC \
+                                 follows from <code>filter.torque_bandwidth_hz</code>, which the joint config given \
+                                 does not set: pass the one the recording was filtered with.</p>"
+            .into(),
         None => "<p><code>torque_denoised</code> is the causal torque state; its group delay at DC follows from \
                  <code>filter.torque_bandwidth_hz</code>: pass the joint config (<code>--config</code>) that set \
                  it to have it stated here.</p>"
@@ -216,7 +221,8 @@ mod tests {
 
     #[test]
     fn the_denoised_section_states_the_delay() {
-        assert!(denoised_section(Some((20.0, 7.47e-3))).body.contains("7.47 ms"));
-        assert!(denoised_section(None).body.contains("--config"));
+        assert!(denoised_section(Some((20.0, 7.47e-3)), true).body.contains("7.47 ms"));
+        assert!(denoised_section(None, false).body.contains("--config"));
+        assert!(denoised_section(None, true).body.contains("does not set"));
     }
 }
