@@ -76,3 +76,18 @@ fn smoothed_torque_on_random_joints_and_load_profiles() {
         check(&test.name, &a, floor);
     }
 }
+
+/// More random joints, beyond the three checked against the targets: what the canceller
+/// leaves on some draws (residual ripple, a misalignment learned a little off, or a
+/// commissioning that fails outright) bounds the smoothed torque there, so only
+/// "never worse than the causal torque" is checked. Run by `scripts/smooth-check`.
+#[test]
+#[ignore = "slow: seven more simulated joints; scripts/smooth-check runs it"]
+fn smoothed_torque_on_more_random_joints() {
+    for seed in 14..=20 {
+        let (comm, test) = random_joint(seed);
+        let (a, floor, causal) = measure(&comm, &test);
+        show(&test.name, &a, floor, causal);
+        assert!(a.rms_error_nm < causal, "{}: smoothed {:.4} vs causal {causal:.4}", test.name, a.rms_error_nm);
+    }
+}
