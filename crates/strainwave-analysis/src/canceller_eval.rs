@@ -25,7 +25,7 @@ use strainwave_core::ripple::{
 
 use crate::error::AnalysisError;
 use crate::smoother::smooth_with;
-use crate::smoother::torque::{smooth_torque, TorqueTrack};
+use crate::smoother::torque_ripple::{residual_orders, smooth_torque_with_ripple, MeanSpeed, RippleTorqueTrack};
 use crate::stats::rms;
 
 /// The signals of a run.
@@ -194,7 +194,17 @@ fn run_smoothed(
     let out =
         smooth_with(&m, &inputs, false).map_err(|e| AnalysisError::Invalid { what: "smoother", why: e.to_string() })?;
     let clean: Vec<f64> = out.smoothed.iter().map(|o| o.torque_nm).collect();
-    let level = smooth_torque(&clean, &[], TorqueTrack::pair(m.r_nm2(), s.sample_rate_hz));
+    let mut speed = MeanSpeed::default();
+    inputs.iter().for_each(|i| speed.push(i.references.relative));
+    let multiples = residual_orders(&m, speed.rad_per_s(s.sample_rate_hz));
+    let phasors: Vec<Vec<[f64; 2]>> = inputs
+        .iter()
+        .map(|i| {
+            multiples.iter().map(|n| [(n * i.references.relative).cos(), (n * i.references.relative).sin()]).collect()
+        })
+        .collect();
+    let tracks = RippleTorqueTrack::pair(multiples.len(), m.r_nm2(), s.sample_rate_hz);
+    let level = smooth_torque_with_ripple(&clean, &phasors, &[], tracks);
     Ok(out.smoothed.iter().zip(level).map(|(o, (t, sd))| [t, sd, o.ripple_nm + o.misalignment_nm]).collect())
 }
 

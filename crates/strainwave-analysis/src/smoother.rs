@@ -25,6 +25,7 @@ use strainwave_core::Real;
 
 mod checkpointed;
 pub mod torque;
+pub mod torque_ripple;
 pub use checkpointed::{CheckpointStore, CheckpointedSmoother};
 
 /// Why the smoother stopped.

@@ -233,7 +233,9 @@ pub fn run(a: &Args) -> Result<()> {
 /// loaded runs: text, HTML table and plots. The full configuration first learns on the
 /// commissioning run of the same joint.
 fn canceller_section() -> Result<(String, String, Vec<LinePlot>)> {
-    use strainwave_analysis::canceller_eval::{commission, evaluate, filtered, lowpass_cutoff_for, smoothed, Method};
+    use strainwave_analysis::canceller_eval::{
+        commission, evaluate, filtered, lowpass_cutoff_for, smoothed, smoothed_accuracy, Method,
+    };
     let mut text = String::from("\nripple and misalignment cancellation against the simulator's truth:\n");
     let commissioning = EvalRun::simulate("taghirad-commissioning")?;
     let learned = commission(&commissioning.signals()?, &commissioning.gear, commissioning.noise_nm)?;
@@ -293,6 +295,7 @@ fn canceller_section() -> Result<(String, String, Vec<LinePlot>)> {
         }
         let full_row = eval.iter().find(|r| r.method == Method::Full).context("no full row")?;
         let smoothed_row = eval.last().context("no rows")?;
+        let band = smoothed_accuracy(&signals, &gear, noise, &learned, 0.3, None)?;
         rows.push(vec![
             name.to_string(),
             "(white-noise floor)".into(),
@@ -300,9 +303,10 @@ fn canceller_section() -> Result<(String, String, Vec<LinePlot>)> {
             format!("{noise:.4}"),
             format!("{:.3}", 100.0 * noise / run.full_scale_nm),
             format!(
-                "full/floor = {:.2}, smoothed/floor = {:.2}",
+                "full/floor = {:.2}, smoothed/floor = {:.2} (±1σ covers {:.0} %)",
                 full_row.rms_error_nm / noise,
-                smoothed_row.rms_error_nm / noise
+                smoothed_row.rms_error_nm / noise,
+                100.0 * band.coverage_1sd
             ),
         ]);
         if name == "taghirad" {

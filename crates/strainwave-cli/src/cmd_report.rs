@@ -1,7 +1,9 @@
 //! `strainwave report`: a self-contained HTML report of a recording: torque over time,
 //! spectra with the order lines (when a joint config gives the gear and angles), the
 //! filter's result when the recording has its columns, and error tables against the
-//! truth when the recording is simulated. One pass over the recording in constant
+//! truth when the recording is simulated; with `filter --smooth`'s columns, the smoothed
+//! torque and its band against the measurement, and `torque_denoised`'s group delay at
+//! DC. One pass over the recording in constant
 //! memory: the time plot is a min/max decimation per pixel column, the spectra are
 //! averaged over segments.
 
@@ -11,6 +13,7 @@ use anyhow::{bail, Context, Result};
 
 use crate::report::html::{esc, table, Report, Section};
 use crate::report::plot::{LinePlot, Marker, Series};
+use crate::report::smoothed::{denoised_section, SmoothedTorque};
 use crate::report::streaming::{ColumnStats, MinMaxDecimator, WelchAmplitude};
 use strainwave_joint::JointConfig;
 
@@ -64,6 +67,10 @@ pub fn run(a: &Args) -> Result<()> {
         let col = |ch: &Option<strainwave_io::Channel>| ch.as_ref().and_then(|ch| at(ch.column_name()));
         col(&c.channels.motor_angle).zip(col(&c.channels.output_angle))
     });
+    let measured_name =
+        cfg.as_ref().map_or("measured_torque".to_string(), |c| c.channels.torque.column_name().to_string());
+    let mut smoothed = SmoothedTorque::new(&columns, &measured_name, PLOT_COLUMNS)
+        .or_else(|| SmoothedTorque::new(&columns, "measured_torque", PLOT_COLUMNS));
     // The one pass.
     let mut stats = vec![ColumnStats::default(); columns.len()];
     let mut plots: Vec<MinMaxDecimator> = torque_at.iter().map(|_| MinMaxDecimator::new(PLOT_COLUMNS)).collect();
@@ -88,6 +95,9 @@ pub fn run(a: &Args) -> Result<()> {
             if let Some(tr) = truth_at {
                 errors[k].push(row[c] - row[tr]);
             }
+        }
+        if let Some(s) = smoothed.as_mut() {
+            s.push(n, t, &row);
         }
         if first.is_none() {
             first = Some(row.clone());
@@ -173,6 +183,16 @@ pub fn run(a: &Args) -> Result<()> {
             };
             sections.push(Section { title: "Spectra".into(), body: plot.to_svg() });
         }
+    }
+    if let Some(s) = smoothed {
+        sections.push(s.section(&time_name, cfg.as_ref().and_then(|c| c.filter.noise_nm)));
+    }
+    if at("torque_denoised").is_some() {
+        let delay = match &cfg {
+            Some(c) => c.denoiser()?.map(|d| (c.filter.torque_bandwidth_hz.unwrap_or(f64::NAN), d.group_delay_s())),
+            None => None,
+        };
+        sections.push(denoised_section(delay, cfg.is_some()));
     }
     // Errors against the truth.
     if truth_at.is_some() {

@@ -17,7 +17,9 @@ use std::io::{BufReader, BufWriter, Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, bail, Context, Result};
-use strainwave_analysis::smoother::torque::{LevelEstimate, TorqueTrack};
+use strainwave_analysis::smoother::torque_ripple::{
+    residual_orders, MeanSpeed, RippleTorqueEstimate, RippleTorqueTrack,
+};
 use strainwave_analysis::smoother::{CheckpointStore, CheckpointedSmoother, SmootherError};
 use strainwave_core::denoise::TorqueDenoiser;
 use strainwave_core::ripple::{ReferenceValues, RippleInput, RippleModel, RippleState, StepFlags};
@@ -30,9 +32,10 @@ use crate::run::{FilterOptions, FilterSummary, RowSink, RowSource};
 /// filter state at each block's start (about 1.3 kB) goes to a scratch file.
 pub const BLOCK_ROWS: usize = 4096;
 
-/// Values per row the smoother adds: torque, ripple, misalignment, innovation, nis, flags,
-/// and the smoothed torque's backward prediction (mean, variance; ∞: none).
-const ADDED: usize = 8;
+/// Values per row the smoother adds before the smoothed torque's backward prediction
+/// (its state and covariance, [`RippleTorqueEstimate::values_len`] values): torque,
+/// ripple, misalignment, innovation, nis, flags.
+const ADDED: usize = 6;
 /// The canceller's input as stored: torque, expected torque, three references, dt (NaN:
 /// none); then the causal denoised torque of the forward pass (NaN: none).
 const INPUT: usize = 7;
@@ -167,6 +170,8 @@ pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
     let states = Scratch::create(&dir, "states", RippleState::<f64, M>::SNAPSHOT_LEN)?;
     let states = ScratchStates { model: *model, file: states, values: Vec::new() };
     let mut sm = CheckpointedSmoother::with_store(model, BLOCK_ROWS, states);
+    // The mean relative speed decides which ripple orders the smoothed torque models.
+    let mut speed = MeanSpeed::default();
     let mut row = Vec::new();
     let (mut first_t, mut last_t): (Option<f64>, Option<f64>) = (None, None);
     while r.read_row(&mut row)? {
@@ -179,6 +184,7 @@ pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
             first_t.get_or_insert(t);
             last_t = Some(t);
         }
+        speed.push(sample.references.relative);
         let o = sm.push(&sample).map_err(smoother_error)?;
         check.flags(o.flags, r.rows_read());
         let denoised =
@@ -194,10 +200,17 @@ pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
     }
 
     // Backward, block by block from the last.
-    let mut added = Scratch::create(&dir, "smoothed", ADDED)?;
+    // The smoothed torque's two filters (level, rate and the residual ripple of the
+    // canceller's relative-angle orders): backward here, forward in the last pass.
+    let multiples = residual_orders(model, speed.rad_per_s(model.sample_rate_hz()));
+    let (mut forward, mut backward) = RippleTorqueTrack::pair(multiples.len(), model.r_nm2(), model.sample_rate_hz());
+    let n_state = forward.state_len();
+    let state_values = RippleTorqueEstimate::values_len(n_state);
+    let phasors = |relative_rad: f64| -> Vec<[f64; 2]> {
+        multiples.iter().map(|n| [(n * relative_rad).cos(), (n * relative_rad).sin()]).collect()
+    };
+    let mut added = Scratch::create(&dir, "smoothed", ADDED + state_values)?;
     let (mut block, mut inputs, mut values) = (Vec::new(), Vec::new(), Vec::new());
-    // The smoothed torque's two filters: backward here, forward in the last pass.
-    let (mut forward, mut backward) = TorqueTrack::pair(model.r_nm2(), model.sample_rate_hz());
     let mut predicted = Vec::new();
     for b in (0..sm.blocks()).rev() {
         let range = sm.block_range(b);
@@ -206,15 +219,17 @@ pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
         inputs.extend(block.chunks_exact(width + INPUT).map(|v| decode(&v[width..])));
         let s = sm.smooth_block(b, &inputs).map_err(smoother_error)?;
         predicted.clear();
-        for x in s.smoothed.iter().rev() {
+        for (x, i) in s.smoothed.iter().zip(&inputs).rev() {
             let p = backward.predicted();
             // Restarted here: its prediction crossed a step and is dropped.
-            predicted.push(if backward.push(x.torque_nm, false) { LevelEstimate::NONE } else { p });
+            let restarted = backward.push(x.torque_nm, &phasors(i.references.relative), false);
+            predicted.push(if restarted { RippleTorqueEstimate::none(n_state) } else { p });
         }
         values.clear();
         for ((s, f), p) in s.smoothed.iter().zip(&s.filtered).zip(predicted.iter().rev()) {
             values.extend_from_slice(&[s.torque_nm, s.ripple_nm, s.misalignment_nm, f.innovation_nm, f.nis]);
-            values.extend_from_slice(&[f.flags.bits() as f64, p.mean_nm, p.var_nm2]);
+            values.push(f.flags.bits() as f64);
+            p.to_values(&mut values);
         }
         added.write_rows(range.start, &values)?;
     }
@@ -225,19 +240,22 @@ pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
         Ok(BufReader::new(s.file.try_clone().with_context(|| s.context())?))
     };
     let (mut rows_in, mut added_in) = (rewind(&mut rows)?, rewind(&mut added)?);
-    let (mut line, mut extra) = (vec![0.0; width + INPUT], [0.0; ADDED]);
+    let (mut line, mut extra) = (vec![0.0; width + INPUT], vec![0.0; ADDED + state_values]);
     for _ in 0..sm.len() {
         get(&mut rows_in, &mut line).with_context(|| rows.context())?;
         get(&mut added_in, &mut extra).with_context(|| added.context())?;
-        let denoised = line[width + INPUT - 1];
+        // The stored input: torque, expected torque, relative angle, …, denoised torque.
+        let (relative_rad, denoised) = (line[width + 2], line[width + INPUT - 1]);
         line.truncate(width);
-        line.extend_from_slice(&extra[..6]);
+        line.extend_from_slice(&extra[..ADDED]);
         if denoiser.is_some() {
             line.push(denoised);
         }
-        forward.push(extra[0], false);
-        let back = LevelEstimate { mean_nm: extra[6], var_nm2: extra[7] };
-        let (t, sd) = forward.filtered().combine(back).map_or((extra[0], f64::NAN), |e| (e.mean_nm, e.var_nm2.sqrt()));
+        forward.push(extra[0], &phasors(relative_rad), false);
+        let back =
+            RippleTorqueEstimate::from_values(n_state, &extra[ADDED..]).unwrap_or(RippleTorqueEstimate::none(n_state));
+        let (t, sd) =
+            forward.filtered().combine(back).map_or((extra[0], f64::NAN), |e| (e.level_nm(), e.level_sd_nm()));
         line.extend_from_slice(&[t, sd]);
         w.write_row(&line)?;
         line.resize(width + INPUT, 0.0);

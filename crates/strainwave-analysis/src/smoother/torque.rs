@@ -27,7 +27,7 @@
 
 /// The bandwidth the smoothed torque is given, Hz (measured best of 30–50 Hz on the
 /// twin's runs; see `docs/smoothing.md`).
-pub const SMOOTHED_TORQUE_BANDWIDTH_HZ: f64 = 40.0;
+pub const SMOOTHED_TORQUE_BANDWIDTH_HZ: f64 = 60.0;
 
 /// The NIS above which either filter takes a sample as a step and restarts (a 4σ jump).
 pub const SMOOTHED_TORQUE_STEP_NIS: f64 = 16.0;
@@ -50,30 +50,62 @@ pub struct TorqueTrack {
 /// The rate's variance at a restart (it is unknown; large against any real rate).
 const RATE_PRIOR_NM2: f64 = 1e6;
 
-/// A Gaussian estimate of the torque level: mean and variance (∞: none).
+/// A Gaussian estimate of the torque's level and rate: mean `[τ, τ̇]` (N·m, N·m per
+/// sample, the rate in forward time whichever way the filter runs) and covariance
+/// `[P_ττ, P_ττ̇, P_τ̇τ̇]`; [`Self::NONE`]: no information.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LevelEstimate {
-    /// N·m.
-    pub mean_nm: f64,
-    /// N·m² (`f64::INFINITY`: no information).
-    pub var_nm2: f64,
+pub struct TorqueEstimate {
+    /// `[τ, τ̇]`.
+    pub mean: [f64; 2],
+    /// `[P_ττ, P_ττ̇, P_τ̇τ̇]` (`P_ττ = ∞`: no information).
+    pub cov: [f64; 3],
 }
 
-impl LevelEstimate {
+impl TorqueEstimate {
     /// No information.
-    pub const NONE: Self = Self { mean_nm: 0.0, var_nm2: f64::INFINITY };
+    pub const NONE: Self = Self { mean: [0.0; 2], cov: [f64::INFINITY, 0.0, f64::INFINITY] };
 
-    /// The two-filter combination of two independent estimates, `None` when neither
-    /// has information.
+    /// The level, N·m.
+    pub fn level_nm(&self) -> f64 {
+        self.mean[0]
+    }
+
+    /// The level's standard deviation, N·m (∞: no information).
+    pub fn level_sd_nm(&self) -> f64 {
+        self.cov[0].sqrt()
+    }
+
+    /// The information matrix `P⁻¹` and information vector `P⁻¹ x`, `None` without
+    /// information (or a covariance that is not positive definite).
+    fn information(&self) -> Option<([f64; 3], [f64; 2])> {
+        let [a, b, c] = self.cov;
+        let det = a * c - b * b;
+        if !(a.is_finite() && c.is_finite() && b.is_finite() && a > 0.0 && det > 0.0) {
+            return None;
+        }
+        let inv = [c / det, -b / det, a / det];
+        Some((inv, [inv[0] * self.mean[0] + inv[1] * self.mean[1], inv[1] * self.mean[0] + inv[2] * self.mean[1]]))
+    }
+
+    /// The two-filter combination of two independent estimates of the same state,
+    /// level and rate together (`P = (P_a⁻¹ + P_b⁻¹)⁻¹`, `x = P (P_a⁻¹ x_a + P_b⁻¹ x_b)`),
+    /// `None` when neither has information. Combining the levels alone would throw away
+    /// what each side's rate says about the level: on a curved load both sides lag the
+    /// same way, and only the joint combination cancels it.
     pub fn combine(self, other: Self) -> Option<Self> {
-        let (a, b) = (self.var_nm2, other.var_nm2);
-        match (a.is_finite() && a > 0.0, b.is_finite() && b > 0.0) {
-            (false, false) => None,
-            (true, false) => Some(self),
-            (false, true) => Some(other),
-            (true, true) => {
-                let var_nm2 = 1.0 / (1.0 / a + 1.0 / b);
-                Some(Self { mean_nm: var_nm2 * (self.mean_nm / a + other.mean_nm / b), var_nm2 })
+        match (self.information(), other.information()) {
+            (None, None) => None,
+            (Some(_), None) => Some(self),
+            (None, Some(_)) => Some(other),
+            (Some((ia, va)), Some((ib, vb))) => {
+                let i = [ia[0] + ib[0], ia[1] + ib[1], ia[2] + ib[2]];
+                let v = [va[0] + vb[0], va[1] + vb[1]];
+                let det = i[0] * i[2] - i[1] * i[1];
+                if !(det > 0.0 && det.is_finite()) {
+                    return None;
+                }
+                let cov = [i[2] / det, -i[1] / det, i[0] / det];
+                Some(Self { mean: [cov[0] * v[0] + cov[1] * v[1], cov[1] * v[0] + cov[2] * v[1]], cov })
             }
         }
     }
@@ -104,26 +136,25 @@ impl TorqueTrack {
         r_nm2 * (std::f64::consts::TAU * bandwidth_hz / sample_rate_hz).powi(4)
     }
 
-    /// The level predicted for the next sample, before it is seen.
-    pub fn predicted(&self) -> LevelEstimate {
+    /// The state predicted for the next sample, before it is seen (`F x`, `F P Fᵀ + Q`).
+    pub fn predicted(&self) -> TorqueEstimate {
         if !self.started {
-            return LevelEstimate::NONE;
+            return TorqueEstimate::NONE;
         }
-        let d = self.direction;
+        let (d, q) = (self.direction, self.q_nm2);
         let [p00, p01, p11] = self.cov;
-        // F P Fᵀ + Q, level entry: p00 + 2 d p01 + p11 + q/3.
-        LevelEstimate {
-            mean_nm: self.mean[0] + d * self.mean[1],
-            var_nm2: p00 + 2.0 * d * p01 + p11 + self.q_nm2 / 3.0,
+        TorqueEstimate {
+            mean: [self.mean[0] + d * self.mean[1], self.mean[1]],
+            cov: [p00 + 2.0 * d * p01 + p11 + q / 3.0, p01 + d * p11 + d * q / 2.0, p11 + q],
         }
     }
 
-    /// The level filtered with the last sample.
-    pub fn filtered(&self) -> LevelEstimate {
+    /// The state filtered with the last sample.
+    pub fn filtered(&self) -> TorqueEstimate {
         if !self.started {
-            return LevelEstimate::NONE;
+            return TorqueEstimate::NONE;
         }
-        LevelEstimate { mean_nm: self.mean[0], var_nm2: self.cov[0] }
+        TorqueEstimate { mean: self.mean, cov: self.cov }
     }
 
     /// Takes sample `y_nm` (prediction, then update); `cut`: a step is known to lie
@@ -132,10 +163,8 @@ impl TorqueTrack {
     /// exceeded the limit, or `cut`).
     pub fn push(&mut self, y_nm: f64, cut: bool) -> bool {
         if self.started {
-            let (d, q) = (self.direction, self.q_nm2);
-            let [p00, p01, p11] = self.cov;
-            self.mean = [self.mean[0] + d * self.mean[1], self.mean[1]];
-            self.cov = [p00 + 2.0 * d * p01 + p11 + q / 3.0, p01 + d * p11 + d * q / 2.0, p11 + q];
+            let p = self.predicted();
+            (self.mean, self.cov) = (p.mean, p.cov);
         }
         if !y_nm.is_finite() {
             return false;
@@ -164,7 +193,7 @@ impl TorqueTrack {
 pub fn smooth_torque(y_nm: &[f64], cuts: &[bool], (mut fwd, mut back): (TorqueTrack, TorqueTrack)) -> Vec<(f64, f64)> {
     let n = y_nm.len();
     let cut = |k: usize| cuts.get(k).copied().unwrap_or(false);
-    let mut predicted = vec![LevelEstimate::NONE; n];
+    let mut predicted = vec![TorqueEstimate::NONE; n];
     for k in (0..n).rev() {
         let p = back.predicted();
         // A step just after k (cut at k + 1) is just before k in reverse time.
@@ -175,7 +204,7 @@ pub fn smooth_torque(y_nm: &[f64], cuts: &[bool], (mut fwd, mut back): (TorqueTr
     (0..n)
         .map(|k| {
             fwd.push(y_nm[k], cut(k));
-            fwd.filtered().combine(predicted[k]).map_or((y_nm[k], f64::NAN), |e| (e.mean_nm, e.var_nm2.sqrt()))
+            fwd.filtered().combine(predicted[k]).map_or((y_nm[k], f64::NAN), |e| (e.level_nm(), e.level_sd_nm()))
         })
         .collect()
 }
@@ -225,7 +254,7 @@ mod tests {
         assert!((err / sd - 1.0).abs() < 0.05, "RMS error {err} vs σ {sd}");
         assert!((coverage - 0.683).abs() < 0.02, "coverage {coverage}");
         let mut fwd = TorqueTrack::forward(q, r_nm2, 1e9);
-        let filtered: Vec<f64> = y.iter().map(|v| (fwd.push(*v, false), fwd.filtered().mean_nm).1).collect();
+        let filtered: Vec<f64> = y.iter().map(|v| (fwd.push(*v, false), fwd.filtered().level_nm()).1).collect();
         let err_f = rms((from..y.len()).map(|k| filtered[k] - truth[k]));
         assert!(err < 0.85 * err_f, "smoothed {err} vs filtered {err_f}");
         assert!(err < 0.5 * r_nm2.sqrt(), "smoothed {err} vs noise {}", r_nm2.sqrt());
@@ -257,12 +286,39 @@ mod tests {
     }
 
     #[test]
-    fn combining_weights_by_variance() {
-        let a = LevelEstimate { mean_nm: 1.0, var_nm2: 1.0 };
-        let b = LevelEstimate { mean_nm: 4.0, var_nm2: 2.0 };
+    fn combining_weights_by_information() {
+        // Uncorrelated level and rate: each combines on its own.
+        let a = TorqueEstimate { mean: [1.0, 0.0], cov: [1.0, 0.0, 1.0] };
+        let b = TorqueEstimate { mean: [4.0, 3.0], cov: [2.0, 0.0, 2.0] };
         let c = a.combine(b).unwrap();
-        assert!((c.mean_nm - 2.0).abs() < 1e-12 && (c.var_nm2 - 2.0 / 3.0).abs() < 1e-12);
-        assert_eq!(a.combine(LevelEstimate::NONE), Some(a));
-        assert_eq!(LevelEstimate::NONE.combine(LevelEstimate::NONE), None);
+        assert!((c.mean[0] - 2.0).abs() < 1e-12 && (c.cov[0] - 2.0 / 3.0).abs() < 1e-12);
+        assert!((c.mean[1] - 1.0).abs() < 1e-12 && c.cov[1].abs() < 1e-12);
+        assert_eq!(a.combine(TorqueEstimate::NONE), Some(a));
+        assert_eq!(TorqueEstimate::NONE.combine(TorqueEstimate::NONE), None);
+        // Correlated: a rate that disagrees moves the level (what the levels alone miss).
+        let f = TorqueEstimate { mean: [0.0, 0.0], cov: [1.0, 0.9, 1.0] };
+        let g = TorqueEstimate { mean: [0.0, 1.0], cov: [1.0, 0.0, 1.0] };
+        assert!(f.combine(g).unwrap().mean[0] > 0.1);
+    }
+
+    /// A noiseless parabola (constant curvature, as at a sinusoidal load's peaks): each
+    /// filter lags it the same way, and the joint combination cancels the lag.
+    #[test]
+    fn no_bias_on_a_curved_load() {
+        let (r_nm2, fs) = (0.0162f64.powi(2), 1000.0);
+        let truth: Vec<f64> = (0..4000).map(|k| 7e-4 * 0.5 * (k as f64 - 2000.0).powi(2) * 1e-3).collect();
+        let tracks = || {
+            let q = TorqueTrack::q_for_bandwidth(40.0, fs, r_nm2);
+            (TorqueTrack::forward(q, r_nm2, 1e9), TorqueTrack::backward(q, r_nm2, 1e9))
+        };
+        let out = smooth_torque(&truth, &[], tracks());
+        let err = rms((500..3500).map(|k| out[k].0 - truth[k]));
+        // The filtered (one-sided) lag on the same curvature, for scale.
+        let mut fwd = tracks().0;
+        let lag = rms((0..4000)
+            .map(|k| (fwd.push(truth[k], false), fwd.filtered().level_nm() - truth[k]).1)
+            .skip(500)
+            .take(3000));
+        assert!(err < 1e-3 * lag.max(1e-9) + 1e-9, "smoothed {err} vs filtered lag {lag}");
     }
 }

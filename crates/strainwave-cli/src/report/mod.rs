@@ -3,5 +3,6 @@
 pub mod heatmap;
 pub mod html;
 pub mod plot;
+pub mod smoothed;
 pub mod streaming;
 pub mod text;

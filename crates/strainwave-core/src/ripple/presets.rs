@@ -106,7 +106,7 @@ const FULL_LOAD_RIPPLE_BANDWIDTH_HZ: f64 = 0.01;
 const FULL_MISALIGNMENT_BANDWIDTH_HZ: f64 = 0.01;
 const FULL_MISALIGNMENT_AT_LINE_HZ: f64 = 0.25;
 const FULL_BIAS_BANDWIDTH_HZ: f64 = 100.0;
-const COMMISSIONING_BIAS_BANDWIDTH_HZ: f64 = 1.0;
+const COMMISSIONING_BIAS_BANDWIDTH_HZ: f64 = 0.1;
 /// Prior 1σ of the misalignment, N·m: learned over revolutions, never seized from the
 /// first load transient.
 const MISALIGNMENT_PRIOR_NM: f64 = 0.1;
@@ -144,8 +144,10 @@ impl<T: Real> RippleModel<T, 5> {
     }
 
     /// The full configuration for learning on a commissioning run: the same orders and
-    /// noise as [`Self::full`] but a 1 Hz bias, so the oscillators, not the bias, explain
-    /// what repeats with the angles. The run should turn the output several times at a
+    /// noise as [`Self::full`] but a 0.1 Hz bias, so the oscillators, not the bias, explain
+    /// what repeats with the angles. The bias must stay well below the misalignment line
+    /// (0.19 Hz for a 50:1 gear at 60 rad/s): a 1 Hz bias took part of that line and
+    /// left the learned misalignment 6 % off. The run should turn the output several times at a
     /// steady speed through two or more load levels (steps go to the bias through the
     /// load-step detector); then pass [`RippleState::learned_all`](super::RippleState::learned_all)
     /// to [`Self::with_priors`] of the operating model.

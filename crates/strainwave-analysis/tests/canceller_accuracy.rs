@@ -3,40 +3,14 @@
 //! free-motion, standstill/reversal and loaded runs; the seed's 6th-order model absorbs
 //! the unknown load.
 
-use strainwave_analysis::canceller_eval::{commission, evaluate, Method, RunSignals};
-use strainwave_sim::{presets, simulate, Recording};
+mod twin;
 
-struct Run {
-    rec: Recording,
-    gear: strainwave_core::gear::Gear<f64>,
-    noise_nm: f64,
-    fs: f64,
-}
-
-fn run(preset: &str) -> Run {
-    let scenario = presets::preset(preset).unwrap();
-    let (rec, sim) = simulate(&scenario).unwrap();
-    Run { gear: sim.model().gear, noise_nm: sim.sensor().noise_floor_nm(), fs: scenario.sample_rate_hz, rec }
-}
-
-fn signals(r: &Run) -> RunSignals<'_> {
-    let c = |n: &str| r.rec.column(n).unwrap();
-    RunSignals {
-        sample_rate_hz: r.fs,
-        measured_nm: c("measured_torque"),
-        motor_angle_rad: c("motor_angle"),
-        output_angle_rad: c("output_angle"),
-        motor_velocity_rad_s: c("motor_velocity"),
-        true_torque_nm: c("true_torque"),
-        true_ripple_nm: c("true_ripple"),
-        true_misalignment_nm: c("true_misalignment"),
-    }
-}
+use strainwave_analysis::canceller_eval::{evaluate, Method};
+use twin::{commissioned, run_preset as run, signals};
 
 #[test]
 fn commissioned_full_configuration_meets_the_targets_and_the_seed_absorbs_load() {
-    let comm = run("taghirad-commissioning");
-    let learned = commission(&signals(&comm), &comm.gear, comm.noise_nm).unwrap();
+    let learned = commissioned(&strainwave_sim::presets::preset("taghirad-commissioning").unwrap());
     // Misalignment 0.8 sin(θ_out + 0.7) = 0.8 sin 0.7 cos θ + 0.8 cos 0.7 sin θ.
     let (a, b) = (0.8 * 0.7f64.sin(), 0.8 * 0.7f64.cos());
     let mis = learned[4].0;
