@@ -9,6 +9,7 @@
 pub mod canceller;
 pub mod config;
 pub mod export_c;
+pub mod health;
 pub mod learned;
 pub mod row_check;
 pub mod run;

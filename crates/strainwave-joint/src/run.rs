@@ -9,6 +9,7 @@
 use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Context, Result};
+use strainwave_core::guard::{Guard, GuardSettings};
 use strainwave_core::ripple::{
     step, PhaseSource, ReferenceValues, RippleInput, RippleModel, RippleOutput, RippleState, StepFlags,
 };
@@ -16,6 +17,7 @@ use strainwave_io::{BoundChannel, IoError, RecordingReader, RecordingWriter};
 
 use crate::canceller::{build_model, in_config_terms, ModelVisitor};
 use crate::config::{JointConfig, ModelChoice, MAX_TABLE_LEN};
+use crate::health::Health;
 use crate::learned::LearnedFile;
 use crate::row_check::RowCheck;
 
@@ -106,6 +108,46 @@ pub struct FilterSummary {
     pub extrapolated: u64,
     /// Warnings: skipped samples, time axis, sample rate.
     pub warnings: Vec<String>,
+    /// The do-no-harm guard's figures (`None`: guard off, or the smoother ran).
+    pub health: Option<Health>,
+}
+
+/// Bits of `filter_flags` above the canceller's own ([`StepFlags`], bits 0–7): the
+/// guard's flags ([`strainwave_core::guard::GuardFlags`]) from this bit on.
+pub const GUARD_FLAGS_SHIFT: u32 = 8;
+/// Bit of `filter_flags` from which one bit per order says it was NOT applied.
+pub const WITHHELD_ORDERS_SHIFT: u32 = 16;
+
+/// The canceller of a run: bare, or under the do-no-harm guard.
+enum Canceller<const M: usize> {
+    Bare(RippleState<f64, M>),
+    Guarded(Box<Guard<f64, M>>),
+}
+
+impl<const M: usize> Canceller<M> {
+    /// One sample: the output and the `filter_flags` bits.
+    fn step(
+        &mut self,
+        model: &RippleModel<f64, M>,
+        input: &RippleInput<f64>,
+    ) -> Result<(RippleOutput<f64>, u32), strainwave_core::Error> {
+        match self {
+            Canceller::Bare(state) => step(model, state, input).map(|o| (o, u32::from(o.flags.bits()))),
+            Canceller::Guarded(g) => g.step(model, input).map(|o| {
+                let bits = u32::from(o.output.flags.bits())
+                    | (u32::from(o.flags.bits()) << GUARD_FLAGS_SHIFT)
+                    | (u32::from(o.withheld_mask()) << WITHHELD_ORDERS_SHIFT);
+                (o.output, bits)
+            }),
+        }
+    }
+
+    fn state(&self) -> &RippleState<f64, M> {
+        match self {
+            Canceller::Bare(state) => state,
+            Canceller::Guarded(g) => g.state(),
+        }
+    }
 }
 
 /// Runs the canceller of `cfg` over `source`, writing each row with the added columns to
@@ -127,7 +169,7 @@ pub fn filter_recording<S: RowSource, W: RowSink>(
         ));
     }
     // Learning (commissioning, or no learned file yet) or operating from learned priors.
-    let with_learned_priors = opts.learn.is_none() && cfg.filter.learned.is_some();
+    let with_learned_priors = opts.learn.is_none();
     let run = Run { cfg, opts, source, create, progress };
     let mut summary = build_model(cfg, with_learned_priors, run)?;
     if let Some(d) = cfg.denoiser()? {
@@ -286,7 +328,12 @@ impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
             });
         }
         let mut w = create(&refs)?;
-        let mut state = RippleState::new(model);
+        let mut canceller = if cfg.filter.guard {
+            let learned_prior = opts.learn.is_none() && cfg.filter.learned.is_some();
+            Canceller::Guarded(Box::new(Guard::new(model, GuardSettings { learned_prior, ..GuardSettings::default() })))
+        } else {
+            Canceller::Bare(RippleState::new(model))
+        };
         let mut denoiser = denoiser;
         let mut row = Vec::with_capacity(columns.len());
         let mut last_t: Option<f64> = None;
@@ -308,7 +355,7 @@ impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
                 first_t.get_or_insert(t);
                 last_t = Some(t);
             }
-            let o: RippleOutput<f64> = step(model, &mut state, &sample).map_err(|e| {
+            let (o, flag_bits) = canceller.step(model, &sample).map_err(|e| {
                 let why = in_config_terms(e, cfg.filter.model == ModelChoice::Orders, cfg.filter.sample_rate_hz);
                 anyhow!("{input}: data row {n}: {why}")
             })?;
@@ -328,7 +375,7 @@ impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
                 o.misalignment_nm,
                 o.innovation_nm,
                 o.nis,
-                o.flags.bits() as f64,
+                f64::from(flag_bits),
             ]);
             if let Some(d) = denoiser.as_mut() {
                 row.push(d.step(o.torque_nm, o.flags.contains(StepFlags::LOAD_STEP)));
@@ -349,7 +396,7 @@ impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
         let rows = r.rows_read();
         let learned = match &opts.learn {
             Some(path) => Some(
-                LearnedFile::from_state(model, &state)
+                LearnedFile::from_state(model, canceller.state())
                     .stage(path, &format!("learned by strainwave filter from {input} ({rows} rows)"))?,
             ),
             None => None,
@@ -359,6 +406,12 @@ impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
             file.commit()?;
         }
         let span = first_t.zip(last_t).map(|(t0, t1)| t1 - t0);
-        Ok(FilterSummary { rows, notes: Vec::new(), extrapolated, warnings: check.warnings(input, rows, span) })
+        let health = match &canceller {
+            Canceller::Guarded(g) => Some(Health::new(model.orders(), g.stats())),
+            Canceller::Bare(_) => None,
+        };
+        let mut warnings = check.warnings(input, rows, span);
+        warnings.extend(health.iter().flat_map(Health::warnings));
+        Ok(FilterSummary { rows, notes: Vec::new(), extrapolated, warnings, health })
     }
 }
