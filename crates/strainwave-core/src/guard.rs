@@ -15,7 +15,9 @@
 //! - **evidence**: its amplitude is significant against its uncertainty,
 //!   `χ²_i = ẑ_iᵀ P_ii⁻¹ ẑ_i` above [`GuardSettings::apply_chi2`] (2 degrees of freedom;
 //!   it stops below [`GuardSettings::release_chi2`]). An estimate within a few σ of zero
-//!   could add as much error as it removes;
+//!   could add as much error as it removes. And it is steady: a periodic line has a
+//!   constant estimate in the rotating frame, so one that wanders by more than
+//!   [`GuardSettings::apply_wander`] of its amplitude is fitting load instead;
 //! - **travel**: its line has turned through [`GuardSettings::min_cycles`] full cycles
 //!   (all eight octants of its phase, each time), [`GuardSettings::min_cycles_output`] for
 //!   output-angle orders, whose slow line is otherwise indistinguishable from load. A
@@ -71,6 +73,12 @@ pub struct GuardSettings<T: Real> {
     pub apply_chi2: T,
     /// `χ²` below which an applied order stops. Default 9.
     pub release_chi2: T,
+    /// The estimate must also be steady: the RMS of its wander about its running mean
+    /// (over [`Self::window_s`]) at most this fraction of its amplitude to apply.
+    /// Default 0.2.
+    pub apply_wander: T,
+    /// Wander fraction above which an applied order stops. Default 0.4.
+    pub release_wander: T,
     /// Full cycles of the line before a ripple (relative- or motor-angle) order may be
     /// applied. Default 3.
     pub min_cycles: T,
@@ -107,6 +115,8 @@ impl<T: Real> Default for GuardSettings<T> {
         Self {
             apply_chi2: c(25.0),
             release_chi2: c(9.0),
+            apply_wander: c(0.2),
+            release_wander: c(0.4),
             min_cycles: c(3.0),
             min_cycles_output: c(3.0),
             learned_prior: false,
@@ -186,6 +196,10 @@ pub struct Guard<T: Real, const M: usize> {
     state: RippleState<T, M>,
     trace: StepTrace<T, M>,
     orders: [OrderGuard<T>; M],
+    /// The first order on the same line (reference and multiple) as each order: a line's
+    /// orders (plain and load-scaled) are judged and applied together, as only their sum
+    /// is well determined while the load is steady.
+    group: [usize; M],
     /// Weight of the newest sample in the running means.
     alpha: T,
     mean_nis: T,
@@ -203,6 +217,11 @@ impl<T: Real, const M: usize> Guard<T, M> {
             state: RippleState::new(model),
             trace: StepTrace::new(),
             orders: core::array::from_fn(|i| OrderGuard::new(&model.orders()[i], &settings, model.r_nm2())),
+            group: core::array::from_fn(|i| {
+                let o = &model.orders()[i];
+                let same = |p: &crate::ripple::Order<T>| p.reference() == o.reference() && p.multiple() == o.multiple();
+                model.orders().iter().position(same).unwrap_or(i)
+            }),
             alpha: T::ONE / samples,
             mean_nis: T::ONE,
             mean_e2: model.r_nm2(),
@@ -241,50 +260,59 @@ impl<T: Real, const M: usize> Guard<T, M> {
         let s = self.settings;
         let tr = &self.trace;
         let dt_rad_to_hz = model.sample_rate_hz() / T::TAU;
-        // The decisions use what was known before this sample; the model is complete
-        // when every order not off would be applied.
+        // The decisions use what was known before this sample. The model is complete
+        // when every order not off passes its own tests; only a complete model steps
+        // back as a whole (an incomplete one applies fast lines alone, each checked by
+        // its health test, and its NIS is high while it learns the rest).
         let mut status = [OrderStatus::Off; M];
-        let mut verdict = [None; M];
         let mut complete = true;
         for i in 0..M {
             status[i] = self.state.order_status(i).unwrap_or(OrderStatus::Off);
-            let v = self.orders[i].verdict(&s, self.pass_through);
-            complete &= status[i] == OrderStatus::Off || v.evidence && v.travelled && !v.contradicted;
-            verdict[i] = Some(v);
+            let v = self.orders[i].verdict(false);
+            complete &= self.group[i] != i || status[i] == OrderStatus::Off || v.apply;
         }
+        let pass_through = self.pass_through && complete;
+        let verdict: [_; M] = core::array::from_fn(|i| Some(self.orders[i].verdict(pass_through)));
         let mut flags = GuardFlags::empty();
         let (mut ripple, mut mis) = (T::ZERO, T::ZERO);
         let mut applied = [false; M];
         let mut contribution = [T::ZERO; M];
-        let e = out.innovation_nm;
-        let measured = e.is_finite() && out.nis.is_finite();
         for i in 0..M {
-            let status = status[i];
-            let g = &mut self.orders[i];
             let [c, sn] = tr.phasor[i];
             let z = tr.prior.z[i];
-            let c_i = if tr.predicted[i] { c * z[0] + sn * z[1] } else { T::ZERO };
-            contribution[i] = c_i;
-            let Some(verdict) = verdict[i] else { continue };
+            contribution[i] = if tr.predicted[i] { c * z[0] + sn * z[1] } else { T::ZERO };
+        }
+        let e = out.innovation_nm;
+        let measured = e.is_finite() && out.nis.is_finite();
+        for lead in 0..M {
+            if self.group[lead] != lead {
+                continue;
+            }
+            let Some(verdict) = verdict[lead] else { continue };
+            let line = group_line(tr, &self.group, lead, &contribution);
+            let status = status[lead];
+            let g = &mut self.orders[lead];
             let alone = complete || (status == OrderStatus::Active && g.line_hz(dt_rad_to_hz) >= s.partial_min_line_hz);
             flags.set(GuardFlags::WITHHELD, !verdict.evidence || !verdict.travelled);
             flags.set(GuardFlags::CONTRADICTED, verdict.contradicted);
-            let (value, bounded) = g.bounded(c_i, status);
-            flags.set(GuardFlags::STANDSTILL_BOUND, bounded && verdict.apply);
-            applied[i] = verdict.apply && alone && status != OrderStatus::Off;
-            if applied[i] {
-                if model.orders()[i].reference() == Reference::Output {
+            let (value, bounded) = g.bounded(line.contribution_nm, status);
+            let apply = verdict.apply && alone && status != OrderStatus::Off;
+            flags.set(GuardFlags::STANDSTILL_BOUND, bounded && apply);
+            for i in lead..M {
+                applied[i] |= apply && self.group[i] == lead;
+            }
+            if apply {
+                if model.orders()[lead].reference() == Reference::Output {
                     mis += value;
                 } else {
                     ripple += value;
                 }
             }
             // Then this sample's evidence for the next one.
-            let amplitude = (c * c + sn * sn).sqrt() * (z[0] * z[0] + z[1] * z[1]).sqrt();
-            g.observe(&s, &tr.prior.p[i][i], z, [c, sn], status, amplitude);
-            g.observe_line(self.alpha, tr.increment_rad[i]);
+            g.observe(&s, self.alpha, &line.p, line.z, line.unit_phasor, status);
+            g.observe_line(self.alpha, tr.increment_rad[lead]);
             if measured {
-                g.observe_fit(self.alpha, e, c_i);
+                g.observe_fit(self.alpha, e, line.contribution_nm);
             }
         }
         if measured {
@@ -295,7 +323,7 @@ impl<T: Real, const M: usize> Guard<T, M> {
                 g.judge_fit(&s, self.mean_e2);
             }
         }
-        flags.set(GuardFlags::PASS_THROUGH, self.pass_through);
+        flags.set(GuardFlags::PASS_THROUGH, pass_through);
         let was = self.pass_through;
         self.pass_through = if was { self.mean_nis > s.nis_recover } else { self.mean_nis > s.nis_pass_through };
         self.stats.record(&applied, flags, out.nis.min(s.nis_clip).to_f64(), measured, self.mean_nis.to_f64());
@@ -313,6 +341,50 @@ impl<T: Real, const M: usize> Guard<T, M> {
             mean_nis: self.mean_nis,
         })
     }
+}
+
+/// One line's orders taken together: `h_i = s_i u` with the unit phasor `u` and each
+/// order's scale `s_i` (1, or `|load|`), so the line is `u (Σ s_i z_i)` with covariance
+/// `Σ_ij s_i s_j P_ij`.
+struct Line<T: Real> {
+    contribution_nm: T,
+    z: [T; 2],
+    p: [[T; 2]; 2],
+    unit_phasor: [T; 2],
+}
+
+fn group_line<T: Real, const M: usize>(
+    tr: &StepTrace<T, M>,
+    group: &[usize; M],
+    lead: usize,
+    contribution: &[T; M],
+) -> Line<T> {
+    let scale = |i: usize| {
+        let [c, s] = tr.phasor[i];
+        (c * c + s * s).sqrt()
+    };
+    let mut line = Line { contribution_nm: T::ZERO, z: [T::ZERO; 2], p: [[T::ZERO; 2]; 2], unit_phasor: [T::ZERO; 2] };
+    let mut widest = T::ZERO;
+    for i in (lead..M).filter(|&i| group[i] == lead) {
+        let si = scale(i);
+        line.contribution_nm += contribution[i];
+        if si > widest {
+            widest = si;
+            line.unit_phasor = [tr.phasor[i][0] / si, tr.phasor[i][1] / si];
+        }
+        for r in 0..2 {
+            line.z[r] += si * tr.prior.z[i][r];
+        }
+        for j in (lead..M).filter(|&j| group[j] == lead) {
+            let w = si * scale(j);
+            for (r, row) in line.p.iter_mut().enumerate() {
+                for (q, v) in row.iter_mut().enumerate() {
+                    *v += w * tr.prior.p[i][j][r][q];
+                }
+            }
+        }
+    }
+    line
 }
 
 #[cfg(test)]

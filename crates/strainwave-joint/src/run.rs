@@ -169,7 +169,7 @@ pub fn filter_recording<S: RowSource, W: RowSink>(
         ));
     }
     // Learning (commissioning, or no learned file yet) or operating from learned priors.
-    let with_learned_priors = opts.learn.is_none();
+    let with_learned_priors = opts.learn.is_none() && cfg.filter.learned.is_some();
     let run = Run { cfg, opts, source, create, progress };
     let mut summary = build_model(cfg, with_learned_priors, run)?;
     if let Some(d) = cfg.denoiser()? {

@@ -28,6 +28,10 @@ pub(super) struct OrderGuard<T: Real> {
     octants: u8,
     /// Hysteresis state of the evidence test.
     evidence: bool,
+    /// Running mean of the estimate `z`, N·m.
+    mean_z: [T; 2],
+    /// Running mean of `|z − mean z|²`, N·m²: how much the estimate wanders.
+    spread_nm2: T,
     /// Running mean of `(e + c_i)²` (the model keeps that of `e²`), from `R` as that one.
     mean_without: T,
     /// Hysteresis state of the health test.
@@ -57,6 +61,9 @@ impl<T: Real> OrderGuard<T> {
             cycles: T::ZERO,
             octants: 0,
             evidence: false,
+            mean_z: [T::ZERO; 2],
+            // NaN until the first estimate, which starts the mean.
+            spread_nm2: T::from_f64(f64::NAN),
             mean_without: r_nm2,
             contradicted: false,
             fit_weight: T::ZERO,
@@ -66,7 +73,7 @@ impl<T: Real> OrderGuard<T> {
     }
 
     /// Whether the order is applied on this sample, from what was known before it.
-    pub(super) fn verdict(&self, _s: &GuardSettings<T>, pass_through: bool) -> Verdict {
+    pub(super) fn verdict(&self, pass_through: bool) -> Verdict {
         let travelled = self.cycles >= self.cycles_needed;
         let apply = self.evidence && travelled && !self.contradicted && !pass_through;
         Verdict { evidence: self.evidence, travelled, contradicted: self.contradicted, apply }
@@ -84,19 +91,35 @@ impl<T: Real> OrderGuard<T> {
         }
     }
 
-    /// This sample's evidence: significance of the prior estimate `z` with covariance
-    /// block `p`, the phase octant of `phasor`, the moving amplitude.
+    /// This sample's evidence: significance of the prior estimate `z` (N·m, of the unit
+    /// phasor) with covariance `p`, the phase octant of `phasor`, the moving amplitude.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn observe(
         &mut self,
         s: &GuardSettings<T>,
+        alpha: T,
         p: &[[T; 2]; 2],
         z: [T; 2],
         phasor: [T; 2],
         status: OrderStatus,
-        amplitude_nm: T,
     ) {
+        let amplitude2 = z[0] * z[0] + z[1] * z[1];
+        let amplitude_nm = amplitude2.sqrt();
         let chi2 = chi2(p, z);
-        self.evidence = if self.evidence { chi2 > s.release_chi2 } else { chi2 > s.apply_chi2 };
+        // A periodic line has a steady estimate in the rotating frame; one that wanders
+        // is fitting something else (load the bias did not take, while it learns).
+        if amplitude2.is_finite() && !self.spread_nm2.is_finite() {
+            self.mean_z = z;
+            self.spread_nm2 = T::ZERO;
+        } else if amplitude2.is_finite() {
+            let d = [z[0] - self.mean_z[0], z[1] - self.mean_z[1]];
+            self.spread_nm2 += alpha * (d[0] * d[0] + d[1] * d[1] - self.spread_nm2);
+            self.mean_z = [self.mean_z[0] + alpha * d[0], self.mean_z[1] + alpha * d[1]];
+        }
+        let (chi2_limit, steady) =
+            if self.evidence { (s.release_chi2, s.release_wander) } else { (s.apply_chi2, s.apply_wander) };
+        let steady = self.spread_nm2 <= steady * steady * amplitude2;
+        self.evidence = chi2 > chi2_limit && steady;
         if let Some(o) = octant(phasor) {
             self.octants |= 1 << o;
             if self.octants == u8::MAX {
