@@ -248,6 +248,7 @@ impl<T: Real, const M: usize> Guard<T, M> {
     /// One sample: the canceller's step (see [`crate::ripple::step`]), then the guard's
     /// choice of the orders applied. Errors are the canceller's (its state was then reset,
     /// and so is the guard's evidence).
+    #[allow(clippy::needless_range_loop)] // per-order arrays side by side
     pub fn step(&mut self, model: &RippleModel<T, M>, input: &RippleInput<T>) -> Result<GuardedOutput<T, M>, Error> {
         let out = match step_traced(model, &mut self.state, input, &mut self.trace) {
             Ok(o) => o,
