@@ -107,6 +107,12 @@ pub struct GuardSettings<T: Real> {
     /// withheld orders, so removing it cannot raise the window's error by adding to
     /// theirs. Default 5 Hz.
     pub partial_min_line_hz: T,
+    /// Held orders (standstill) are applied only while the running mean NIS of the
+    /// motion before, over [`Self::standstill_window_s`], is at most this. Default 2.
+    pub standstill_max_nis: T,
+    /// Time constant of that running mean, s (long: the fit of the model, not of the
+    /// last transient). Default 2 s.
+    pub standstill_window_s: T,
 }
 
 impl<T: Real> Default for GuardSettings<T> {
@@ -126,6 +132,8 @@ impl<T: Real> Default for GuardSettings<T> {
             contradiction_margin: c(0.1),
             nis_clip: c(25.0),
             partial_min_line_hz: c(5.0),
+            standstill_max_nis: c(2.0),
+            standstill_window_s: c(2.0),
         }
     }
 }
@@ -203,6 +211,9 @@ pub struct Guard<T: Real, const M: usize> {
     /// Weight of the newest sample in the running means.
     alpha: T,
     mean_nis: T,
+    /// Running mean NIS over [`GuardSettings::standstill_window_s`].
+    slow_mean_nis: T,
+    slow_alpha: T,
     mean_e2: T,
     pass_through: bool,
     stats: GuardStats<M>,
@@ -224,6 +235,8 @@ impl<T: Real, const M: usize> Guard<T, M> {
             }),
             alpha: T::ONE / samples,
             mean_nis: T::ONE,
+            slow_mean_nis: T::ONE,
+            slow_alpha: T::ONE / (settings.standstill_window_s * model.sample_rate_hz()).max(T::ONE),
             mean_e2: model.r_nm2(),
             pass_through: false,
             stats: GuardStats::new(),
@@ -272,7 +285,11 @@ impl<T: Real, const M: usize> Guard<T, M> {
             let v = self.orders[i].verdict(false);
             complete &= self.group[i] != i || status[i] == OrderStatus::Off || v.apply;
         }
-        let pass_through = self.pass_through && complete;
+        let pass_through = self.pass_through;
+        let moving = status.contains(&OrderStatus::Active);
+        // Held orders are applied only when the model fitted well while it moved: at a
+        // standstill a partial or wrong correction is a constant that nothing can check.
+        let standstill_ok = self.slow_mean_nis <= s.standstill_max_nis;
         let verdict: [_; M] = core::array::from_fn(|i| Some(self.orders[i].verdict(pass_through)));
         let mut flags = GuardFlags::empty();
         let (mut ripple, mut mis) = (T::ZERO, T::ZERO);
@@ -297,8 +314,10 @@ impl<T: Real, const M: usize> Guard<T, M> {
             flags.set(GuardFlags::WITHHELD, !verdict.evidence || !verdict.travelled);
             flags.set(GuardFlags::CONTRADICTED, verdict.contradicted);
             let (value, bounded) = g.bounded(line.contribution_nm, status);
-            let apply = verdict.apply && alone && status != OrderStatus::Off;
-            flags.set(GuardFlags::STANDSTILL_BOUND, bounded && apply);
+            let held_ok = status != OrderStatus::Held || standstill_ok;
+            let bounded = bounded || !held_ok;
+            let apply = verdict.apply && alone && held_ok && status != OrderStatus::Off;
+            flags.set(GuardFlags::STANDSTILL_BOUND, bounded && verdict.apply && alone);
             for i in lead..M {
                 applied[i] |= apply && self.group[i] == lead;
             }
@@ -316,17 +335,20 @@ impl<T: Real, const M: usize> Guard<T, M> {
                 g.observe_fit(self.alpha, e, line.contribution_nm);
             }
         }
-        if measured {
+        // Only motion can confirm or contradict the orders: at a standstill the bias takes
+        // whatever they leave, so the verdicts of the last motion stand.
+        if measured && moving {
             let nis = out.nis.min(s.nis_clip);
             self.mean_nis += self.alpha * (nis - self.mean_nis);
+            self.slow_mean_nis += self.slow_alpha * (nis - self.slow_mean_nis);
             self.mean_e2 += self.alpha * (e * e - self.mean_e2);
             for g in &mut self.orders {
                 g.judge_fit(&s, self.mean_e2);
             }
+            let was = self.pass_through;
+            self.pass_through = if was { self.mean_nis > s.nis_recover } else { self.mean_nis > s.nis_pass_through };
         }
         flags.set(GuardFlags::PASS_THROUGH, pass_through);
-        let was = self.pass_through;
-        self.pass_through = if was { self.mean_nis > s.nis_recover } else { self.mean_nis > s.nis_pass_through };
         self.stats.record(&applied, flags, out.nis.min(s.nis_clip).to_f64(), measured, self.mean_nis.to_f64());
         let unguarded_torque_nm = out.torque_nm;
         let mut output = out;
