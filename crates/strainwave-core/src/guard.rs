@@ -101,13 +101,17 @@ pub struct GuardSettings<T: Real> {
     /// Each sample's NIS enters the running mean clipped to this (a load step or a
     /// glitch is one sample, not a misfit). Default 25.
     pub nis_clip: T,
-    /// While some order is withheld (the model is incomplete), an order is applied only
-    /// when it is moving (not held) with its line at or above this, Hz: over a 1 s
+    /// Unless the model is complete and fits (every order passes its tests, and the
+    /// running mean NIS over [`Self::standstill_window_s`] is at most
+    /// [`Self::complete_max_nis`]), an order is applied only when it is moving (not
+    /// held) with its line at or above this, Hz: over a 1 s
     /// window such a line is nearly orthogonal to the slow or constant error of the
     /// withheld orders, so removing it cannot raise the window's error by adding to
     /// theirs. Default 5 Hz.
     pub partial_min_line_hz: T,
-    /// Held orders (standstill) are applied only while the running mean NIS of the
+    /// See [`Self::partial_min_line_hz`]. Default 4.
+    pub complete_max_nis: T,
+    /// Held orders (standstill) are applied only while the model is complete and the running mean NIS of the
     /// motion before, over [`Self::standstill_window_s`], is at most this. Default 2.
     pub standstill_max_nis: T,
     /// Time constant of that running mean, s (long: the fit of the model, not of the
@@ -131,8 +135,9 @@ impl<T: Real> Default for GuardSettings<T> {
             nis_recover: c(3.0),
             contradiction_margin: c(0.1),
             nis_clip: c(25.0),
-            partial_min_line_hz: c(5.0),
+            partial_min_line_hz: c(10.0),
             standstill_max_nis: c(2.0),
+            complete_max_nis: c(3.0),
             standstill_window_s: c(2.0),
         }
     }
@@ -290,6 +295,7 @@ impl<T: Real, const M: usize> Guard<T, M> {
         // Held orders are applied only when the model fitted well while it moved: at a
         // standstill a partial or wrong correction is a constant that nothing can check.
         let standstill_ok = self.slow_mean_nis <= s.standstill_max_nis;
+        let fits = self.slow_mean_nis <= s.complete_max_nis;
         let verdict: [_; M] = core::array::from_fn(|i| Some(self.orders[i].verdict(pass_through)));
         let mut flags = GuardFlags::empty();
         let (mut ripple, mut mis) = (T::ZERO, T::ZERO);
@@ -310,11 +316,12 @@ impl<T: Real, const M: usize> Guard<T, M> {
             let line = group_line(tr, &self.group, lead, &contribution);
             let status = status[lead];
             let g = &mut self.orders[lead];
-            let alone = complete || (status == OrderStatus::Active && g.line_hz(dt_rad_to_hz) >= s.partial_min_line_hz);
+            let alone = (complete && fits)
+                || (status == OrderStatus::Active && g.line_hz(dt_rad_to_hz) >= s.partial_min_line_hz);
             flags.set(GuardFlags::WITHHELD, !verdict.evidence || !verdict.travelled);
             flags.set(GuardFlags::CONTRADICTED, verdict.contradicted);
             let (value, bounded) = g.bounded(line.contribution_nm, status);
-            let held_ok = status != OrderStatus::Held || standstill_ok;
+            let held_ok = status != OrderStatus::Held || (complete && standstill_ok);
             let bounded = bounded || !held_ok;
             let apply = verdict.apply && alone && held_ok && status != OrderStatus::Off;
             flags.set(GuardFlags::STANDSTILL_BOUND, bounded && verdict.apply && alone);

@@ -44,6 +44,8 @@ pub(super) struct OrderGuard<T: Real> {
     moving_amplitude_nm: Option<T>,
     /// Running mean of the line's phase increment `|a_i|`, rad per sample.
     mean_increment_rad: T,
+    /// The last phase increment `|a_i|`, rad per sample.
+    last_increment_rad: T,
 }
 
 impl<T: Real> OrderGuard<T> {
@@ -69,6 +71,7 @@ impl<T: Real> OrderGuard<T> {
             fit_weight: T::ZERO,
             moving_amplitude_nm: if s.learned_prior { None } else { Some(T::ZERO) },
             mean_increment_rad: T::ZERO,
+            last_increment_rad: T::ZERO,
         }
     }
 
@@ -136,13 +139,15 @@ impl<T: Real> OrderGuard<T> {
     pub(super) fn observe_line(&mut self, alpha: T, a_rad: T) {
         let a = a_rad.abs();
         if a.is_finite() {
+            self.last_increment_rad = a;
             self.mean_increment_rad += alpha * (a - self.mean_increment_rad);
         }
     }
 
-    /// The line's frequency, Hz, from the running mean increment (`rad_to_hz`: `fs / 2π`).
+    /// The line's frequency, Hz (`rad_to_hz`: `fs / 2π`): the lower of the running mean
+    /// increment and the last one, so that a slowing line counts as slow at once.
     pub(super) fn line_hz(&self, rad_to_hz: T) -> T {
-        self.mean_increment_rad * rad_to_hz
+        self.mean_increment_rad.min(self.last_increment_rad) * rad_to_hz
     }
 
     /// Updates the running mean of `(e + c_i)²` (weight `alpha` for the newest sample).
