@@ -163,9 +163,14 @@ pub fn filter_recording<S: RowSource, W: RowSink>(
     let config = cfg.path.display().to_string();
     let mut notes = Vec::new();
     if cfg.filter.model == ModelChoice::Full && opts.learn.is_none() && cfg.filter.learned.is_none() {
+        let guard = if cfg.filter.guard {
+            "; the do-no-harm guard applies each order only once the data support it, else passes the raw torque"
+        } else {
+            ""
+        };
         notes.push(format!(
             "{config}: no `filter.learned` file, so the full model learns from zero in this run; \
-             the misalignment needs several output revolutions (see `filter --learn`)"
+             the misalignment needs several output revolutions (see `filter --learn`){guard}"
         ));
     }
     // Learning (commissioning, or no learned file yet) or operating from learned priors.
