@@ -279,14 +279,30 @@ impl<T: Real, const M: usize> Guard<T, M> {
         let s = self.settings;
         let tr = &self.trace;
         let dt_rad_to_hz = model.sample_rate_hz() / T::TAU;
-        // The decisions use what was known before this sample. The model is complete
-        // when every order not off passes its own tests; only a complete model steps
-        // back as a whole (an incomplete one applies fast lines alone, each checked by
-        // its health test, and its NIS is high while it learns the rest).
+        // The decisions use what was known before this sample: the prediction
+        // `ẑ(k|k−1)`, `P(k|k−1)` and the phase at `k` (evidence, steadiness, travel), and
+        // the fit of the innovations up to `k−1`. The model is complete when every line
+        // not off passes its own tests.
+        let mut contribution = [T::ZERO; M];
+        for i in 0..M {
+            let [c, sn] = tr.phasor[i];
+            let z = tr.prior.z[i];
+            contribution[i] = if tr.predicted[i] { c * z[0] + sn * z[1] } else { T::ZERO };
+        }
         let mut status = [OrderStatus::Off; M];
-        let mut complete = true;
+        let mut lines = [None; M];
         for i in 0..M {
             status[i] = self.state.order_status(i).unwrap_or(OrderStatus::Off);
+            if self.group[i] == i {
+                let line = group_line(tr, &self.group, i, &contribution);
+                let g = &mut self.orders[i];
+                g.observe(&s, self.alpha, &line.p, line.z, line.unit_phasor, status[i]);
+                g.observe_line(self.alpha, tr.increment_rad[i]);
+                lines[i] = Some(line);
+            }
+        }
+        let mut complete = true;
+        for i in 0..M {
             let v = self.orders[i].verdict(false);
             complete &= self.group[i] != i || status[i] == OrderStatus::Off || v.apply;
         }
@@ -300,20 +316,13 @@ impl<T: Real, const M: usize> Guard<T, M> {
         let mut flags = GuardFlags::empty();
         let (mut ripple, mut mis) = (T::ZERO, T::ZERO);
         let mut applied = [false; M];
-        let mut contribution = [T::ZERO; M];
-        for i in 0..M {
-            let [c, sn] = tr.phasor[i];
-            let z = tr.prior.z[i];
-            contribution[i] = if tr.predicted[i] { c * z[0] + sn * z[1] } else { T::ZERO };
-        }
         let e = out.innovation_nm;
         let measured = e.is_finite() && out.nis.is_finite();
         for lead in 0..M {
             if self.group[lead] != lead {
                 continue;
             }
-            let Some(verdict) = verdict[lead] else { continue };
-            let line = group_line(tr, &self.group, lead, &contribution);
+            let (Some(verdict), Some(line)) = (verdict[lead], lines[lead]) else { continue };
             let status = status[lead];
             let g = &mut self.orders[lead];
             let alone = (complete && fits)
@@ -335,9 +344,7 @@ impl<T: Real, const M: usize> Guard<T, M> {
                     ripple += value;
                 }
             }
-            // Then this sample's evidence for the next one.
-            g.observe(&s, self.alpha, &line.p, line.z, line.unit_phasor, status);
-            g.observe_line(self.alpha, tr.increment_rad[lead]);
+            // Then this sample's innovation for the next decision.
             if measured {
                 g.observe_fit(self.alpha, e, line.contribution_nm);
             }
@@ -376,6 +383,7 @@ impl<T: Real, const M: usize> Guard<T, M> {
 /// One line's orders taken together: `h_i = s_i u` with the unit phasor `u` and each
 /// order's scale `s_i` (1, or `|load|`), so the line is `u (Σ s_i z_i)` with covariance
 /// `Σ_ij s_i s_j P_ij`.
+#[derive(Clone, Copy)]
 struct Line<T: Real> {
     contribution_nm: T,
     z: [T; 2],
