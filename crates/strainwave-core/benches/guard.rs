@@ -22,7 +22,7 @@ fn inputs<T: Real>() -> Vec<RippleInput<T>> {
             let load = if k > N_SAMPLES / 2 { 5.0 } else { 1.0 };
             let y = load + 0.3 * (2.0 * phi).sin() + 0.1 * (4.0 * phi + 1.0).sin() + 0.8 * (out + 0.7).sin();
             let c = T::from_f64;
-            RippleInput::new(c(y), ReferenceValues::new(c(phi.rem_euclid(6.283)), c(out), c(phi)))
+            RippleInput::new(c(y), ReferenceValues::new(c(phi.rem_euclid(std::f64::consts::TAU)), c(out), c(phi)))
         })
         .collect()
 }
