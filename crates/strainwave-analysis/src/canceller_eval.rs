@@ -416,3 +416,52 @@ pub fn smoothed(s: &RunSignals, gear: &Gear<f64>, noise_nm: f64, learned: &Learn
     check(s)?;
     apply(Method::Smoothed, gear, s.measured_nm, s, noise_nm, Some(learned))
 }
+
+/// The worst 1 s window after the first second of the clean torque's RMS error against
+/// `true_torque` over the raw measurement's in the same window (the "never worse than
+/// raw" figure: at most 1 when nothing is made worse).
+pub fn worst_window_ratio(clean: &[f64], s: &RunSignals) -> Result<f64, AnalysisError> {
+    let n = check(s)?;
+    if clean.len() != n {
+        return Err(AnalysisError::Invalid {
+            what: "clean torque",
+            why: format!("has {} samples, not {n}", clean.len()),
+        });
+    }
+    let w = (s.sample_rate_hz.round() as usize).max(1);
+    let mut worst = f64::NAN;
+    for k in 1..n / w {
+        let range = k * w..(k + 1) * w;
+        let err = |x: &[f64]| range.clone().map(|i| (x[i] - s.true_torque_nm[i]).powi(2)).sum::<f64>();
+        let ratio = (err(clean) / err(s.measured_nm)).sqrt();
+        worst = if worst.is_nan() { ratio } else { worst.max(ratio) };
+    }
+    Ok(worst)
+}
+
+/// The full configuration under the do-no-harm guard, as `strainwave filter` runs it:
+/// from `learned` (operating tuning, learned priors) or, with `None`, cold
+/// (commissioning tuning learning from zero). The clean torque per sample.
+pub fn guarded(
+    s: &RunSignals,
+    gear: &Gear<f64>,
+    noise_nm: f64,
+    learned: Option<&Learned>,
+) -> Result<Vec<f64>, AnalysisError> {
+    use strainwave_core::guard::{Guard, GuardSettings};
+    check(s)?;
+    let model = match learned {
+        Some(_) => full_model(s.sample_rate_hz, noise_nm, learned)?,
+        None => {
+            RippleModel::<f64, 5>::full_commissioning(s.sample_rate_hz, noise_nm).map_err(core_err("full model"))?
+        }
+    };
+    let mut guard = Guard::new(&model, GuardSettings { learned_prior: learned.is_some(), ..GuardSettings::default() });
+    (0..s.measured_nm.len())
+        .map(|k| {
+            let refs = ReferenceValues::from_gear(gear, s.motor_angle_rad[k], s.output_angle_rad[k]);
+            let input = RippleInput::new(s.measured_nm[k], refs);
+            guard.step(&model, &input).map(|o| o.output.torque_nm).map_err(core_err("guarded filter"))
+        })
+        .collect()
+}

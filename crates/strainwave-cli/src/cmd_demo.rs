@@ -234,7 +234,8 @@ pub fn run(a: &Args) -> Result<()> {
 /// commissioning run of the same joint.
 fn canceller_section() -> Result<(String, String, Vec<LinePlot>)> {
     use strainwave_analysis::canceller_eval::{
-        commission, evaluate, filtered, lowpass_cutoff_for, smoothed, smoothed_accuracy, Method,
+        commission, evaluate, filtered, guarded, lowpass_cutoff_for, smoothed, smoothed_accuracy, worst_window_ratio,
+        Method,
     };
     let mut text = String::from("\nripple and misalignment cancellation against the simulator's truth:\n");
     let commissioning = EvalRun::simulate("taghirad-commissioning")?;
@@ -252,6 +253,8 @@ fn canceller_section() -> Result<(String, String, Vec<LinePlot>)> {
     let mut plots = Vec::new();
     let mut lowpass_hz = None;
     let mut lowpass_note = String::new();
+    // Never worse than raw: the guarded filter's worst 1 s window, cold and commissioned.
+    let mut harm_rows: Vec<Vec<String>> = Vec::new();
     for name in ["taghirad", "taghirad-standstill", "taghirad-loaded"] {
         let run = EvalRun::simulate(name)?;
         let signals = run.signals()?;
@@ -293,6 +296,10 @@ fn canceller_section() -> Result<(String, String, Vec<LinePlot>)> {
                 r.step_delay_samples.map_or(format!("> {}", signals.measured_nm.len() / 2), |d| d.to_string()),
             ]);
         }
+        let worst = |learned| -> Result<String> {
+            Ok(format!("{:.2}×", worst_window_ratio(&guarded(&signals, &gear, noise, learned)?, &signals)?))
+        };
+        harm_rows.push(vec![name.to_string(), "1.00×".into(), worst(None)?, worst(Some(&learned))?]);
         let full_row = eval.iter().find(|r| r.method == Method::Full).context("no full row")?;
         let smoothed_row = eval.last().context("no rows")?;
         let band = smoothed_accuracy(&signals, &gear, noise, &learned, 0.3, None)?;
@@ -353,7 +360,12 @@ fn canceller_section() -> Result<(String, String, Vec<LinePlot>)> {
     }
     text += &text_table(&header, &rows);
     text += &lowpass_note;
-    Ok((text, crate::report::html::table(&header, &rows), plots))
+    let harm_header = ["run", "raw", "cold (no learned file)", "commissioned"];
+    text += "\n  the guarded filter as `strainwave filter` runs it: worst 1 s window after the first, RMS error \
+             against the truth over the raw signal's (1.00× = never worse than raw):\n";
+    text += &text_table(&harm_header, &harm_rows);
+    let html = crate::report::html::table(&header, &rows) + &crate::report::html::table(&harm_header, &harm_rows);
+    Ok((text, html, plots))
 }
 
 /// One simulated run of the canceller table.

@@ -20,7 +20,9 @@ pub struct Args {
     #[arg(long = "in", required = true, num_args = 1..)]
     pub input: Vec<PathBuf>,
     /// Output recording: the input columns plus torque, ripple, misalignment, innovation, nis,
-    /// filter_flags; then torque_denoised when the config sets `filter.torque_bandwidth_hz`
+    /// filter_flags (bits 0-7 the canceller's, 8-11 the do-no-harm guard's: pass-through,
+    /// order withheld, order contradicted, standstill bound; bit 16 + i: order i not
+    /// applied); then torque_denoised when the config sets `filter.torque_bandwidth_hz`
     /// (causal, the clean torque filtered as a torque state: group delay at DC
     /// (1 − α)/(α fs) with α = 1 − exp(−2π f/fs), about 1/(2π f), e.g. 16 ms at 10 Hz; load
     /// steps restart it); then, with --smooth, torque_smoothed and torque_smoothed_sd.
@@ -117,6 +119,9 @@ fn filter_one(a: &Args, cfg: &JointConfig, input: &Path, out: Option<&Path>) -> 
     let verb = if a.smooth { "smoothed" } else { "filtered" };
     let dest = out.map_or("nowhere (learning only)".to_string(), |o| o.display().to_string());
     eprintln!("{verb} {} rows of {} -> {dest}{how}", summary.rows, input.display());
+    for line in summary.health.iter().flat_map(|h| h.lines()) {
+        eprintln!("{line}");
+    }
     if summary.extrapolated > 0 {
         eprintln!(
             "warning: {} samples used the calibration outside its speed range (its extrapolation policy)",

@@ -71,6 +71,11 @@ pub fn run(a: &Args) -> Result<()> {
         cfg.as_ref().map_or("measured_torque".to_string(), |c| c.channels.torque.column_name().to_string());
     let mut smoothed = SmoothedTorque::new(&columns, &measured_name, PLOT_COLUMNS)
         .or_else(|| SmoothedTorque::new(&columns, "measured_torque", PLOT_COLUMNS));
+    // The guard's figures when the recording has the filter's columns (and the config,
+    // if given, does not turn the guard off).
+    let guard_on = cfg.as_ref().is_none_or(|c| c.filter.guard);
+    let health_at = at("nis").zip(at("filter_flags")).filter(|_| guard_on);
+    let mut health = crate::report::health::HealthCounts::default();
     // The one pass.
     let mut stats = vec![ColumnStats::default(); columns.len()];
     let mut plots: Vec<MinMaxDecimator> = torque_at.iter().map(|_| MinMaxDecimator::new(PLOT_COLUMNS)).collect();
@@ -98,6 +103,9 @@ pub fn run(a: &Args) -> Result<()> {
         }
         if let Some(s) = smoothed.as_mut() {
             s.push(n, t, &row);
+        }
+        if let Some((nis, flags)) = health_at {
+            health.push(row[nis], row[flags]);
         }
         if first.is_none() {
             first = Some(row.clone());
@@ -209,6 +217,21 @@ pub fn run(a: &Args) -> Result<()> {
             body: table(&["signal", "mean error N·m", "RMS error N·m", "max |error| N·m"], &rows),
         });
     }
+    if health_at.is_some() {
+        let labels = cfg.as_ref().map_or_else(Vec::new, order_labels);
+        let labels = if labels.is_empty() { (0..5).map(|i| format!("order {i}")).collect() } else { labels };
+        let (rows, warnings) = health.table(&labels);
+        let mut body = String::from(
+            "<p>From <code>nis</code> and <code>filter_flags</code>: the share of the run each order's correction \
+             was applied by the do-no-harm guard, the mean NIS against its expected value 1, and the time \
+             the raw torque was passed through.</p>",
+        );
+        body += &table(&["", "value"], &rows);
+        for w in warnings {
+            body += &format!("<p><strong>warning:</strong> {}</p>", esc(&w));
+        }
+        sections.push(Section { title: "Filter health".into(), body });
+    }
     let report = Report {
         title: format!(
             "strainwave report: {}",
@@ -219,4 +242,20 @@ pub fn run(a: &Args) -> Result<()> {
     };
     strainwave_io::output::write_file(&a.out, report.to_html())?;
     Ok(())
+}
+
+/// The config's canceller orders as the health summary names them (empty if the model
+/// cannot be built).
+fn order_labels(cfg: &JointConfig) -> Vec<String> {
+    struct Labels;
+    impl strainwave_joint::canceller::ModelVisitor for Labels {
+        type Output = Vec<String>;
+        fn visit<const M: usize>(
+            self,
+            model: strainwave_core::ripple::RippleModel<f64, M>,
+        ) -> anyhow::Result<Vec<String>> {
+            Ok(model.orders().iter().map(strainwave_joint::health::order_label).collect())
+        }
+    }
+    strainwave_joint::canceller::build_model(cfg, false, Labels).unwrap_or_default()
 }

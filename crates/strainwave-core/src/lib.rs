@@ -8,6 +8,7 @@ pub mod denoise;
 pub mod error;
 pub mod fusion;
 pub mod gear;
+pub mod guard;
 pub mod iir;
 pub mod pmsm;
 pub mod real;

@@ -106,11 +106,20 @@ fn c_example_matches_filter_and_cpp_example_builds() {
             .arg(root.join("examples").join(config))
             .arg("--out")
             .arg(&model));
+        // The C ABI runs the bare canceller: the reference is `filter` with the do-no-harm
+        // guard off (a copy of the config, its learned file named from the examples).
+        let examples = root.join("examples");
+        let text = std::fs::read_to_string(examples.join(config)).unwrap();
+        let bare = text
+            .replace("[filter]\n", "[filter]\nguard = false\n")
+            .replace("learned = \"", &format!("learned = \"{}/", examples.display()));
+        let bare_config = tmp.join(format!("{stem}_bare.toml"));
+        std::fs::write(&bare_config, bare).unwrap();
         let reference = tmp.join(format!("{stem}_filter.csv"));
         run(Command::new(&cli)
             .arg("filter")
             .arg("--config")
-            .arg(root.join("examples").join(config))
+            .arg(&bare_config)
             .arg("--in")
             .arg(&recording)
             .arg("--out")

@@ -174,6 +174,14 @@ pub struct FilterConfig {
     /// Coefficients learned on a commissioning run (`strainwave filter --learn FILE`);
     /// relative paths are relative to the joint config. Absent: learn from zero.
     pub learned: Option<PathBuf>,
+    /// The do-no-harm guard (`strainwave_core::guard`): apply each order only while the
+    /// data support it. Default on; `false` gives the bare canceller.
+    #[serde(default = "guard_default")]
+    pub guard: bool,
+}
+
+fn guard_default() -> bool {
+    true
 }
 
 /// One oscillator of an `orders` model.

@@ -10,6 +10,7 @@ pub mod canceller;
 pub mod config;
 pub mod discover;
 pub mod export_c;
+pub mod health;
 pub mod identity;
 pub mod learn;
 pub mod learned;

@@ -9,6 +9,7 @@
 use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Context, Result};
+use strainwave_core::guard::{Guard, GuardSettings};
 use strainwave_core::ripple::{
     step, PhaseSource, ReferenceValues, RippleInput, RippleModel, RippleOutput, RippleState, StepFlags,
 };
@@ -16,6 +17,7 @@ use strainwave_io::{BoundChannel, IoError, RecordingReader, RecordingWriter};
 
 use crate::canceller::{build_model_with, in_config_terms, ModelVisitor};
 use crate::config::{JointConfig, ModelChoice, MAX_TABLE_LEN};
+use crate::health::Health;
 use crate::learned::LearnedFile;
 use crate::row_check::RowCheck;
 
@@ -107,6 +109,39 @@ pub struct FilterSummary {
     pub extrapolated: u64,
     /// Warnings: skipped samples, time axis, sample rate.
     pub warnings: Vec<String>,
+    /// The do-no-harm guard's figures (`None`: guard off, or the smoother ran).
+    pub health: Option<Health>,
+}
+
+/// Bits of `filter_flags` above the canceller's own ([`StepFlags`], bits 0–7): the
+/// guard's flags ([`strainwave_core::guard::GuardFlags`]) from this bit on.
+pub const GUARD_FLAGS_SHIFT: u32 = 8;
+/// Bit of `filter_flags` from which one bit per order says it was NOT applied.
+pub const WITHHELD_ORDERS_SHIFT: u32 = 16;
+
+/// The canceller of a run: bare, or under the do-no-harm guard.
+enum Canceller<const M: usize> {
+    Bare(RippleState<f64, M>),
+    Guarded(Box<Guard<f64, M>>),
+}
+
+impl<const M: usize> Canceller<M> {
+    /// One sample: the output and the `filter_flags` bits.
+    fn step(
+        &mut self,
+        model: &RippleModel<f64, M>,
+        input: &RippleInput<f64>,
+    ) -> Result<(RippleOutput<f64>, u32), strainwave_core::Error> {
+        match self {
+            Canceller::Bare(state) => step(model, state, input).map(|o| (o, u32::from(o.flags.bits()))),
+            Canceller::Guarded(g) => g.step(model, input).map(|o| {
+                let bits = u32::from(o.output.flags.bits())
+                    | (u32::from(o.flags.bits()) << GUARD_FLAGS_SHIFT)
+                    | (u32::from(o.withheld_mask()) << WITHHELD_ORDERS_SHIFT);
+                (o.output, bits)
+            }),
+        }
+    }
 }
 
 /// Runs the canceller of `cfg` over `source`, writing each row with the added columns to
@@ -122,9 +157,14 @@ pub fn filter_recording<S: RowSource, W: RowSink>(
     let config = cfg.path.display().to_string();
     let mut notes = Vec::new();
     if cfg.filter.model == ModelChoice::Full && opts.learn.is_none() && cfg.filter.learned.is_none() {
+        let guard = if cfg.filter.guard {
+            "; the do-no-harm guard applies each order only once the data support it, else passes the raw torque"
+        } else {
+            ""
+        };
         notes.push(format!(
             "{config}: no `filter.learned` file, so the full model learns from zero in this run; \
-             the misalignment needs several output revolutions (see `filter --learn`)"
+             the misalignment needs several output revolutions (see `filter --learn`){guard}"
         ));
     }
     // Operating from learned priors when the config has them (a `--learn` run may
@@ -300,7 +340,14 @@ impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
             });
         }
         let mut w = create(&refs)?;
-        let mut state = RippleState::new(model);
+        let mut canceller = if cfg.filter.guard {
+            // The output runs from the config's learned file whenever there is one (a `--learn`
+            // run learns beside it), so that file is the guard's evidence.
+            let learned_prior = learned.is_some();
+            Canceller::Guarded(Box::new(Guard::new(model, GuardSettings { learned_prior, ..GuardSettings::default() })))
+        } else {
+            Canceller::Bare(RippleState::new(model))
+        };
         let mut denoiser = denoiser;
         let mut row = Vec::with_capacity(columns.len());
         let mut last_t: Option<f64> = None;
@@ -325,7 +372,7 @@ impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
             if let Some(l) = session.as_mut() {
                 l.observe(&sample);
             }
-            let o: RippleOutput<f64> = step(model, &mut state, &sample).map_err(|e| {
+            let (o, flag_bits) = canceller.step(model, &sample).map_err(|e| {
                 let why = in_config_terms(e, cfg.filter.model == ModelChoice::Orders, cfg.filter.sample_rate_hz);
                 anyhow!("{input}: data row {n}: {why}")
             })?;
@@ -345,7 +392,7 @@ impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
                 o.misalignment_nm,
                 o.innovation_nm,
                 o.nis,
-                o.flags.bits() as f64,
+                f64::from(flag_bits),
             ]);
             if let Some(d) = denoiser.as_mut() {
                 row.push(d.step(o.torque_nm, o.flags.contains(StepFlags::LOAD_STEP)));
@@ -375,6 +422,12 @@ impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
             notes.append(&mut lines);
         }
         let span = first_t.zip(last_t).map(|(t0, t1)| t1 - t0);
-        Ok(FilterSummary { rows, notes, extrapolated, warnings: check.warnings(input, rows, span) })
+        let health = match &canceller {
+            Canceller::Guarded(g) => Some(Health::new(model.orders(), g.stats())),
+            Canceller::Bare(_) => None,
+        };
+        let mut warnings = check.warnings(input, rows, span);
+        warnings.extend(health.iter().flat_map(Health::warnings));
+        Ok(FilterSummary { rows, notes, extrapolated, warnings, health })
     }
 }

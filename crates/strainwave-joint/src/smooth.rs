@@ -262,5 +262,11 @@ pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
     }
     let rows = w.finish()?;
     let span = first_t.zip(last_t).map(|(t0, t1)| t1 - t0);
-    Ok(FilterSummary { rows, notes: Vec::new(), extrapolated: 0, warnings: check.warnings(input, rows, span) })
+    Ok(FilterSummary {
+        rows,
+        notes: Vec::new(),
+        extrapolated: 0,
+        warnings: check.warnings(input, rows, span),
+        health: None,
+    })
 }

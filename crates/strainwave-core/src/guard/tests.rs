@@ -1,0 +1,108 @@
+//! Tests of the guard on synthetic signals: each rule on its own.
+
+use super::order::{chi2, octant};
+use super::*;
+use crate::ripple::{ReferenceValues, RippleInput, RippleModel};
+
+/// Sample `k`: load, 2× ripple of `amp` on the relative angle at `w` rad per sample,
+/// a little deterministic noise; output angle `φ / 100`.
+fn sample<T: Real>(k: usize, w: f64, amp: f64, load: f64) -> RippleInput<T> {
+    let phi = w * k as f64;
+    let noise = 0.01 * ((k as f64 * 12.9898).sin() * 43_758.545).fract();
+    let y = load + amp * (2.0 * phi + 0.3).cos() + noise;
+    RippleInput::new(T::from_f64(y), ReferenceValues::new(T::from_f64(phi), T::from_f64(phi / 100.0), T::from_f64(phi)))
+}
+
+#[test]
+fn chi2_and_octants() {
+    let p = [[0.01, 0.0], [0.0, 0.04]];
+    assert!((chi2(&p, [0.1, 0.2]) - (1.0 + 1.0)).abs() < 1e-12);
+    assert_eq!(chi2(&[[0.0, 0.0], [0.0, 0.0]], [1.0, 1.0]), 0.0);
+    assert_eq!(chi2(&[[f64::NAN, 0.0], [0.0, 1.0]], [1.0, 1.0]), 0.0);
+    // The eight octants in turn around the circle.
+    for o in 0..8u8 {
+        let a = (f64::from(o) + 0.5) * core::f64::consts::FRAC_PI_4;
+        assert_eq!(octant([a.cos(), a.sin()]), Some(o), "octant {o}");
+        assert_eq!(octant([3.0 * a.cos(), 3.0 * a.sin()]), Some(o), "scaled, octant {o}");
+    }
+    assert_eq!(octant([0.0f64, 0.0]), None);
+    assert_eq!(octant([f64::NAN, 1.0]), None);
+}
+
+/// A 2× ripple the model knows is applied once learned (f64 and f32); the 4× order
+/// (no such line in the data) and the misalignment (not one output turn yet) are not,
+/// and the output then is the load.
+fn learns_and_applies<T: Real>() {
+    let model = RippleModel::<T, 3>::product(T::from_f64(1000.0), T::from_f64(0.01)).unwrap();
+    let mut guard = Guard::new(&model, GuardSettings::default());
+    let mut first_applied = None;
+    let mut last = None;
+    for k in 0..6000 {
+        let o = guard.step(&model, &sample::<T>(k, 0.05, 0.5, 2.0)).unwrap();
+        if o.applied[0] && first_applied.is_none() {
+            first_applied = Some(k);
+        }
+        last = Some(o);
+    }
+    let o = last.unwrap();
+    // 2× applied; the 4× line is not in the data (no evidence), the misalignment has not turned.
+    assert_eq!(o.applied, [true, false, false]);
+    assert!((o.output.torque_nm.to_f64() - 2.0).abs() < 0.05, "{}", o.output.torque_nm.to_f64());
+    // Not at once: it waits for evidence and three cycles of the line.
+    assert!(first_applied.unwrap() > 10, "{first_applied:?}");
+    let stats = guard.stats();
+    assert_eq!(stats.samples, 6000);
+    assert!(stats.applied_share(0) > 0.8 && stats.applied_share(2) == 0.0, "{stats:?}");
+    assert!(stats.mean_nis() < 3.0, "{}", stats.mean_nis());
+}
+
+#[test]
+fn learns_and_applies_f64_and_f32() {
+    learns_and_applies::<f64>();
+    learns_and_applies::<f32>();
+}
+
+/// A model whose noise is 100× too small for the data: its NIS is far above 1, the
+/// whole model steps back, and the output is the raw torque, bit for bit.
+#[test]
+fn misfit_model_passes_the_raw_torque_through() {
+    let model = RippleModel::<f64, 3>::product(1000.0, 1e-4).unwrap();
+    let mut guard = Guard::new(&model, GuardSettings::default());
+    let mut passed = 0;
+    for k in 0..4000 {
+        let input = sample::<f64>(k, 0.05, 0.5, 2.0);
+        let o = guard.step(&model, &input).unwrap();
+        if k > 2000 {
+            assert!(o.flags.contains(GuardFlags::PASS_THROUGH), "k {k}: mean NIS {}", o.mean_nis);
+            assert_eq!(o.output.torque_nm.to_bits(), input.torque_nm.to_bits(), "k {k}");
+            assert_eq!(o.withheld_mask(), 0b111);
+            passed += 1;
+        }
+    }
+    assert!(guard.stats().pass_through >= passed && guard.stats().pass_through_share() > 0.4);
+}
+
+/// Cold, an order that has never moved removes nothing at a standstill, however its
+/// estimate looks: the bound of what was learned while moving is zero.
+#[test]
+fn nothing_removed_at_a_standstill_before_any_motion() {
+    let model = RippleModel::<f64, 3>::product(1000.0, 0.01).unwrap();
+    let mut guard = Guard::new(&model, GuardSettings::default());
+    for k in 0..3000 {
+        // Standing at φ = 0.7 with a load that changes: the orders are held throughout.
+        let load = if k < 1500 { 1.0 } else { 3.0 };
+        let input = RippleInput::new(load, ReferenceValues::new(0.7, 0.007, 0.7));
+        let o = guard.step(&model, &input).unwrap();
+        assert_eq!(o.output.torque_nm, load, "k {k}");
+        assert_eq!(o.applied, [false; 3]);
+    }
+}
+
+/// The settings' defaults are the documented ones.
+#[test]
+fn default_settings() {
+    let s = GuardSettings::<f64>::default();
+    assert_eq!((s.apply_chi2, s.release_chi2, s.min_cycles_output, s.window_s), (25.0, 9.0, 3.0, 0.25));
+    assert_eq!((s.nis_pass_through, s.nis_recover, s.standstill_max_nis, s.complete_max_nis), (6.0, 3.0, 2.0, 3.0));
+    assert!(!s.learned_prior);
+}
