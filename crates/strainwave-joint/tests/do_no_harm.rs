@@ -92,7 +92,12 @@ impl RowSink for Torque {
 /// Runs the config at `cfg` over `r`: per sample the cleaned torque, ripple and
 /// misalignment columns, and the summary. With `learn`, writes the learned file there.
 fn filter(cfg: &Path, r: &Run, learn: Option<PathBuf>) -> (Vec<[f64; 3]>, FilterSummary) {
-    let cfg = JointConfig::load(cfg).unwrap();
+    try_filter(cfg, r, learn).unwrap()
+}
+
+/// [`filter`], or its error.
+fn try_filter(cfg: &Path, r: &Run, learn: Option<PathBuf>) -> anyhow::Result<(Vec<[f64; 3]>, FilterSummary)> {
+    let cfg = JointConfig::load(cfg)?;
     let mut rows = Rows { rec: &r.rec, columns: r.rec.columns.iter().map(|c| c.to_string()).collect(), k: 0 };
     let values = Rc::new(RefCell::new(Vec::new()));
     let opts = FilterOptions { input_name: "run".into(), learn, ..Default::default() };
@@ -100,9 +105,9 @@ fn filter(cfg: &Path, r: &Run, learn: Option<PathBuf>) -> (Vec<[f64; 3]>, Filter
         let index = cols.iter().position(|c| *c == "torque").unwrap();
         Ok(Torque { index, values: values.clone() })
     };
-    let summary = filter_recording(&cfg, &mut rows, create, &opts, &mut |_| {}).unwrap();
+    let summary = filter_recording(&cfg, &mut rows, create, &opts, &mut |_| {})?;
     let torque = values.borrow().clone();
-    (torque, summary)
+    Ok((torque, summary))
 }
 
 /// The worst 1 s window after the first second of `|clean − true|` RMS over
@@ -290,20 +295,25 @@ fn presets_never_worse_than_raw_cold_and_commissioned() {
 
 /// Deliberately wrong configs on the taghirad joint: an order missing, the noise 10×
 /// too large or too small, the wrong fixed element, the learned file of another joint.
+/// A learned file whose joint differs from the config's is refused (its identity); every
+/// other case runs and is never worse than raw.
 #[test]
 fn wrong_configs_never_worse_than_raw() {
     let mut harm = Vec::new();
     let dir = case_dir();
     let noise = 0.0162;
-    let good = |model: &'static str, learned: Option<&'static str>| Cfg {
+    let good = |model: &'static str| Cfg {
         ratio: 100.0,
         fixed: "circular_spline",
         fs: 1000.0,
         noise_nm: noise,
         model,
-        learned: learned.map(Path::new),
+        learned: None,
     };
-    let comm_file = examples().join("joint-taghirad-learned.toml");
+    // This joint's learned file, commissioned with this test's channel names.
+    let comm_file = dir.join("taghirad-learned.toml");
+    let commissioning = run(&presets::preset("taghirad-commissioning").unwrap());
+    filter(&good("model = \"full\"").write(&dir, "commissioning.toml"), &commissioning, Some(comm_file.clone()));
     let other_file = examples().join("joint-flexspline-fixed-learned.toml");
     let missing = "model = \"orders\"\nbias_q_nm2 = 1e-3\norders = [{ reference = \"relative\", multiple = 2.0, q_per_rad_nm2 = 1e-4 }]";
     let mut cases: Vec<(String, PathBuf)> = Vec::new();
@@ -311,22 +321,18 @@ fn wrong_configs_never_worse_than_raw() {
         let path = cfg.write(&dir, &format!("{name}.toml"));
         cases.push((name.to_string(), path));
     };
-    add("missing orders", good(missing, None));
+    add("missing orders", good(missing));
     for (what, learned) in [("cold", None), ("commissioned", Some(comm_file.as_path()))] {
         add(
             &format!("noise 10x too large, {what}"),
-            Cfg { noise_nm: 10.0 * noise, learned, ..good("model = \"full\"", None) },
+            Cfg { noise_nm: 10.0 * noise, learned, ..good("model = \"full\"") },
         );
         add(
             &format!("noise 10x too small, {what}"),
-            Cfg { noise_nm: noise / 10.0, learned, ..good("model = \"full\"", None) },
-        );
-        add(
-            &format!("wrong fixed element, {what}"),
-            Cfg { fixed: "flexspline", learned, ..good("model = \"full\"", None) },
+            Cfg { noise_nm: noise / 10.0, learned, ..good("model = \"full\"") },
         );
     }
-    add("learned file of another joint", Cfg { learned: Some(other_file.as_path()), ..good("model = \"full\"", None) });
+    add("wrong fixed element, cold", Cfg { fixed: "flexspline", ..good("model = \"full\"") });
     for preset in ["taghirad", "taghirad-standstill", "taghirad-loaded"] {
         let r = run(&presets::preset(preset).unwrap());
         for (name, path) in &cases {
@@ -337,6 +343,25 @@ fn wrong_configs_never_worse_than_raw() {
         }
     }
     assert!(harm.is_empty(), "made worse than raw:\n{}", harm.join("\n"));
+    // A learned file of another joint, or of this joint under the wrong fixed element,
+    // never reaches the canceller.
+    for (name, cfg, differs) in [
+        (
+            "learned file of another joint",
+            Cfg { learned: Some(other_file.as_path()), ..good("model = \"full\"") },
+            "fixed",
+        ),
+        (
+            "wrong fixed element, commissioned",
+            Cfg { fixed: "flexspline", learned: Some(comm_file.as_path()), ..good("model = \"full\"") },
+            "fixed",
+        ),
+    ] {
+        let path = cfg.write(&dir, &format!("{name}.toml"));
+        let r = run(&presets::preset("taghirad").unwrap());
+        let e = format!("{:#}", try_filter(&path, &r, None).err().unwrap_or_else(|| panic!("{name}: accepted")));
+        assert!(e.contains("learned on another joint") && e.contains(differs), "{name}: {e}");
+    }
 }
 
 /// Joints drawn at random (seeded), each commissioned on its own steady run and then
