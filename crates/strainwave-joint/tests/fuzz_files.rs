@@ -176,11 +176,22 @@ fn check_error(e: &str, file: &Path) -> Result<(), TestCaseError> {
     Ok(())
 }
 
+/// Counts the cases of one test and prints the count every 100 000 (seen with
+/// `--nocapture`), so a long pass shows how far it got.
+fn tick(counter: &AtomicU64, name: &str) {
+    let n = counter.fetch_add(1, Ordering::Relaxed) + 1;
+    if n % 100_000 == 0 {
+        eprintln!("{name}: {n} cases");
+    }
+}
+
 proptest! {
     #![proptest_config(config())]
 
     #[test]
     fn joint_config_never_panics(text in mutated(CONFIG)) {
+        static CASES: AtomicU64 = AtomicU64::new(0);
+        tick(&CASES, "joint_config_never_panics");
         let d = case_dir();
         std::fs::write(d.join("joint.toml"), &text).unwrap();
         std::fs::write(d.join("learned.toml"), LEARNED).unwrap();
@@ -196,6 +207,8 @@ proptest! {
 
     #[test]
     fn learned_file_never_panics(text in mutated(LEARNED)) {
+        static CASES: AtomicU64 = AtomicU64::new(0);
+        tick(&CASES, "learned_file_never_panics");
         let d = case_dir();
         std::fs::write(d.join("joint.toml"), CONFIG).unwrap();
         std::fs::write(d.join("learned.toml"), &text).unwrap();
@@ -210,6 +223,8 @@ proptest! {
 
     #[test]
     fn calibration_file_never_panics(text in mutated(CALIBRATION)) {
+        static CASES: AtomicU64 = AtomicU64::new(0);
+        tick(&CASES, "calibration_file_never_panics");
         let d = case_dir();
         let cfg = CONFIG.replace("gain_nm_per_v = 6.611", "file = \"cal.toml\"").replace("learned = \"learned.toml\"\n", "");
         std::fs::write(d.join("joint.toml"), cfg).unwrap();
