@@ -202,11 +202,13 @@ mod tests {
     #[test]
     fn bad_readings_are_named() {
         let (t, mut v, mut m) = readings(0.0);
-        assert!(matches!(split_load_series(&t[3..], &v[3..], None), Err(CalibrationError::Invalid { .. })));
+        let err = split_load_series(&t[3..], &v[3..], None).unwrap_err();
+        assert!(matches!(err, CalibrationError::AtRow { row: 0, .. }), "{err:?}");
+        assert!(err.to_string().starts_with("loading series: row 1: the first reading is at 5 N·m"), "{err}");
         m[7] = 90.0;
         let err = split_load_series(&t, &v, Some(&m)).unwrap_err();
-        assert!(matches!(err, CalibrationError::AtRow { row: 6, .. }), "{err:?}");
-        assert!(err.to_string().contains("row 7: the mounting position changes from 0° to 90°"), "{err}");
+        assert!(matches!(err, CalibrationError::AtRow { row: 7, .. }), "{err:?}");
+        assert!(err.to_string().contains("row 8: the mounting position changes from 0° to 90°"), "{err}");
         v[4] = f64::NAN;
         assert_eq!(
             split_load_series(&t, &v, None).unwrap_err(),
