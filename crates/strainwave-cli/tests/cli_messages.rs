@@ -136,3 +136,15 @@ fn identify_names_the_config_for_its_keys() {
     );
     assert!(!out.exists());
 }
+
+#[test]
+fn a_scenario_toml_error_is_one_plain_line() {
+    let d = tmp("scenario");
+    let cfg = d.join("twin.toml");
+    std::fs::write(&cfg, "[gear\nratio = 1\n").unwrap();
+    let e = error(
+        &["simulate", "--scenario", s(&cfg), "--out", s(&d.join("x.csv"))],
+        &["twin.toml", "invalid table header; expected", "(at line 1, column 6)"],
+    );
+    assert!(!e.contains('\\'), "an escaped line break: {e}");
+}
