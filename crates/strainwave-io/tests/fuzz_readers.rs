@@ -3,11 +3,12 @@
 //! error, never a panic, and no allocation may exceed what the run's address-space
 //! limit allows (the long pass runs under `ulimit -v`).
 //!
-//! The short pass (256 cases per reader) runs with the other tests. The long pass:
+//! The short pass (256 cases per reader) runs with the other tests. The long pass (see
+//! docs/safety.md; each test prints its count every 100 000 cases):
 //!
 //! ```text
-//! ulimit -v 4000000
-//! PROPTEST_CASES=1000000 cargo test --release -p strainwave-io --features parquet,mcap --test fuzz_readers
+//! ulimit -v 6000000   # after building: the limit binds the compiler too
+//! PROPTEST_CASES=1000000 cargo test --release -p strainwave-io --features parquet,mcap,sqlite --test fuzz_readers -- --nocapture
 //! ```
 #![cfg(all(feature = "parquet", feature = "mcap"))]
 

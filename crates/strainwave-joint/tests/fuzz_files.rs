@@ -2,11 +2,12 @@
 //! run over a short recording), the learned file and the calibration file it names.
 //! Every case ends in a result or a one-line error naming the file, never a panic.
 //!
-//! The short pass (256 cases per file) runs with the other tests. The long pass:
+//! The short pass (256 cases per file) runs with the other tests. The long pass (see
+//! docs/safety.md; each test prints its count every 100 000 cases):
 //!
 //! ```text
-//! ulimit -v 4000000
-//! PROPTEST_CASES=1000000 cargo test --release -p strainwave-joint --test fuzz_files
+//! ulimit -v 6000000   # after building: the limit binds the compiler too
+//! PROPTEST_CASES=1000000 cargo test --release -p strainwave-joint --test fuzz_files -- --nocapture
 //! ```
 
 use std::path::{Path, PathBuf};
