@@ -144,7 +144,7 @@ fn leak(b: &[u8]) -> &'static [u8] {
 /// `--nocapture`), so a long pass shows how far it got.
 fn tick(counter: &AtomicU64, name: &str) {
     let n = counter.fetch_add(1, Ordering::Relaxed) + 1;
-    if n % 100_000 == 0 {
+    if n.is_multiple_of(100_000) {
         eprintln!("{name}: {n} cases");
     }
 }
