@@ -245,6 +245,24 @@ def test_aligned_columns_equal_their_own_samples_interpolated(binary, bag, tmp_p
     assert checked == len(header) - 1 > 20
 
 
+def test_summary_counts_messages_per_topic_and_rows_written(binary, bag, tmp_path):
+    import re
+
+    out = tmp_path / "summary.csv"
+    res = run(binary, "convert", "--in", bag["file"], "--out", out)
+    lines = [l for l in res.stderr.splitlines() if l.startswith("converted")]
+    assert len(lines) == 1, res.stderr
+    m = re.fullmatch(r"converted (\d+) messages \((.*)\) of (.*) -> (\d+) rows, (\d+) columns in (.*)", lines[0])
+    assert m, lines[0]
+    per_topic = dict((t, int(n)) for t, n in (p.rsplit(" ", 1) for p in m.group(2).split(", ")))
+    assert per_topic == {t: int(DURATION_S * r) for t, r in RATES.items()}
+    assert int(m.group(1)) == sum(per_topic.values())
+    header, rows = read_csv(out)
+    assert (m.group(3), int(m.group(4)), int(m.group(5)), m.group(6)) == (str(bag["file"]), len(rows), len(header), str(out))
+    # Rows are the 1 kHz clock's, fewer than the messages read.
+    assert len(rows) == 200 < int(m.group(1))
+
+
 def test_hold_on_a_uniform_clock_and_max_gap(binary, bag, tmp_path):
     out = tmp_path / "hold.csv"
     run(binary, "convert", "--in", bag["file"], "--align", "hold", "--resample-hz", "400", "--max-gap", "0.006", "--out", out)

@@ -84,7 +84,8 @@ fn malformed_series_are_refused_with_a_reason() {
     let mut s = series();
     s[1] = LoadSeries::new(0.0, &[(0.0, 0.0), (10.0, 1.0), (25.0, 2.5), (0.0, 0.0)]);
     let err = din51309_figures(&s, &opts).unwrap_err();
-    assert!(err.to_string().contains("series 1"), "{err}");
+    // Series and steps are counted from 1, as users count.
+    assert!(err.to_string().contains("series 2: its loading steps differ from series 1's"), "{err}");
     // Unloading to a step that was never loaded.
     let bad = [LoadSeries::new(0.0, &[(0.0, 0.0), (10.0, 1.0), (20.0, 2.0), (15.0, 1.5), (0.0, 0.0)])];
     assert!(din51309_figures(&bad, &opts).unwrap_err().to_string().contains("15"));
@@ -92,7 +93,7 @@ fn malformed_series_are_refused_with_a_reason() {
     let bad = [LoadSeries::new(0.0, &[(0.0, 0.0), (10.0, f64::NAN)])];
     assert_eq!(
         din51309_figures(&bad, &opts).unwrap_err(),
-        CalibrationError::NonFiniteRow { what: "series 0".into(), row: 1, column: "indication" }
+        CalibrationError::NonFiniteRow { what: "series 1".into(), row: 1, column: "indication" }
     );
     // Degree out of range.
     let o = DinOptions { interpolation_degree: 4, ..DinOptions::default() };
@@ -102,7 +103,8 @@ fn malformed_series_are_refused_with_a_reason() {
     assert!(matches!(din51309_figures(&series(), &o), Err(CalibrationError::TooFewRows { needed: 3, got: 2, .. })));
     // Torque sign change within a series.
     let bad = [LoadSeries::new(0.0, &[(0.0, 0.0), (10.0, 1.0), (-20.0, -2.0)])];
-    assert!(din51309_figures(&bad, &opts).is_err());
+    let err = din51309_figures(&bad, &opts).unwrap_err().to_string();
+    assert!(err.starts_with("series 1: step 3: torque changes sign"), "{err}");
     assert!(din51309_figures(&[], &opts).is_err());
 }
 

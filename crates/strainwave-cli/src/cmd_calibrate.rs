@@ -156,6 +156,10 @@ pub struct ExperimentRows {
     pub time: Vec<f64>,
     /// Mounting position, degrees (for `--din`).
     pub mounting: Vec<f64>,
+    /// The file the rows come from, for messages (empty: no file).
+    pub file: String,
+    /// The data row (1-based, as users count) of each entry in the file (empty: none).
+    pub file_rows: Vec<u64>,
 }
 
 fn column<'a>(t: &'a strainwave_io::Table, path: &Path, name: &str, option: &str) -> Result<&'a [f64]> {
@@ -227,6 +231,8 @@ fn load(a: &Args, need_speed: bool, mounting: Option<&str>) -> Result<Vec<Experi
                 speed: pick(speed),
                 time: pick(time),
                 mounting: pick(mount),
+                file: path.display().to_string(),
+                file_rows: rows.iter().map(|&i| i as u64 + 1).collect(),
             });
         }
     }
@@ -250,6 +256,9 @@ fn keep_held(exps: &mut [ExperimentRows], hold_s: f64, band: Option<f64>) -> Res
         total += h.len();
         for v in [&mut e.reference, &mut e.sensor, &mut e.speed, &mut e.time, &mut e.mounting] {
             keep(v);
+        }
+        if !e.file_rows.is_empty() {
+            e.file_rows = e.file_rows.iter().zip(&h).filter(|(_, &k)| k).map(|(r, _)| *r).collect();
         }
         kept += e.reference.len();
     }

@@ -4,7 +4,7 @@
 //! `--delimiter`, …); units found in the input go with the columns. Time-axis problems
 //! of a table are reported; resampling happens only when asked.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Result};
 use strainwave_io::{RecordingReader, RecordingWriter, TimeMonitor};
@@ -63,15 +63,7 @@ pub fn run(a: &Args) -> Result<()> {
     }
     let rows = w.finish()?;
     if !a.quiet {
-        let what = if log { "messages" } else { "rows" };
-        eprintln!(
-            "converted {} {what} of {} -> {} rows, {} columns in {}",
-            r.input_rows(),
-            a.input.display(),
-            rows,
-            columns.len(),
-            a.out.display()
-        );
+        eprintln!("{}", summary(&r, &a.input, &a.out, rows, columns.len()));
         if !log {
             if let Some(msg) = monitor.report() {
                 eprintln!(
@@ -93,4 +85,17 @@ pub fn run(a: &Args) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// The summary line: what was read (a log's messages per topic, a table's rows), what
+/// was written.
+fn summary(r: &RecordingReader, input: &Path, out: &Path, rows_written: u64, columns: usize) -> String {
+    let read = match r.messages_per_topic() {
+        Some(topics) => {
+            let each: Vec<String> = topics.iter().map(|(t, n)| format!("{t} {n}")).collect();
+            format!("{} messages ({})", r.input_rows(), each.join(", "))
+        }
+        None => format!("{} rows", r.input_rows()),
+    };
+    format!("converted {read} of {} -> {rows_written} rows, {columns} columns in {}", input.display(), out.display())
 }

@@ -179,8 +179,7 @@ impl BenchConfig {
     /// Reads and checks a configuration.
     pub fn load(path: &Path) -> Result<Self> {
         let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
-        let c: Self = toml::from_str(&text)
-            .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), e.to_string().replace('\n', " ").trim()))?;
+        let c: Self = toml::from_str(&text).map_err(|e| strainwave_joint::toml_error::one_line(path, &text, &e))?;
         for (v, key) in [
             (c.stator_inertia_kg_m2, "stator_inertia_kg_m2"),
             (c.radius_m, "radius_m"),
@@ -217,9 +216,14 @@ impl BenchConfig {
     }
 
     /// Checks the crossover against the sample rate.
-    fn check_crossover(&self, fs: f64) -> Result<()> {
+    fn check_crossover(&self, fs: f64, config: &Path) -> Result<()> {
         if self.crossover_hz >= fs / 2.0 {
-            bail!("`crossover_hz` = {} Hz is at or above the Nyquist frequency {} Hz", self.crossover_hz, fs / 2.0);
+            bail!(
+                "{}: `crossover_hz` = {} Hz is at or above the Nyquist frequency {} Hz",
+                config.display(),
+                self.crossover_hz,
+                fs / 2.0
+            );
         }
         Ok(())
     }
@@ -229,10 +233,11 @@ fn column(cols: &[String], name: &str, path: &Path) -> Result<usize> {
     cols.iter().position(|c| c == name).with_context(|| format!("{}: no column `{name}`", path.display()))
 }
 
-fn rate_from_time(t0: f64, t1: f64) -> Result<f64> {
+/// The sample rate from the first two times (data rows 1 and 2 of column `name`).
+fn rate_from_time(t0: f64, t1: f64, name: &str, input: &Path) -> Result<f64> {
     let dt = t1 - t0;
     if !(dt.is_finite() && dt > 0.0) {
-        bail!("`time`: samples must be increasing (first step {dt} s)");
+        bail!("{}: row 2, column `{name}`: time {t1} s does not come after {t0} s", input.display());
     }
     Ok(1.0 / dt)
 }
@@ -312,9 +317,9 @@ impl Idx {
     }
 }
 
-fn output_columns(cols: &[String]) -> Result<Vec<&str>> {
+fn output_columns<'a>(cols: &'a [String], input: &Path) -> Result<Vec<&'a str>> {
     if cols.iter().any(|c| c == "fused_torque") {
-        bail!("the input already has a `fused_torque` column");
+        bail!("{}: already has a `fused_torque` column (the output adds one)", input.display());
     }
     let mut out: Vec<&str> = cols.iter().map(String::as_str).collect();
     out.push("fused_torque");
@@ -334,20 +339,19 @@ fn stream(a: &Args, cfg: &BenchConfig, pair: &AccelerometerPair<f64>) -> Result<
     }
     let fs = match cfg.sample_rate_hz {
         Some(fs) => fs,
-        None => rate_from_time(first[idx.time], second[idx.time])
-            .map_err(|e| anyhow::anyhow!("{}: rows 1–2: {e}", a.input.display()))?,
+        None => rate_from_time(first[idx.time], second[idx.time], &cfg.columns.time, &a.input)?,
     };
     let mut fusion = if a.method == "online-corrected" {
         let f = cfg.model(&a.method, &a.config)?.online(cfg.stator_inertia_kg_m2, fs, &a.config)?;
         say(a, &design_summary(&f, cfg.model(&a.method, &a.config)?.paths(cfg.stator_inertia_kg_m2, &a.config)?)?)?;
         Online::Corrected(f, OnlineFusionState::default())
     } else {
-        cfg.check_crossover(fs)?;
+        cfg.check_crossover(fs, &a.config)?;
         let f = ComplementaryFusion::new(cfg.crossover_hz, fs, cfg.crossover_order())
             .map_err(|e| anyhow::anyhow!("{}: {e}", a.config.display()))?;
         Online::Complementary(f, FusionState::default())
     };
-    let mut wtr = RecordingWriter::create(&a.out, &output_columns(&cols)?)?;
+    let mut wtr = RecordingWriter::create(&a.out, &output_columns(&cols, &a.input)?)?;
     let mut check = reference.map(|_| Check::new(fs));
     let mut out_row = Vec::with_capacity(cols.len() + 1);
     let mut last_t = f64::NEG_INFINITY;
@@ -414,10 +418,9 @@ fn offline(a: &Args, cfg: &BenchConfig, pair: &AccelerometerPair<f64>) -> Result
     }
     let fs = match cfg.sample_rate_hz {
         Some(fs) => fs,
-        None => rate_from_time(table.data[idx.time][0], table.data[idx.time][1])
-            .map_err(|e| anyhow::anyhow!("{}: rows 1–2: {e}", a.input.display()))?,
+        None => rate_from_time(table.data[idx.time][0], table.data[idx.time][1], &cfg.columns.time, &a.input)?,
     };
-    cfg.check_crossover(fs)?;
+    cfg.check_crossover(fs, &a.config)?;
     let torsion = &table.data[idx.torsion];
     let accel: Vec<f64> = (0..n)
         .map(|k| match idx.accel {
@@ -425,8 +428,20 @@ fn offline(a: &Args, cfg: &BenchConfig, pair: &AccelerometerPair<f64>) -> Result
             Err(c) => table.data[c][k],
         })
         .collect();
+    if let Some(k) = (0..n).find(|&k| !(torsion[k].is_finite() && accel[k].is_finite())) {
+        bail!(
+            "{}: row {}: `{}` or the accelerometer torque is not finite (torsion {}, accelerometers {} N·m)",
+            a.input.display(),
+            k + 1,
+            cfg.columns.torsion,
+            torsion[k],
+            accel[k]
+        );
+    }
+    // Errors of the designs come from the config's numbers.
+    let in_config = |e: strainwave_analysis::AnalysisError| anyhow::anyhow!("{}: {e}", a.config.display());
     let fused = match a.method.as_str() {
-        "spectral" => spectral_combination(torsion, &accel, fs, cfg.crossover_hz)?,
+        "spectral" => spectral_combination(torsion, &accel, fs, cfg.crossover_hz).map_err(in_config)?,
         "corrected" => {
             let m = cfg.model(&a.method, &a.config)?;
             let (ts, acc) = m.paths(cfg.stator_inertia_kg_m2, &a.config)?;
@@ -440,16 +455,22 @@ fn offline(a: &Args, cfg: &BenchConfig, pair: &AccelerometerPair<f64>) -> Result
                 );
             }
             let mut cc = CorrectionConfig::new(m.fir_taps | 1);
-            cc.band = CrossoverBand::new(0.8 * cfg.crossover_hz, 1.2 * cfg.crossover_hz)?;
+            cc.band = CrossoverBand::new(0.8 * cfg.crossover_hz, 1.2 * cfg.crossover_hz).map_err(in_config)?;
             if cc.band.hi_hz >= fs / 2.0 {
-                bail!("`crossover_hz` = {} Hz: the crossover band reaches the Nyquist frequency", cfg.crossover_hz);
+                bail!(
+                    "{}: `crossover_hz` = {} Hz: the crossover band (±20 %) reaches the Nyquist frequency {} Hz",
+                    a.config.display(),
+                    cfg.crossover_hz,
+                    fs / 2.0
+                );
             }
             let f = CorrectedFusion::design(
                 |f| to_complex(ts.response(f)),
                 |f| to_complex(acc.torque_response(f)),
                 fs,
                 &cc,
-            )?;
+            )
+            .map_err(in_config)?;
             f.apply(torsion, &accel)?
         }
         _ => {
@@ -468,7 +489,7 @@ fn offline(a: &Args, cfg: &BenchConfig, pair: &AccelerometerPair<f64>) -> Result
             accel[k]
         );
     }
-    let mut wtr = RecordingWriter::create(&a.out, &output_columns(&table.columns)?)?;
+    let mut wtr = RecordingWriter::create(&a.out, &output_columns(&table.columns, &a.input)?)?;
     let mut row = vec![0.0; table.columns.len() + 1];
     for (k, y) in fused.iter().enumerate() {
         for (c, v) in row.iter_mut().zip(&table.data) {

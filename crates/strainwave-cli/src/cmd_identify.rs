@@ -141,7 +141,7 @@ impl ModelFile {
     /// Reads a model file.
     pub fn load(path: &Path) -> Result<Self> {
         let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
-        toml::from_str(&text).with_context(|| format!("model {}", path.display()))
+        toml::from_str(&text).map_err(|e| strainwave_joint::toml_error::one_line(path, &text, &e))
     }
 
     /// The library's kinematic fit.
@@ -421,19 +421,42 @@ fn stiffness_hint(e: anyhow::Error) -> anyhow::Error {
     }
 }
 
+/// The config's own checks, before any recording is read, so that their errors can
+/// name the config file.
+fn check_config(cfg: &ArmConfig, windup_offset: bool) -> Result<()> {
+    cfg.gear.gear()?;
+    match cfg.sample_rate_hz {
+        Some(fs) if !(fs.is_finite() && fs > 0.0) => bail!("sample_rate_hz: must be positive, got {fs}"),
+        None if cfg.channels.time.is_none() => bail!("give sample_rate_hz or channels.time"),
+        _ => {}
+    }
+    if cfg.channels.reference_torque.is_none() {
+        bail!("channels.reference_torque: needed for the loaded run");
+    }
+    if let Some(e) = &cfg.encoders {
+        e.configs()?;
+        load::refuse_count_scaling(&cfg.channels.motor, "motor")?;
+        load::refuse_count_scaling(&cfg.channels.link, "link")?;
+    }
+    compliance_options(cfg, windup_offset)?;
+    Ok(())
+}
+
 /// Runs `identify`.
 pub fn run(a: &Args) -> Result<()> {
     let mut inputs = vec![a.loaded.as_path(), a.config.as_path()];
     inputs.extend(a.no_load.as_deref());
     strainwave_io::output::refuse_input_as_output(&a.out, inputs)?;
     let text = std::fs::read_to_string(&a.config).with_context(|| format!("{}", a.config.display()))?;
-    let cfg: ArmConfig = toml::from_str(&text).with_context(|| format!("config {}", a.config.display()))?;
-    cfg.refuse_unused(a.no_load.is_some()).with_context(|| format!("config {}", a.config.display()))?;
+    let cfg: ArmConfig =
+        toml::from_str(&text).map_err(|e| strainwave_joint::toml_error::one_line(&a.config, &text, &e))?;
+    cfg.refuse_unused(a.no_load.is_some()).with_context(|| format!("{}", a.config.display()))?;
     if let Some(k) = a.holdout {
         if k < 2 {
             bail!("--holdout: needs at least 2 blocks, got {k}");
         }
     }
+    check_config(&cfg, a.no_load.is_none()).with_context(|| format!("{}", a.config.display()))?;
     let gear = cfg.gear.gear()?;
     let ld = load_run(&cfg, &a.loaded, true, a.lenient)?;
     let fs = sample_rate(&cfg, &ld, &a.loaded)?;

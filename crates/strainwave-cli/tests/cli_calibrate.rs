@@ -391,3 +391,48 @@ fn summary_json_reads_back() {
     assert!(e.contains("ramp.csv"), "{e}");
     assert!(std::fs::read_to_string(&p).unwrap().starts_with("time,reference_torque"));
 }
+
+#[test]
+fn din_errors_name_the_file_row_counted_from_one() {
+    let d = tmp("din-rows");
+    let p = d.join("din.csv");
+    // Experiment 1 (data rows 1–5) is fine; experiment 2 (data rows 6–12) is remounted
+    // from 0° to 120° at data row 9, inside a loaded series.
+    let mut rows = Vec::new();
+    for (tq, v) in [(0.0, 0.0), (5.0, 0.5), (10.0, 1.0), (5.0, 0.5), (0.0, 0.0)] {
+        rows.push(vec![1.0, tq, v, 0.0]);
+    }
+    for (k, (tq, v)) in
+        [(0.0, 0.0), (5.0, 0.5), (10.0, 1.0), (10.0, 1.0), (5.0, 0.5), (0.0, 0.0), (0.0, 0.0)].into_iter().enumerate()
+    {
+        rows.push(vec![2.0, tq, v, if k >= 3 { 120.0 } else { 0.0 }]);
+    }
+    write_csv(&p, "experiment,torque,volts,position_deg", &rows);
+    let args = [
+        "calibrate",
+        "--in",
+        s(&p),
+        "--experiment-column",
+        "experiment",
+        "--reference",
+        "torque",
+        "--sensor",
+        "volts",
+        "--din",
+    ];
+    let e = user_error(&args);
+    assert!(e.contains("din.csv: data row 9 (--din on `exp 2`): the mounting position changes from 0° to 120°"), "{e}");
+
+    // The same rows after --held: the rows kept still count as in the file. A torque
+    // changing sign inside a series is named by the series and its step (from 1).
+    let mut rows = Vec::new();
+    for (k, (tq, v)) in [(0.0, 0.0), (5.0, 0.5), (-10.0, -1.0), (0.0, 0.0)].into_iter().enumerate() {
+        for j in 0..3 {
+            rows.push(vec![(3 * k + j) as f64, tq, v, 0.0]);
+        }
+    }
+    let p2 = d.join("sign.csv");
+    write_csv(&p2, "time,torque,volts,position_deg", &rows);
+    let e = user_error(&["calibrate", "--in", s(&p2), "--reference", "torque", "--sensor", "volts", "--din"]);
+    assert!(e.contains("sign.csv: --din on `sign.csv series 1`: step 3: torque changes sign"), "{e}");
+}

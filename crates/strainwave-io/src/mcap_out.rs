@@ -36,8 +36,12 @@ pub fn column_topic(column: &str) -> String {
     topic.trim_end_matches('/').to_string()
 }
 
-fn mcap_err(path: &Path, e: impl std::fmt::Display) -> IoError {
-    IoError::Csv { path: path.to_path_buf(), msg: format!("MCAP: {e}") }
+/// An error of the `mcap` writer; an I/O error (a full disk) says what the system said.
+fn mcap_err(path: &Path, e: mcap::McapError) -> IoError {
+    match e {
+        mcap::McapError::Io(source) => IoError::Os { path: path.to_path_buf(), source },
+        e => IoError::Csv { path: path.to_path_buf(), msg: format!("MCAP: {e}") },
+    }
 }
 
 /// MCAP writer of a recording.

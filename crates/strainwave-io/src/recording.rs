@@ -182,9 +182,24 @@ impl RecordingReader {
         &self.warnings
     }
 
-    /// Input rows (log: messages aligned; table: rows) read so far.
+    /// Input rows read so far: a table's data rows (before `--resample-hz`), a log's
+    /// messages with values (all topics; see [`RecordingReader::messages_per_topic`]).
     pub fn input_rows(&self) -> u64 {
-        self.input_rows
+        match &self.inner {
+            #[cfg(feature = "mcap")]
+            Reader::Bag(r) => r.messages_per_topic().iter().map(|(_, n)| n).sum(),
+            _ => self.input_rows,
+        }
+    }
+
+    /// A log's messages with values read so far, per topic in first-seen order; `None`
+    /// for a table.
+    pub fn messages_per_topic(&self) -> Option<Vec<(String, u64)>> {
+        match &self.inner {
+            #[cfg(feature = "mcap")]
+            Reader::Bag(r) => Some(r.messages_per_topic()),
+            _ => None,
+        }
     }
 
     /// Table rows left out of `--resample-hz` because their time does not increase.

@@ -3,11 +3,12 @@
 //! error, never a panic, and no allocation may exceed what the run's address-space
 //! limit allows (the long pass runs under `ulimit -v`).
 //!
-//! The short pass (256 cases per reader) runs with the other tests. The long pass:
+//! The short pass (256 cases per reader) runs with the other tests. The long pass (see
+//! docs/safety.md; each test prints its count every 100 000 cases):
 //!
 //! ```text
-//! ulimit -v 4000000
-//! PROPTEST_CASES=1000000 cargo test --release -p strainwave-io --features parquet,mcap --test fuzz_readers
+//! ulimit -v 6000000   # after building: the limit binds the compiler too
+//! PROPTEST_CASES=1000000 cargo test --release -p strainwave-io --features parquet,mcap,sqlite --test fuzz_readers -- --nocapture
 //! ```
 #![cfg(all(feature = "parquet", feature = "mcap"))]
 
@@ -139,6 +140,15 @@ fn leak(b: &[u8]) -> &'static [u8] {
     Box::leak(b.to_vec().into_boxed_slice())
 }
 
+/// Counts the cases of one test and prints the count every 100 000 (seen with
+/// `--nocapture`), so a long pass shows how far it got.
+fn tick(counter: &AtomicU64, name: &str) {
+    let n = counter.fetch_add(1, Ordering::Relaxed) + 1;
+    if n.is_multiple_of(100_000) {
+        eprintln!("{name}: {n} cases");
+    }
+}
+
 proptest! {
     #![proptest_config(config())]
 
@@ -148,6 +158,8 @@ proptest! {
         csv_text(),
         mutated(CSV_SEED),
     ]) {
+        static CASES: AtomicU64 = AtomicU64::new(0);
+        tick(&CASES, "csv_reader_never_panics");
         let p = case_path("csv");
         std::fs::write(&p, &bytes).unwrap();
         if let Err(e) = read_recording(&p) {
@@ -162,6 +174,8 @@ proptest! {
         1 => prop::collection::vec(any::<u8>(), 0..256),
         8 => mutated(leak(parquet_seed())),
     ]) {
+        static CASES: AtomicU64 = AtomicU64::new(0);
+        tick(&CASES, "parquet_reader_never_panics");
         let p = case_path("parquet");
         std::fs::write(&p, &bytes).unwrap();
         let _ = read_recording(&p);
@@ -173,6 +187,8 @@ proptest! {
         1 => prop::collection::vec(any::<u8>(), 0..256).prop_map(|b| [b"\x89MCAP0\r\n".as_slice(), &b].concat()),
         8 => mutated(leak(mcap_seed())),
     ]) {
+        static CASES: AtomicU64 = AtomicU64::new(0);
+        tick(&CASES, "mcap_reader_never_panics");
         let p = case_path("mcap");
         std::fs::write(&p, &bytes).unwrap();
         if let Ok(mut r) = strainwave_io::mcap_in::BagReader::open(&p, &strainwave_io::mcap_in::ReadOptions::default()) {
@@ -184,6 +200,8 @@ proptest! {
 
     #[test]
     fn cdr_joint_state_decoder_never_panics(bytes in prop::collection::vec(any::<u8>(), 0..512)) {
+        static CASES: AtomicU64 = AtomicU64::new(0);
+        tick(&CASES, "cdr_joint_state_decoder_never_panics");
         let _ = strainwave_io::mcap_in::decode_joint_state(&bytes);
     }
 }

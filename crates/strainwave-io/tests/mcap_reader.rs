@@ -219,5 +219,44 @@ fn only_unknown_channels_give_no_rows_and_a_warning() {
 fn chunk_record_overrun_is_an_error_not_a_panic() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/chunk-record-overrun.mcap");
     let e = read_mcap(&path).unwrap_err().to_string();
-    assert!(e.contains("chunk-record-overrun.mcap") && e.contains("runs past the chunk's end") && !e.contains('\n'), "{e}");
+    assert!(
+        e.contains("chunk-record-overrun.mcap") && e.contains("runs past the chunk's end") && !e.contains('\n'),
+        "{e}"
+    );
+}
+
+#[test]
+fn messages_are_counted_per_topic_apart_from_aligned_rows() {
+    // JointState every 10 ms, JSON every 20 ms out of phase (5 ms late), a skipped
+    // protobuf channel and a JSON message without numbers: aligned on the 100 Hz clock
+    // there are as many rows as JointState messages, fewer than messages read.
+    let mut msgs = Vec::new();
+    for k in 0..40u64 {
+        let t = 1_000_000_000 + k * 10_000_000;
+        msgs.push(Msg { channel: 0, log_time_ns: t, data: joint_state_cdr(&["j1"], &[k as f64], &[0.0]) });
+        if k % 2 == 0 {
+            let data = format!("{{\"accel\": {{\"x\": {k}}}}}").into_bytes();
+            msgs.push(Msg { channel: 1, log_time_ns: t + 5_000_000, data });
+            msgs.push(Msg { channel: 2, log_time_ns: t + 6_000_000, data: vec![1, 2, 3] });
+        }
+    }
+    msgs.push(Msg { channel: 1, log_time_ns: 2_000_000_000, data: br#"{"id": "none"}"#.to_vec() });
+    let path = write_log("per-topic.mcap", &msgs, mcap::WriteOptions::new());
+    let options = ReadOptions { time: TimeSource::Log, ..ReadOptions::default() };
+    let mut r = BagReader::open(&path, &options).unwrap();
+    assert_eq!(r.clock_topic(), Some("/joint_states"));
+    let mut row = Vec::new();
+    let mut rows = 0u64;
+    while r.read_row(&mut row).unwrap() {
+        rows += 1;
+    }
+    assert_eq!(rows, 40);
+    assert_eq!(r.rows_read(), 40);
+    assert_eq!(r.messages_per_topic(), [("/joint_states".to_string(), 40), ("/imu".to_string(), 20)]);
+
+    // Through the recording reader: the input count is messages, not rows.
+    let mut r = strainwave_io::RecordingReader::open_with(&path, &options).unwrap();
+    while r.read_row(&mut row).unwrap() {}
+    assert_eq!((r.input_rows(), r.rows_read()), (60, 40));
+    assert_eq!(r.messages_per_topic().unwrap().len(), 2);
 }

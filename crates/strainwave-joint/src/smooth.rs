@@ -155,12 +155,16 @@ pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
     let width = r.columns().len();
     // Samples count from 0, data rows from 1.
     let smoother_error = |e: SmootherError| match e {
+        // In the config's words (the core names its internal parameters).
         SmootherError::Filter { index, source } => {
-            anyhow!("{}: data row {}: filter: {source}", input, index + 1)
+            anyhow!("{}: data row {}: {}", input, index + 1, crate::canceller::in_config_terms(source, false, f64::NAN))
         }
-        SmootherError::NotPositiveDefinite { index } => {
-            anyhow!("{}: data row {}: smoother: prior covariance not positive definite", input, index + 1)
-        }
+        SmootherError::NotPositiveDefinite { index } => anyhow!(
+            "{}: data row {}: the smoother's uncertainty became invalid (a glitch in the torque or the angles, \
+             or a `filter.noise_nm` far from the recording's noise?)",
+            input,
+            index + 1
+        ),
         e => anyhow!("{}: smoother: {e}", input),
     };
 

@@ -2,11 +2,12 @@
 //! run over a short recording), the learned file and the calibration file it names.
 //! Every case ends in a result or a one-line error naming the file, never a panic.
 //!
-//! The short pass (256 cases per file) runs with the other tests. The long pass:
+//! The short pass (256 cases per file) runs with the other tests. The long pass (see
+//! docs/safety.md; each test prints its count every 100 000 cases):
 //!
 //! ```text
-//! ulimit -v 4000000
-//! PROPTEST_CASES=1000000 cargo test --release -p strainwave-joint --test fuzz_files
+//! ulimit -v 6000000   # after building: the limit binds the compiler too
+//! PROPTEST_CASES=1000000 cargo test --release -p strainwave-joint --test fuzz_files -- --nocapture
 //! ```
 
 use std::path::{Path, PathBuf};
@@ -176,11 +177,22 @@ fn check_error(e: &str, file: &Path) -> Result<(), TestCaseError> {
     Ok(())
 }
 
+/// Counts the cases of one test and prints the count every 100 000 (seen with
+/// `--nocapture`), so a long pass shows how far it got.
+fn tick(counter: &AtomicU64, name: &str) {
+    let n = counter.fetch_add(1, Ordering::Relaxed) + 1;
+    if n.is_multiple_of(100_000) {
+        eprintln!("{name}: {n} cases");
+    }
+}
+
 proptest! {
     #![proptest_config(config())]
 
     #[test]
     fn joint_config_never_panics(text in mutated(CONFIG)) {
+        static CASES: AtomicU64 = AtomicU64::new(0);
+        tick(&CASES, "joint_config_never_panics");
         let d = case_dir();
         std::fs::write(d.join("joint.toml"), &text).unwrap();
         std::fs::write(d.join("learned.toml"), LEARNED).unwrap();
@@ -196,6 +208,8 @@ proptest! {
 
     #[test]
     fn learned_file_never_panics(text in mutated(LEARNED)) {
+        static CASES: AtomicU64 = AtomicU64::new(0);
+        tick(&CASES, "learned_file_never_panics");
         let d = case_dir();
         std::fs::write(d.join("joint.toml"), CONFIG).unwrap();
         std::fs::write(d.join("learned.toml"), &text).unwrap();
@@ -210,6 +224,8 @@ proptest! {
 
     #[test]
     fn calibration_file_never_panics(text in mutated(CALIBRATION)) {
+        static CASES: AtomicU64 = AtomicU64::new(0);
+        tick(&CASES, "calibration_file_never_panics");
         let d = case_dir();
         let cfg = CONFIG.replace("gain_nm_per_v = 6.611", "file = \"cal.toml\"").replace("learned = \"learned.toml\"\n", "");
         std::fs::write(d.join("joint.toml"), cfg).unwrap();

@@ -8,7 +8,11 @@ use crate::error::SimError;
 /// Parses a scenario's TOML; unknown keys and wrong types are errors with a location.
 pub(crate) fn parse_toml<T: DeserializeOwned>(text: &str) -> Result<T, SimError> {
     toml::from_str(text)
-        .map_err(|e| SimError::Parse { message: e.message().to_string(), location: toml_location(text, e.span()) })
+        // One line: the parser's message may run over several.
+        .map_err(|e| SimError::Parse {
+            message: e.message().trim().replace('\n', "; "),
+            location: toml_location(text, e.span()),
+        })
 }
 
 /// `line L, column C` of a byte offset (empty without one).

@@ -108,7 +108,7 @@ pub(super) struct ParsedSeries {
 }
 
 pub(super) fn parse_series(i: usize, s: &LoadSeries) -> Result<ParsedSeries, CalibrationError> {
-    let what = format!("series {i}");
+    let what = format!("series {}", i + 1);
     for (row, st) in s.steps.iter().enumerate() {
         if !st.torque_nm.is_finite() {
             return Err(CalibrationError::NonFiniteRow { what, row, column: "torque_nm" });
@@ -134,13 +134,13 @@ pub(super) fn parse_series(i: usize, s: &LoadSeries) -> Result<ParsedSeries, Cal
     let mut descending = false;
     for (row, st) in s.steps.iter().enumerate().skip(1) {
         if zero_after.is_some() {
-            return Err(invalid(&what, format!("step {row} follows the final zero reading")));
+            return Err(invalid(&what, format!("step {} follows the final zero reading", row + 1)));
         }
         let m = st.torque_nm;
         let x = st.indication - zero_before;
         if m == 0.0 {
             if loading.is_empty() {
-                return Err(invalid(&what, format!("step {row}: a second zero before any load")));
+                return Err(invalid(&what, format!("step {}: a second zero before any load", row + 1)));
             }
             zero_after = Some(st.indication);
             continue;
@@ -150,7 +150,7 @@ pub(super) fn parse_series(i: usize, s: &LoadSeries) -> Result<ParsedSeries, Cal
         } else if m.signum() != sign {
             return Err(invalid(
                 &what,
-                format!("step {row}: torque changes sign; calibrate each direction separately"),
+                format!("step {}: torque changes sign; calibrate each direction separately", row + 1),
             ));
         }
         let prev = if descending { unloading_raw.last().map(|u| u.0) } else { loading.last().map(|l| l.0) };
@@ -164,7 +164,7 @@ pub(super) fn parse_series(i: usize, s: &LoadSeries) -> Result<ParsedSeries, Cal
             Some(p) => {
                 return Err(invalid(
                     &what,
-                    format!("step {row}: torque {m} N·m after {p} N·m; loading must increase strictly, unloading decrease strictly"),
+                    format!("step {}: torque {m} N·m after {p} N·m; loading must increase strictly, unloading decrease strictly", row + 1),
                 ))
             }
         }
@@ -241,7 +241,7 @@ pub fn din51309_figures(series: &[LoadSeries], opts: &DinOptions) -> Result<DinR
     for (i, p) in parsed.iter().enumerate().skip(1) {
         let same = p.loading.len() == levels.len() && p.loading.iter().zip(&levels).all(|(l, m)| same_torque(l.0, *m));
         if !same {
-            return Err(invalid(&format!("series {i}"), "its loading steps differ from series 0's"));
+            return Err(invalid(&format!("series {}", i + 1), "its loading steps differ from series 1's"));
         }
     }
     let mut positions: Vec<f64> = Vec::new();

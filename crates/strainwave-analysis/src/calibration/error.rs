@@ -55,11 +55,11 @@ pub enum CalibrationError {
     },
     /// A speed outside the calibrated range under `extrapolation = "reject"`.
     #[error(
-        "row {row}: speed {speed_rad_s} rad/s is outside the calibrated range [{min_rad_s}, {max_rad_s}] rad/s \
-         and extrapolation is `reject`"
+        "row {}: speed {speed_rad_s} rad/s is outside the calibrated range [{min_rad_s}, {max_rad_s}] rad/s \
+         and extrapolation is `reject`", .row + 1
     )]
     SpeedOutsideTable {
-        /// Row index.
+        /// Row index (0-based; shown 1-based, as users count).
         row: usize,
         /// The speed.
         speed_rad_s: f64,
@@ -79,6 +79,16 @@ pub enum CalibrationError {
         hi_rad_s: f64,
         /// What went wrong.
         source: Box<CalibrationError>,
+    },
+    /// A problem found at one row of the input.
+    #[error("{what}: row {}: {why}", .row + 1)]
+    AtRow {
+        /// Which input.
+        what: String,
+        /// Row index (0-based; shown 1-based, as users count).
+        row: usize,
+        /// What is wrong there.
+        why: String,
     },
     /// An invalid option or input structure.
     #[error("{what}: {why}")]

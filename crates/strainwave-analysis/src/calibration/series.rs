@@ -63,10 +63,11 @@ pub fn split_load_series(
     match steps.first() {
         None => return Err(CalibrationError::TooFewRows { what: what.into(), needed: 2, got: 0 }),
         Some((_, s)) if s.torque_nm != 0.0 => {
-            return Err(invalid(
-                what,
-                format!("row 0 is at {} N·m; a series starts with a zero-torque reading", s.torque_nm),
-            ))
+            return Err(CalibrationError::AtRow {
+                what: what.into(),
+                row: 0,
+                why: format!("the first reading is at {} N·m; a series starts with a zero-torque reading", s.torque_nm),
+            })
         }
         _ => {}
     }
@@ -76,15 +77,17 @@ pub fn split_load_series(
         if cur.len() < 2 {
             return Ok(());
         }
-        let (first_row, mounting) = (cur[0].0, position(cur[0].0));
+        let mounting = position(cur[0].0);
         if let Some(&(row, _)) = cur.iter().find(|(row, _)| position(*row) != mounting) {
-            return Err(invalid(
-                what,
-                format!(
-                    "row {row}: the mounting position changes from {mounting}° (row {first_row}) inside a series; \
-                     return to zero torque before remounting"
+            return Err(CalibrationError::AtRow {
+                what: what.into(),
+                row,
+                why: format!(
+                    "the mounting position changes from {mounting}° to {}° inside a series; \
+                     return to zero torque before remounting",
+                    position(row)
                 ),
-            ));
+            });
         }
         out.push(LoadSeries { mounting_deg: mounting, steps: cur.iter().map(|s| s.1).collect() });
         Ok(())
@@ -199,10 +202,13 @@ mod tests {
     #[test]
     fn bad_readings_are_named() {
         let (t, mut v, mut m) = readings(0.0);
-        assert!(matches!(split_load_series(&t[3..], &v[3..], None), Err(CalibrationError::Invalid { .. })));
+        let err = split_load_series(&t[3..], &v[3..], None).unwrap_err();
+        assert!(matches!(err, CalibrationError::AtRow { row: 0, .. }), "{err:?}");
+        assert!(err.to_string().starts_with("loading series: row 1: the first reading is at 5 N·m"), "{err}");
         m[7] = 90.0;
         let err = split_load_series(&t, &v, Some(&m)).unwrap_err();
-        assert!(err.to_string().contains("row 7") && err.to_string().contains("mounting"), "{err}");
+        assert!(matches!(err, CalibrationError::AtRow { row: 7, .. }), "{err:?}");
+        assert!(err.to_string().contains("row 8: the mounting position changes from 0° to 90°"), "{err}");
         v[4] = f64::NAN;
         assert_eq!(
             split_load_series(&t, &v, None).unwrap_err(),

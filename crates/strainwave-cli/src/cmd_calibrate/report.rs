@@ -4,10 +4,10 @@
 
 use std::fmt::Write as _;
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Result};
 use strainwave_analysis::calibration::{
-    din51309_figures, group_by_levels, split_load_series, AffineFit, DinOptions, DinReport, ErrorMetrics,
-    Extrapolation, GainCalibration, GainFit, LoadSeries, SpeedFit,
+    din51309_figures, group_by_levels, split_load_series, AffineFit, CalibrationError, DinOptions, DinReport,
+    ErrorMetrics, Extrapolation, GainCalibration, GainFit, LoadSeries, SpeedFit,
 };
 
 use super::ExperimentRows;
@@ -141,18 +141,47 @@ pub fn speed_report(f: &SpeedFit, speed_col: &str) -> String {
     s
 }
 
-/// Loading series of every experiment (library: `split_load_series`), with labels.
+/// Loading series of every experiment (library: `split_load_series`), with labels. A
+/// row error names the file and its data row; a series error names the series by its
+/// label, steps counted from 1.
 pub fn din_series(exps: &[ExperimentRows]) -> Result<(Vec<LoadSeries>, Vec<String>)> {
     let (mut series, mut labels) = (Vec::new(), Vec::new());
     for e in exps {
         let m = (!e.mounting.is_empty()).then_some(e.mounting.as_slice());
-        let s = split_load_series(&e.reference, &e.sensor, m).with_context(|| format!("--din on `{}`", e.label))?;
+        let s = split_load_series(&e.reference, &e.sensor, m).map_err(|err| din_row_error(e, err))?;
         for (k, x) in s.into_iter().enumerate() {
-            labels.push(format!("{} series {}", e.label, k + 1));
+            let label = format!("{} series {}", e.label, k + 1);
+            // Checked one by one, so an error names this series.
+            if let Err(err) = group_by_levels(std::slice::from_ref(&x)) {
+                let why = match err {
+                    CalibrationError::Invalid { why, .. } => why,
+                    other => other.to_string(),
+                };
+                match e.file.is_empty() {
+                    true => bail!("--din on `{label}`: {why}"),
+                    false => bail!("{}: --din on `{label}`: {why}", e.file),
+                }
+            }
+            labels.push(label);
             series.push(x);
         }
     }
     Ok((series, labels))
+}
+
+/// A `split_load_series` error with the row given as the file's data row.
+fn din_row_error(e: &ExperimentRows, err: CalibrationError) -> anyhow::Error {
+    let file_row = |row: usize| e.file_rows.get(row).copied().unwrap_or(row as u64 + 1);
+    let (file, label) = (&e.file, &e.label);
+    match err {
+        CalibrationError::AtRow { row, why, .. } if !file.is_empty() => {
+            anyhow::anyhow!("{file}: data row {} (--din on `{label}`): {why}", file_row(row))
+        }
+        CalibrationError::NonFiniteRow { row, column, .. } if !file.is_empty() => {
+            anyhow::anyhow!("{file}: data row {} (--din on `{label}`): `{column}` is not finite", file_row(row))
+        }
+        other => anyhow::anyhow!("--din on `{label}`: {other}"),
+    }
 }
 
 /// DIN figures per group of series sharing their torque steps.

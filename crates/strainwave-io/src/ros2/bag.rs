@@ -63,6 +63,8 @@ struct TopicStat {
     head: String,
     messages: u64,
     with_values: u64,
+    /// Messages with values read on the second pass (the summary's count).
+    read: u64,
     first_ns: i64,
     last_ns: i64,
     long_arrays: Vec<String>,
@@ -512,6 +514,12 @@ impl BagReader {
         self.rows_read
     }
 
+    /// Messages with values read so far, per topic, in first-seen order (topics that gave
+    /// none left out).
+    pub fn messages_per_topic(&self) -> Vec<(String, u64)> {
+        self.topics.iter().filter(|t| t.read > 0).map(|t| (t.name.clone(), t.read)).collect()
+    }
+
     /// Reads the next row; `Ok(false)` at the end. A damaged file gives every row before
     /// the damage, then the error.
     pub fn read_row(&mut self, row: &mut Vec<f64>) -> Result<bool, IoError> {
@@ -554,6 +562,7 @@ impl BagReader {
         if self.values.is_empty() {
             return Ok(());
         }
+        self.topics[topic].read += 1;
         if self.lateness_ns == 0 && t >= self.newest_ns {
             self.newest_ns = t;
             self.aligner.push(t, topic, &self.values);

@@ -1,0 +1,150 @@
+//! User-facing errors of `fuse` and `identify`: one line, naming the file the problem is
+//! in (the config for its keys, the recording for its rows, counted from 1) and the key
+//! or column as the user wrote it.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn run(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_strainwave")).args(args).output().expect("run strainwave")
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("sw-messages-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Exit 1, one line, every needle in it.
+fn error(args: &[&str], needles: &[&str]) -> String {
+    let o = run(args);
+    let e = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert_eq!(o.status.code(), Some(1), "{args:?}: {e}");
+    assert_eq!(e.trim_end().lines().count(), 1, "not one line: {e}");
+    for n in needles {
+        assert!(e.contains(n), "`{n}` not in: {e}");
+    }
+    e
+}
+
+/// The bench example config with `edit` applied, and a 0.5 s twin recording.
+fn bench(d: &Path, edit: impl Fn(String) -> String) -> (PathBuf, PathBuf) {
+    let cfg = d.join("bench.toml");
+    std::fs::write(&cfg, edit(std::fs::read_to_string("../../examples/bench-kit.toml").unwrap())).unwrap();
+    let rec = d.join("bench.csv");
+    let o = run(&["simulate", "--preset", "kit-bench", "--duration", "0.5", "--out", s(&rec), "--quiet"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    (cfg, rec)
+}
+
+/// `rec` with `f` applied to each line (0: the header).
+fn edit_lines(rec: &Path, out: &Path, f: impl Fn(usize, &str) -> String) {
+    let text = std::fs::read_to_string(rec).unwrap();
+    let lines: Vec<String> = text.lines().enumerate().map(|(k, l)| f(k, l)).collect();
+    std::fs::write(out, lines.join("\n") + "\n").unwrap();
+}
+
+#[test]
+fn fuse_names_the_config_for_its_keys() {
+    let d = tmp("fuse-config");
+    let (cfg, rec) = bench(&d, |t| t.replace("crossover_hz = 250.0", "crossover_hz = 1e9"));
+    let out = d.join("f.csv");
+    for method in ["complementary", "spectral", "corrected"] {
+        error(
+            &["fuse", "--config", s(&cfg), "--in", s(&rec), "--method", method, "--out", s(&out)],
+            &["bench.toml: ", "`crossover_hz`", "Nyquist"],
+        );
+    }
+    // TOML syntax: file, line and column on one line.
+    std::fs::write(&cfg, "radius_m = [\n").unwrap();
+    error(&["fuse", "--config", s(&cfg), "--in", s(&rec), "--out", s(&out)], &["bench.toml: line 2, column"]);
+    assert!(!out.exists());
+}
+
+#[test]
+fn fuse_names_the_recording_and_its_row_from_one() {
+    let d = tmp("fuse-rows");
+    let (cfg, rec) = bench(&d, |t| t);
+    let out = d.join("f.csv");
+    let header = std::fs::read_to_string(&rec).unwrap().lines().next().unwrap().to_string();
+    let torsion = header.split(',').position(|c| c == "torsion_torque").unwrap();
+    // A NaN torsion at data row 7 (line 8), read whole by the offline methods.
+    let nan = d.join("nan.csv");
+    edit_lines(&rec, &nan, |k, l| {
+        if k != 7 {
+            return l.to_string();
+        }
+        let mut cells: Vec<&str> = l.split(',').collect();
+        cells[torsion] = "NaN";
+        cells.join(",")
+    });
+    for method in ["spectral", "complementary"] {
+        error(
+            &["fuse", "--config", s(&cfg), "--in", s(&nan), "--method", method, "--out", s(&out)],
+            &["nan.csv: ", "row 7", "`torsion_torque`"],
+        );
+    }
+    // The second time equal to the first: the sample rate cannot come from them.
+    let same = d.join("same.csv");
+    edit_lines(&rec, &same, |k, l| if k == 2 { l.replacen(l.split(',').next().unwrap(), "0", 1) } else { l.into() });
+    error(
+        &["fuse", "--config", s(&cfg), "--in", s(&same), "--method", "complementary", "--out", s(&out)],
+        &["same.csv: row 2, column `time`"],
+    );
+    // An input that already has the output's column.
+    let fused = d.join("fused.csv");
+    edit_lines(&rec, &fused, |k, l| if k == 0 { l.replacen("torsion_torque", "fused_torque", 1) } else { l.into() });
+    let cfg2 = d.join("bench2.toml");
+    std::fs::write(&cfg2, std::fs::read_to_string(&cfg).unwrap().replace("\"torsion_torque\"", "\"fused_torque\""))
+        .unwrap();
+    error(
+        &["fuse", "--config", s(&cfg2), "--in", s(&fused), "--method", "complementary", "--out", s(&out)],
+        &["fused.csv: already has a `fused_torque` column"],
+    );
+    assert!(!out.exists());
+}
+
+#[test]
+fn identify_names_the_config_for_its_keys() {
+    let d = tmp("identify");
+    let rec = d.join("arm.csv");
+    let o = run(&["simulate", "--preset", "hda-arm", "--duration", "1", "--out", s(&rec), "--quiet"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let base = std::fs::read_to_string("../../examples/arm-hda.toml").unwrap();
+    let cfg = d.join("arm.toml");
+    let out = d.join("model.toml");
+    // A TOML error: one line with file, line and column.
+    std::fs::write(&cfg, base.replace("ratio = 100.0", "ratio = [")).unwrap();
+    error(&["identify", "--config", s(&cfg), "--loaded", s(&rec), "--out", s(&out)], &["arm.toml: line ", ", column "]);
+    // A key's value the library refuses: the config file and the key.
+    std::fs::write(&cfg, base.replace("ratio = 100.0", "ratio = 0.0")).unwrap();
+    error(&["identify", "--config", s(&cfg), "--loaded", s(&rec), "--out", s(&out)], &["arm.toml: ", "gear"]);
+    std::fs::write(&cfg, base.replace("motor_counts_per_rev = 131072", "motor_counts_per_rev = 0")).unwrap();
+    error(
+        &["identify", "--config", s(&cfg), "--loaded", s(&rec), "--out", s(&out)],
+        &["arm.toml: ", "encoders.motor_counts_per_rev"],
+    );
+    std::fs::write(&cfg, base.replace("time = \"time\"", "")).unwrap();
+    error(
+        &["identify", "--config", s(&cfg), "--loaded", s(&rec), "--out", s(&out)],
+        &["arm.toml: give sample_rate_hz or channels.time"],
+    );
+    assert!(!out.exists());
+}
+
+#[test]
+fn a_scenario_toml_error_is_one_plain_line() {
+    let d = tmp("scenario");
+    let cfg = d.join("twin.toml");
+    std::fs::write(&cfg, "[gear\nratio = 1\n").unwrap();
+    let e = error(
+        &["simulate", "--scenario", s(&cfg), "--out", s(&d.join("x.csv"))],
+        &["twin.toml", "invalid table header; expected", "(at line 1, column 6)"],
+    );
+    assert!(!e.contains('\\'), "an escaped line break: {e}");
+}
