@@ -1,6 +1,6 @@
 """The Stoß et al. (2022) bench models of strainwave-core (G_TS, G_ACC simplified and full) and the
 complementary fusion filters against scipy.signal on the same coefficients, and the
-coefficients themselves against Table I by the seed's formulas (eqs. 1, 5, 6).
+coefficients themselves against Table I by the paper's formulas (eqs. 1, 5, 6).
 
 Golden data from the Rust example `spectra_golden`, run through cargo from the repository
 root. Relative agreement 1e-9.

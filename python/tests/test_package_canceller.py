@@ -52,7 +52,7 @@ def assert_block_is_cli(got, cli_cols, what):
 
 @pytest.fixture(scope="module")
 def velocity_config(tmp_path_factory):
-    """The seed 6th-order model with its phase from the tachometer (`filter.phase = "velocity"`)."""
+    """The Taghirad 6th-order model with its phase from the tachometer (`filter.phase = "velocity"`)."""
     text = SEED_6TH.read_text()
     assert 'phase = "angle"' in text
     path = tmp_path_factory.mktemp("cfg") / "joint-velocity.toml"

@@ -7,9 +7,9 @@
 //! - [`online_corrected`]: the online model-corrected fusion of
 //!   [`strainwave_core::fusion::OnlineCorrectedFusion`] run over a record (each path times
 //!   the inverse of its bench model inside a fourth-order complementary pair).
-//! - [`spectral_combination`]: the seed's post-processing: one FFT of each whole record,
+//! - [`spectral_combination`]: the paper's post-processing: one FFT of each whole record,
 //!   torsion bins below the crossover, accelerometer bins from it up, one inverse FFT.
-//! - [`CorrectedFusion`]: beyond the seed (its future work). Each path is corrected by the
+//! - [`CorrectedFusion`]: beyond the paper (its future work). Each path is corrected by the
 //!   regularized inverse of its frequency response (modelled, or measured as H1 against a
 //!   model torque) inside its band, with zero-phase band weights that sum to one:
 //!
@@ -90,7 +90,7 @@ pub fn online_corrected(
     Ok(torsion.iter().zip(accel).map(|(t, a)| fusion.step(&mut st, *t, *a)).collect())
 }
 
-/// The seed's spectral combination: bins with `f < crossover_hz` from the torsion record,
+/// The paper's spectral combination: bins with `f < crossover_hz` from the torsion record,
 /// the others from the accelerometer record (whole-record FFT, no window, no filter phase).
 ///
 /// ```
@@ -165,7 +165,7 @@ impl CrossoverBand {
         Ok(Self { lo_hz, hi_hz })
     }
 
-    /// The seed's usable overlap, 200–300 Hz (centre 250 Hz).
+    /// The paper's usable overlap, 200–300 Hz (centre 250 Hz).
     ///
     /// ```
     /// let b = strainwave_analysis::bench::CrossoverBand::kit();

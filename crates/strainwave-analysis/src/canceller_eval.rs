@@ -39,7 +39,7 @@ pub struct RunSignals<'a> {
     pub motor_angle_rad: &'a [f64],
     /// Output encoder angle, rad.
     pub output_angle_rad: &'a [f64],
-    /// Tachometer, rad/s (the seed's phase source).
+    /// Tachometer, rad/s (the paper's phase source).
     pub motor_velocity_rad_s: &'a [f64],
     /// Truth: transmitted torque, N·m.
     pub true_torque_nm: &'a [f64],
@@ -85,8 +85,8 @@ impl Method {
             Method::Raw => "raw measurement".into(),
             Method::LowPass(f) => format!("2nd-order low-pass {f:.1} Hz"),
             Method::Notch(f) => format!("notch at the 2× line {f:.1} Hz"),
-            Method::Seed4th => "seed 4th-order (2×, 4× tacho)".into(),
-            Method::Seed6th => "seed 6th-order (+1× output)".into(),
+            Method::Seed4th => "Taghirad 4th-order (2×, 4× tacho)".into(),
+            Method::Seed6th => "Taghirad 6th-order (+1× output)".into(),
             Method::Full => "strainwave full (commissioned)".into(),
             Method::FullCold => "strainwave full, no commissioning".into(),
             Method::Smoothed => "strainwave full, smoothed (offline)".into(),
@@ -134,7 +134,7 @@ fn core_err(what: &'static str) -> impl Fn(strainwave_core::Error) -> AnalysisEr
     move |e| AnalysisError::Invalid { what, why: e.to_string() }
 }
 
-/// Runs a Kalman model over a signal; `velocity` selects the seed's tachometer phase.
+/// Runs a Kalman model over a signal; `velocity` selects the paper's tachometer phase.
 fn run_kalman<const M: usize>(
     model: &RippleModel<f64, M>,
     gear: &Gear<f64>,
@@ -226,13 +226,13 @@ fn apply(
         Method::Notch(f0) => lti(&notch(f0, fs)?, y),
         Method::Seed4th => {
             let m = RippleModel::<f64, 2>::seed_4th_order(fs)
-                .map_err(core_err("seed model"))?
+                .map_err(core_err("paper's model"))?
                 .with_phase_source(PhaseSource::Velocity);
             run_kalman(&m, gear, y, s, true)?.iter().map(|o| o.torque_nm).collect()
         }
         Method::Seed6th => {
             let m = RippleModel::<f64, 3>::seed_6th_order(fs)
-                .map_err(core_err("seed model"))?
+                .map_err(core_err("paper's model"))?
                 .with_phase_source(PhaseSource::Velocity);
             run_kalman(&m, gear, y, s, true)?.iter().map(|o| o.torque_nm).collect()
         }

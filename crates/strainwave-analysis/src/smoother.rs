@@ -255,7 +255,7 @@ pub(crate) fn rts_step<const M: usize>(
 /// let inputs: Vec<_> = (0..2000)
 ///     .map(|k| {
 ///         let phi = 0.05 * k as f64;
-///         // Seed model: y = T_meas − T_exp is the ripple alone.
+///         // Paper's model: y = T_meas − T_exp is the ripple alone.
 ///         RippleInput::new(3.0 + 0.5 * (2.0 * phi).cos(), ReferenceValues::new(phi, 0.0, 0.0))
 ///             .with_expected_torque(3.0)
 ///     })

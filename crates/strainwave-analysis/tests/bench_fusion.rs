@@ -1,4 +1,4 @@
-//! The offline fusion methods on signals whose paths are exactly the seed's models: a
+//! The offline fusion methods on signals whose paths are exactly the paper's models: a
 //! multisine "true torque" from 2 Hz to 4 kHz is filtered (periodically, in the frequency
 //! domain) by `G_TS` and `J_S G_ACC`; each method must give back the true torque.
 
@@ -80,7 +80,7 @@ fn methods_on_model_paths() {
     let e_sampled = rms_error(&fused2.apply(&t_ts, &t_acc).unwrap(), &t);
     assert!(e_sampled < 0.02, "corrected from samples: {e_sampled}");
 
-    // The seed's spectral combination keeps G_TS(0) = 0.905 below the crossover: ≈ 10 %.
+    // The paper's spectral combination keeps G_TS(0) = 0.905 below the crossover: ≈ 10 %.
     let e_spec = rms_error(&spectral_combination(&t_ts, &t_acc, FS, 250.0).unwrap(), &t);
     assert!(e_spec > 0.03 && e_spec < 0.12, "spectral: {e_spec}");
 

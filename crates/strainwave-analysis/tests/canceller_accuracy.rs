@@ -1,6 +1,6 @@
 //! The canceller's accuracy table (issue: the real-time canceller) against the twin's
 //! truth: the full configuration, commissioned on its own run, meets the targets on the
-//! free-motion, standstill/reversal and loaded runs; the seed's 6th-order model absorbs
+//! free-motion, standstill/reversal and loaded runs; the paper's 6th-order model absorbs
 //! the unknown load.
 
 mod twin;
@@ -36,7 +36,7 @@ fn commissioned_full_configuration_meets_the_targets_and_the_seed_absorbs_load()
         assert!(cold.suppression_db > 0.0, "{name}: cold {:.1} dB", cold.suppression_db);
         assert!(full.suppression_db > seed6.suppression_db + 30.0, "{name}");
         if name == "taghirad-loaded" {
-            assert!(seed6.suppression_db < -10.0, "seed 6th on the loaded run: {:.1} dB", seed6.suppression_db);
+            assert!(seed6.suppression_db < -10.0, "Taghirad 6th on the loaded run: {:.1} dB", seed6.suppression_db);
         }
     }
 }

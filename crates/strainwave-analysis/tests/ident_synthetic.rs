@@ -1,4 +1,4 @@
-//! Identification on synthetic runs with known parameters: recovery of the seed's
+//! Identification on synthetic runs with known parameters: recovery of the paper's
 //! polynomial and of compliance parameters (linear least squares and Levenberg–Marquardt),
 //! and the errors for bad or unexciting data.
 
@@ -36,7 +36,7 @@ fn held_run(n: usize, twist: impl Fn(f64, usize) -> f64) -> (Vec<f64>, Vec<f64>,
 
 #[test]
 fn seed002_polynomial_is_recovered_over_one_motor_revolution() {
-    // Seed 002, Table II: the polynomial over one motor revolution (2π/N of output).
+    // HDA arm, Table II: the polynomial over one motor revolution (2π/N of output).
     let truth = KinematicPolynomial::<f64, 6>::seed002();
     let g = gear();
     let n = 4000;

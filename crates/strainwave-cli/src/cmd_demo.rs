@@ -1,4 +1,4 @@
-//! `strainwave demo`: the main job on the embedded default. Simulates the seed-000
+//! `strainwave demo`: the main job on the embedded default. Simulates the Taghirad
 //! joint, prints what was simulated and the ripple it carries, writes the report.
 
 use std::fmt::Write as _;
@@ -57,7 +57,7 @@ pub fn run(a: &Args) -> Result<()> {
     let lines = find_lines(&measured[w.clone()], fs, &expected, 2)?;
 
     let mut out = String::new();
-    let _ = writeln!(out, "strainwave demo: the seed-000 joint (preset `taghirad`), simulated");
+    let _ = writeln!(out, "strainwave demo: the Taghirad joint (preset `taghirad`), simulated");
     let _ = writeln!(
         out,
         "  {:.0}:1 strain wave gear, circular spline fixed, {:.0} N·m rated; four-rosette bridge, {} V excitation, gain {}, {}-bit ADC",
@@ -130,7 +130,7 @@ pub fn run(a: &Args) -> Result<()> {
     out += &text_table(&line_header, &line_rows);
     let _ = writeln!(
         out,
-        "  (in rad/s: 2× at {:.0}, 4× at {:.0}; the seed's Fig. 8 shows 312 and 624 at 156 rad/s; misalignment at {:.3} Hz)",
+        "  (in rad/s: 2× at {:.0}, 4× at {:.0}; the paper's Fig. 8 shows 312 and 624 at 156 rad/s; misalignment at {:.3} Hz)",
         2.0 * rel_rate.abs(),
         4.0 * rel_rate.abs(),
         out_rate.abs() / tau
@@ -202,7 +202,7 @@ pub fn run(a: &Args) -> Result<()> {
     }
     let report = Report {
         title: "strainwave demo report".into(),
-        subtitle: format!("Seed-000 joint (preset `taghirad`), strainwave {}", env!("CARGO_PKG_VERSION")),
+        subtitle: format!("Taghirad joint (preset `taghirad`), strainwave {}", env!("CARGO_PKG_VERSION")),
         sections: vec![
             Section { title: "Joint digital twin".into(), body },
             Section { title: "Ripple and misalignment cancellation".into(), body: acc_body },

@@ -3,7 +3,7 @@
 //! `online-corrected` (the default) and `complementary` stream one sample at a time
 //! (constant memory): the first corrects each path with the inverse of its bench model
 //! inside a fourth-order complementary pair, the second is the plain HOKA filter.
-//! `spectral` (the seed's post-processing) and `corrected` (each path corrected by an
+//! `spectral` (the paper's post-processing) and `corrected` (each path corrected by an
 //! FIR inverse of its modelled response) read the whole recording.
 
 use std::path::{Path, PathBuf};

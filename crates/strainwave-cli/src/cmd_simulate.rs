@@ -12,7 +12,7 @@ mod bench;
 /// Arguments of `simulate`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// A built-in scenario: taghirad (seed-000 rig) or flexspline-fixed (seed-001 rig).
+    /// A built-in scenario: taghirad (Taghirad rig) or flexspline-fixed (embedded-sensor rig).
     #[arg(long, conflicts_with = "scenario", required_unless_present = "scenario")]
     pub preset: Option<String>,
     /// A scenario TOML file (start one from `--preset NAME --print-scenario`).

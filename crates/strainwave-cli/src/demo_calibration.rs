@@ -1,7 +1,7 @@
-//! The demo's calibration section: the seed-000 gain calibration on the simulated
+//! The demo's calibration section: the Taghirad gain calibration on the simulated
 //! locked-wave-generator procedure (gain per experiment against the simulator's truth,
 //! consistency, DIN 51309 figures), then the embedded-sensor article's static and dynamic models on the
-//! simulated flexspline-fixed rig with their error table beside the seed's.
+//! simulated flexspline-fixed rig with their error table beside the paper's.
 
 use std::fmt::Write as _;
 
@@ -97,7 +97,7 @@ pub fn section() -> Result<(String, String, Vec<LinePlot>)> {
         ["locked WG (Taghirad 1999)", "position, range, temperature", "fitted N·m/V", "true N·m/V", "error %", "seed"];
     let _ = writeln!(text, "  gain per experiment (T = g V through the origin) against the simulator's truth:");
     text += &text_table(&header, &rows);
-    html += "<p>Seed 000: gain per experiment on the simulated locked-wave-generator procedure \
+    html += "<p>Taghirad 1999: gain per experiment on the simulated locked-wave-generator procedure \
              (loading and unloading both ways, four flexspline positions × low/full range, 5–35 °C).</p>";
     html += &table(&header, &rows);
 
@@ -139,7 +139,7 @@ pub fn section() -> Result<(String, String, Vec<LinePlot>)> {
     // Fit and residuals of the final gain.
     let refs: Vec<f64> = exps.iter().flat_map(|x| x.reference.iter().copied()).collect();
     let cal: Vec<f64> = all_v.iter().map(|v| g.gain_nm_per_v * v).collect();
-    plots.extend(fit_plots("Seed-000 gain calibration", &all_v, &refs, &cal, "bridge voltage (V)"));
+    plots.extend(fit_plots("Taghirad gain calibration", &all_v, &refs, &cal, "bridge voltage (V)"));
 
     // the embedded-sensor article: static (held loads) and dynamic (sinusoidal load) on the flexspline-fixed rig.
     let mut err_rows: Vec<Vec<String>> = Vec::new();
@@ -185,13 +185,13 @@ pub fn section() -> Result<(String, String, Vec<LinePlot>)> {
     let err_header = ["embedded-sensor model", "rows", "T_ref = α T_sens + β", "max |e| N·m", "RMS N·m", "RMS % FS"];
     let _ = writeln!(
         text,
-        "  seed-001 rig (presets flexspline-fixed-static / -dynamic), sensor = measured_torque, FS {SEED001_FULL_SCALE_NM} N·m:"
+        "  embedded-sensor rig (presets flexspline-fixed-static / -dynamic), sensor = measured_torque, FS {SEED001_FULL_SCALE_NM} N·m:"
     );
     text += &text_table(&err_header, &err_rows);
     html += &format!(
-        "<p>Seed 001: static model on held loads (reference steady for {HOLD_S} s), dynamic model on the \
+        "<p>Embedded sensor: static model on held loads (reference steady for {HOLD_S} s), dynamic model on the \
          sinusoidal-load run, and a speed table; error figures over the fitted rows, % of a {SEED001_FULL_SCALE_NM} N·m \
-         full scale, beside the seed's table.</p>"
+         full scale, beside the paper's table.</p>"
     );
     html += &table(&err_header, &err_rows);
     Ok((text, html, plots))

@@ -1,7 +1,7 @@
 //! The demo's estimate section: the HDA-arm paper on the arm twin (docs/physics.md §5). Identify the
 //! kinematic error (no-load run) and the compliance (loaded run against the noisy
-//! reference), then estimate the link torque from the raw counts in the seed's
-//! experiments and compare with the truth, the seed's figures and a plain linear spring.
+//! reference), then estimate the link torque from the raw counts in the paper's
+//! experiments and compare with the truth, the paper's figures and a plain linear spring.
 
 use anyhow::{Context, Result};
 use strainwave_analysis::ident::{
@@ -123,7 +123,7 @@ pub fn section() -> Result<(String, String, Vec<LinePlot>)> {
         if e == SeedExperiment::StepHold {
             let t = col(&r, "time")?.to_vec();
             plots.push(LinePlot {
-                title: "Seed 002 step (position held): link torque from the encoders".into(),
+                title: "HDA arm step (position held): link torque from the encoders".into(),
                 x_label: "time (s)".into(),
                 y_label: "link torque (N·m)".into(),
                 series: vec![
@@ -134,7 +134,7 @@ pub fn section() -> Result<(String, String, Vec<LinePlot>)> {
             });
         }
     }
-    let header = ["experiment", "seed paper mean/max |e| (N·m)", "plain linear", "ours", "paper/ours (mean)"];
+    let header = ["experiment", "paper mean/max |e| (N·m)", "plain linear", "ours", "paper/ours (mean)"];
     let kin_header = ["kinematic model (full revolution)", "rms vs truth (rad)", "max |e| (rad)"];
     let kin_rows = vec![
         vec![
@@ -148,7 +148,7 @@ pub fn section() -> Result<(String, String, Vec<LinePlot>)> {
             format!("{:.3e}", kin_fourier.max_abs),
         ],
         vec![
-            "polynomial, 5th order (seed)".into(),
+            "polynomial, 5th order (paper)".into(),
             format!("{:.3e}", kin_poly.rms),
             format!("{:.3e}", kin_poly.max_abs),
         ],
@@ -156,7 +156,7 @@ pub fn section() -> Result<(String, String, Vec<LinePlot>)> {
     let mut text = String::from("Encoder-based torque estimation (HDA-arm paper, arm twin)\n");
     text.push_str(&crate::report::text::text_table(&header, &rows));
     text.push_str(&crate::report::text::text_table(&kin_header, &kin_rows));
-    let mut html = String::from("<p>Seed 002 on the arm twin: link torque from the raw encoder counts, mean/max |error| against the true link torque (N·m).</p>\n");
+    let mut html = String::from("<p>HDA arm on the arm twin: link torque from the raw encoder counts, mean/max |error| against the true link torque (N·m).</p>\n");
     html.push_str(&crate::report::html::table(&header, &rows));
     html.push_str(&crate::report::html::table(&kin_header, &kin_rows));
     Ok((text, html, plots))

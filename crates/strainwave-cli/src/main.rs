@@ -94,7 +94,7 @@ enum Command {
         after_help = "Example:\n  strainwave orders --in bench.csv --signal accel_torque --speed speed_rpm --order 6 --order 12 --out orders.svg"
     )]
     Orders(cmd_orders::Args),
-    /// Simulate the seed-000 joint and print the summary; write DIR/report.html.
+    /// Simulate the Taghirad joint and print the summary; write DIR/report.html.
     #[command(after_help = "Example:\n  strainwave demo --out demo-out\n  (then open demo-out/report.html)")]
     Demo(cmd_demo::Args),
     /// Bridge sensitivity, full scale, resolution and the gauge-placement Monte Carlo.

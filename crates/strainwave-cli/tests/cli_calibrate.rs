@@ -1,4 +1,4 @@
-//! `strainwave calibrate` end to end: the seed-000 loop against the simulator's truth,
+//! `strainwave calibrate` end to end: the Taghirad loop against the simulator's truth,
 //! the embedded-sensor article's static and dynamic models, and bad input (one line, exit code 1, the
 //! file/row/column named, never a NaN in a calibration file).
 

@@ -74,7 +74,7 @@ fn errors_are_one_line() {
     let cfg = example("joint-taghirad.toml");
     assert_user_error(&run(&["export-c", "--config", &cfg, "--out", out, "--name", "3joint"]), "--name `3joint`");
     assert_user_error(&run(&["export-c", "--config", &cfg, "--out", out, "--name", "static"]), "--name `static`");
-    // A learned file for another model: its identity lists five orders against the seed's three.
+    // A learned file for another model: its identity lists five orders against the paper's three.
     let seed = example("joint-taghirad-seed-6th.toml");
     let learned = example("joint-taghirad-learned.toml");
     assert_user_error(

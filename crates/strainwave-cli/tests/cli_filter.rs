@@ -173,7 +173,7 @@ fn nan_samples_are_errors_or_with_lenient_skipped_with_a_flag() {
 
 /// Each shipped joint config runs on the preset it was written for. The full
 /// configurations (with their learned files) remove at least 20 dB of the raw error
-/// against `true_torque`; the seed's own models only have to run.
+/// against `true_torque`; the paper's own models only have to run.
 #[test]
 fn every_shipped_joint_config_runs_on_its_preset() {
     let d = tmp("examples");

@@ -24,7 +24,7 @@
 //! hysteresis (plays, Maxwell-slip):        p_i ← clamp(p_i, w ± r_i),  elastic twist = w + Σ β_i (w − p_i)/r_i
 //! ```
 //!
-//! Sign of `c_w`: the seed calls the wave generator "softening", but with `c_w > 0` its
+//! Sign of `c_w`: the paper calls the wave generator "softening", but with `c_w > 0` its
 //! formula saturates the twist at `1/(c_w K_w0)`, i.e. the tangent stiffness
 //! `K_w0 e^(c_w |τ_w|)` rises with torque. `c_w < 0` gives a softening spring and
 //! `c_w = 0` the linear limit `τ_w / K_w0`; all three are accepted.

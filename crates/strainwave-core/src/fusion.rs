@@ -26,7 +26,7 @@
 //! Which stiffness is which: with Table I, `k = 258 N·m/rad` gives `f_res,TS = 829.3 Hz` (the
 //! docs/physics.md §7 number), so 258 is the torsion-shaft stiffness `k_RB,TS`; `k = 549 N·m/rad`
 //! (`k_RB,Acc`, the DUT coupled directly to the brake) gives the 1209.7 Hz DUT–brake resonance
-//! the seed sees at ≈ 1.2 kHz in the accelerometer response (its Fig. 6).
+//! the paper sees at ≈ 1.2 kHz in the accelerometer response (its Fig. 6).
 //!
 //! Fusion (HOKA principle): `T = LP(T_TS) + HP(T_acc)` with `LP + HP = 1` exactly. It is
 //! computed as `T = T_acc + LP(T_TS − T_acc)`: one filter, complementary for any two inputs.
@@ -116,7 +116,7 @@ impl<T: Real> ComplementaryFusion<T> {
         Ok(Self { lowpass, crossover_hz, sample_rate_hz, order })
     }
 
-    /// The seed's 250 Hz crossover, second order.
+    /// The paper's 250 Hz crossover, second order.
     ///
     /// ```
     /// let f = strainwave_core::fusion::ComplementaryFusion::kit(20_000.0_f64).unwrap();

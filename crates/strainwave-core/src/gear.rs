@@ -21,7 +21,7 @@ pub enum FixedElement {
     /// Circular spline fixed, flexspline is the output (usual robot joint).
     #[default]
     CircularSpline,
-    /// Flexspline fixed, circular spline is the output (seed-001 test rig).
+    /// Flexspline fixed, circular spline is the output (embedded-sensor test rig).
     Flexspline,
 }
 

@@ -277,7 +277,7 @@ impl<T: Real, const NG: usize, const ND: usize, const NQ: usize> FluxMap<T, NG, 
         torque_eq12(pole_pairs, &self.evaluate(gamma_rad, i_d_a, i_q_a), i_d_a, i_q_a)
     }
 
-    /// Eq. 13 with the angle-averaged flux (the seed's sweep evaluation), N·m.
+    /// Eq. 13 with the angle-averaged flux (the paper's sweep evaluation), N·m.
     pub fn fundamental_torque_nm(&self, pole_pairs: T, i_d_a: T, i_q_a: T) -> T {
         let (pd, pq) = self.mean_flux_vs(i_d_a, i_q_a);
         torque_eq13(pole_pairs, pd, pq, i_d_a, i_q_a)

@@ -61,14 +61,14 @@ fn accelerometer_model_is_the_housing_on_its_coupling() {
         let want = -(s2 * theta);
         assert!((m.response(f) - want).norm() < 1e-12 * want.norm(), "{f} Hz");
     }
-    // Flat above the resonance: ±1 % from 250 Hz up, the seed's measurable range.
+    // Flat above the resonance: ±1 % from 250 Hz up, the paper's measurable range.
     for f in [250.0, 1000.0, 4000.0] {
         assert!((m.torque_response(f).norm() - 1.0).abs() < 0.01, "{f} Hz");
     }
 }
 
-/// Eq. 5 as the seed writes it: its denominator holds the undamped DUT–brake resonance of
-/// `k_RB,Acc` (1209.7 Hz, the "approx. 1.2 kHz" of the seed's Fig. 6); away from it the
+/// Eq. 5 as the paper writes it: its denominator holds the undamped DUT–brake resonance of
+/// `k_RB,Acc` (1209.7 Hz, the "approx. 1.2 kHz" of the paper's Fig. 6); away from it the
 /// full form stays within a few % of eq. 6 above 100 Hz.
 #[test]
 fn full_accelerometer_model_shows_the_rotor_brake_resonance() {

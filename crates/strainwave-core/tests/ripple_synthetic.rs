@@ -129,7 +129,7 @@ fn ripple_amplitude_growing_with_load_is_tracked() {
 #[test]
 fn seed_6th_order_reduces_ripple_at_the_seed_speed() {
     // 156 rad/s motor speed (the classic test bench), lines near 312 and 624 rad/s. No load change here:
-    // the seed model has no bias state and is meant for y = T_meas − T_exp.
+    // the paper's model has no bias state and is meant for y = T_meas − T_exp.
     let joint = Joint { noise: NOISE_NM, ..Joint::default() };
     let data = joint.run(30_000, 13, |t| 156.0 * t, |_| 0.0);
     let model = RippleModel::<f64, 3>::seed_6th_order(FS).unwrap();
@@ -146,6 +146,6 @@ fn seed_6th_order_reduces_ripple_at_the_seed_speed() {
     let raw: Vec<f64> = data[from..].iter().map(|s| s.measured - s.true_torque).collect();
     let rel: Vec<f64> = data[from..].iter().map(|s| s.relative).collect();
     let got = db(order_amplitude(&raw, &rel, 2.0) / order_amplitude(&clean, &rel, 2.0));
-    eprintln!("seed 6th order 2×: {got:.1} dB");
-    assert!(got > RIPPLE_SUPPRESSION_DB, "seed 6th order: {got:.1} dB");
+    eprintln!("Taghirad 6th order 2×: {got:.1} dB");
+    assert!(got > RIPPLE_SUPPRESSION_DB, "Taghirad 6th order: {got:.1} dB");
 }

@@ -80,7 +80,7 @@ macro_rules! from_core {
 from_core!(from_core64, f64, sw_model, sw_order, sw_limits, sw_calibration);
 from_core!(from_core32, f32, sw32_model, sw32_order, sw32_limits, sw32_calibration);
 
-/// The seed's 6th-order model with a 2.5 N·m/V gain, as a C program would write it.
+/// The paper's 6th-order model with a 2.5 N·m/V gain, as a C program would write it.
 fn seed6() -> sw_model {
     from_core64(&RippleModel::<f64, 3>::seed_6th_order(1000.0).unwrap())
 }

@@ -3,7 +3,7 @@
 //!
 //! - `examples/c/filter_csv.c` with a model from `strainwave export-c` gives the numbers
 //!   of `strainwave filter` on the same recording and config, to 1e-9 N·m (f64), for the
-//!   learned full model and the seed's 6th-order model;
+//!   learned full model and the paper's 6th-order model;
 //! - an f32 export compiles and passes `sw32_init`;
 //! - `examples/ros2_control` compiles with `c++ -std=c++17` and runs.
 //!

@@ -1,4 +1,4 @@
-//! The seed-000 calibration procedure (Taghirad and Bélanger (1999) §IV): the wave generator is locked,
+//! The Taghirad calibration procedure (Taghirad and Bélanger (1999) §IV): the wave generator is locked,
 //! known torques are applied by an arm and weights, loading and unloading in both
 //! directions, at several flexspline positions, in a low and a full range, at
 //! temperatures from 5 to 35 °C. Quasi-static: the flexspline carries the applied
@@ -22,7 +22,7 @@ use crate::scenario::Scenario;
 use crate::sensors::{ideal_bridge, strain_field};
 use strainwave_core::bridge::{PlacementError, SignalChain};
 
-/// Settings of the seed-000 procedure.
+/// Settings of the Taghirad procedure.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LockedWgProcedure {

@@ -2,7 +2,7 @@
 //! hysteresis and friction, load, meshing ripple, misalignment, the flexspline bridge
 //! with placement errors, amplifier, ADC, noise, encoders and tachometer.
 //!
-//! Every run is a [`scenario::Scenario`] (TOML); [`presets`] has the seed rigs.
+//! Every run is a [`scenario::Scenario`] (TOML); [`presets`] has the papers' rigs.
 //! Recordings carry the measured signals and the truth (`true_*` columns).
 //!
 //! ```

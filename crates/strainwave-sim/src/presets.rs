@@ -1,4 +1,4 @@
-//! Built-in scenarios: the seed-000 and seed-001 rigs.
+//! Built-in scenarios: the Taghirad and embedded-sensor rigs.
 
 use crate::error::SimError;
 use crate::scenario::Scenario;

@@ -1,5 +1,5 @@
 //! Kinematic error on the twin: over a full output revolution the Fourier model (in the
-//! output and the relative angle) beats the seed's 5th-order polynomial in the output
+//! output and the relative angle) beats the paper's 5th-order polynomial in the output
 //! angle, both against the true kinematic error and in the torque estimated while the
 //! arm turns; cross-validation finds the mesh harmonics; a held run cannot identify it.
 

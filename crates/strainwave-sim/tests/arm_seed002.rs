@@ -1,9 +1,9 @@
-//! Seed 002 on the digital twin: identify the kinematic error (no-load run) and the
+//! HDA arm on the digital twin: identify the kinematic error (no-load run) and the
 //! compliance (loaded run against the noisy reference torque), then estimate the link
-//! torque from the raw encoder counts in the seed's experiments and compare with the
-//! truth, side by side with the seed's own method and a plain linear stiffness.
+//! torque from the raw encoder counts in the paper's experiments and compare with the
+//! truth, side by side with the paper's own method and a plain linear stiffness.
 //!
-//! The seed's figures (§IV, against a six-axis sensor on real hardware) are mean/max
+//! The paper's figures (§IV, against a six-axis sensor on real hardware) are mean/max
 //! |error| 0.46/2.54 N·m (step, position held), 0.62/2.8 (periodic, held), 1.27/5.89
 //! (step, constant motor torque) and 1.33/4.5 (periodic, constant motor torque). Ours,
 //! at the preset's encoder resolution and noise, must be at least 5× smaller.
@@ -17,7 +17,7 @@ use strainwave_core::gear::{FixedElement, Gear};
 use strainwave_core::torsion::{EncoderConfig, EstimatorState, MeshAngle, TorqueSolver, TorsionEstimator};
 use strainwave_sim::arm::{simulate_arm, ArmModel, ArmRecording, ArmScenario, SeedExperiment};
 
-/// Required improvement over the seed's figures.
+/// Required improvement over the paper's figures.
 const IMPROVEMENT: f64 = 5.0;
 
 struct Run {
@@ -74,7 +74,7 @@ fn estimate_counts(fit: &ComplianceFit, kin: &KinematicFit, r: &Run) -> Vec<f64>
         .collect()
 }
 
-/// The seed's estimator: the manufacturer's springs (the twin's true values), the
+/// The paper's estimator: the manufacturer's springs (the twin's true values), the
 /// 5th-order polynomial kinematic error, no hysteresis, no damping.
 fn estimate_seed_method(poly: &KinematicFit, r: &Run) -> Vec<f64> {
     let s = &r.scenario;
@@ -144,7 +144,7 @@ fn identify() -> Identified {
 fn seed002_experiments_five_times_better_than_the_seed() {
     let id = identify();
     println!();
-    println!("| run | seed paper mean/max | seed method on twin | linear K | ours (counts) | limit (seed/5) |");
+    println!("| run | paper mean/max | seed method on twin | linear K | ours (counts) | limit (seed/5) |");
     println!("|---|---|---|---|---|---|");
     for e in SeedExperiment::ALL {
         if matches!(e, SeedExperiment::NoLoad | SeedExperiment::LoadedHold) {

@@ -1,4 +1,4 @@
-//! The seed-002 arm twin: columns, determinism, physics checks with known answers,
+//! The HDA-arm arm twin: columns, determinism, physics checks with known answers,
 //! encoder counts, integrator convergence and scenario validation.
 
 use strainwave_sim::arm::{simulate_arm, ArmRecording, ArmScenario, ArmSimulator, SeedExperiment, COLUMNS};
@@ -73,7 +73,7 @@ fn constant_motor_torque_turns_the_arm_about_once() {
     let (s, r) = run(SeedExperiment::PeriodicConstantTorque);
     let end = *r.column("true_link_angle").unwrap().last().unwrap();
     assert!((5.5..7.5).contains(&end), "{end}");
-    // The motor torque is what the seed's 4.14 N·m at the link asks for.
+    // The motor torque is what the paper's 4.14 N·m at the link asks for.
     let tm = r.column("true_motor_torque").unwrap();
     assert!(tm.iter().all(|v| (v * s.gear.ratio + 4.14).abs() < 1e-12));
     // The current column is the torque over k_m plus 0.01 A of noise.

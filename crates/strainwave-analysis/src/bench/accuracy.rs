@@ -141,7 +141,7 @@ pub const METHODS: [&str; 7] = [
     "accelerometers alone",
     "complementary, 1st order",
     "complementary, 2nd order",
-    "spectral combination (seed)",
+    "spectral combination (paper)",
     "corrected fusion (FIR)",
     "online corrected (IIR)",
 ];

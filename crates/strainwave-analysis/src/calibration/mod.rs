@@ -7,7 +7,7 @@
 //!    `Σ (T_i − g V_i)²` (through the origin, the default) or `Σ (T_i − g V_i − c)²`
 //!    (with an offset). Across experiments:
 //!    `consistency = s_g / |ḡ|`, with `ḡ` the mean gain (the final gain) and `s_g` the
-//!    **sample** standard deviation (divisor `n − 1`); the seed only says "standard
+//!    **sample** standard deviation (divisor `n − 1`); the paper only says "standard
 //!    deviation" and reports 6.60 N·m/V at 2 %.
 //! 2. **Static, dynamic and speed-dependent affine models** (the embedded-sensor article):
 //!    `T_ref = α T_sens + β`, fitted on quasi-static ramps ("static") or sinusoidal-load

@@ -31,7 +31,7 @@ pub enum ComplianceForm {
         /// Second break torque, N·m.
         t2_nm: f64,
     },
-    /// Seed 002: stiffening flexspline and wave generator in series, with this ratio.
+    /// HDA arm: stiffening flexspline and wave generator in series, with this ratio.
     Seed {
         /// Ratio `N`.
         ratio: f64,
@@ -71,7 +71,7 @@ pub enum ComplianceParams {
         /// `T2`, N·m.
         t2_nm: f64,
     },
-    /// Seed 002 springs.
+    /// HDA arm springs.
     Seed {
         /// `K_f0`, N·m/rad.
         flexspline_k0_nm_per_rad: f64,
@@ -93,7 +93,7 @@ pub enum AnyCompliance {
     ThreeSlope(ThreeSlopeStiffness<f64>),
     /// Cubic.
     Cubic(CubicStiffness<f64>),
-    /// Seed 002.
+    /// HDA arm.
     Seed(SeedCompliance<f64>),
 }
 

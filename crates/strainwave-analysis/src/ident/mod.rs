@@ -3,7 +3,7 @@
 //! Two steps, as in the HDA-arm paper:
 //!
 //! 1. **Kinematic error** from a no-load run: the torsion `θ_h = θ − θ_m/n_s` is regressed
-//!    on a basis of the output angle (polynomial, the seed's form) or of the output and a
+//!    on a basis of the output angle (polynomial, the paper's form) or of the output and a
 //!    mesh angle (Fourier, periodic), plus an optional direction term `d sgn θ̇` that takes
 //!    up the constant wind-up of friction and hysteresis while turning. Linear least
 //!    squares by Householder QR. The basis is chosen by the user or by k-fold

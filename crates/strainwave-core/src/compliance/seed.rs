@@ -1,11 +1,11 @@
-//! The seed-002 harmonic drive springs: the flexspline (stiffening), the wave generator
+//! The HDA-arm harmonic drive springs: the flexspline (stiffening), the wave generator
 //! and the two in series.
 
 use super::Compliance;
 use crate::error::{finite, non_negative, positive, Error};
 use crate::Real;
 
-/// Seed-002 flexspline spring, stiffening: `τ_f = tan(C_f K_f0 θ_f) / C_f`.
+/// HDA-arm flexspline spring, stiffening: `τ_f = tan(C_f K_f0 θ_f) / C_f`.
 ///
 /// Initial stiffness `K_f0`; the tangent stiffness `K_f0 (1 + (C_f τ)²)` grows with
 /// torque, and the twist never exceeds `π / (2 C_f K_f0)`. `C_f = 0` is the linear spring.
@@ -74,7 +74,7 @@ impl<T: Real> Compliance<T> for FlexsplineStiffening<T> {
     }
 }
 
-/// Seed-002 wave-generator spring (eq. B.1), at the wave generator:
+/// HDA-arm wave-generator spring (eq. B.1), at the wave generator:
 /// `θ_w = sgn(τ_w) (1 − e^(−c_w |τ_w|)) / (c_w K_w0)`, tangent stiffness `K_w0 e^(c_w |τ_w|)`.
 ///
 /// See the module doc for the sign of `c_w`.
@@ -151,7 +151,7 @@ impl<T: Real> Compliance<T> for WaveGeneratorSoftening<T> {
     }
 }
 
-/// Seed-002 harmonic drive compliance: flexspline and wave generator in series,
+/// HDA-arm harmonic drive compliance: flexspline and wave generator in series,
 /// referred to the output: `θ(τ) = θ_f(τ) + θ_w(τ/N) / N`.
 ///
 /// `N` is the ratio from the WG to the output (pass `N + 1` when the flexspline is fixed).

@@ -24,16 +24,16 @@ pub mod kit {
     pub const COUPLING_STIFFNESS_NM_PER_RAD: f64 = 29.0;
     /// Stator bearing damping `Γ_LS`, N·m·s/rad (4.24 mN·m·s).
     pub const STATOR_DAMPING_NM_S_PER_RAD: f64 = 4.24e-3;
-    /// Accelerometer radius `R`, m. The seed does not state it; eq. 11 with the seed's
+    /// Accelerometer radius `R`, m. The paper does not state it; eq. 11 with the paper's
     /// `a_max` = 50 m/s² and its 97 mN·m implies `R = 50 J_S / 0.097 = 0.673 m`. That is ten
     /// times what a 59 mm motor's housing suggests (a typo in `a_max` or `R` is likely), but
-    /// only `a / R` enters the torque, so the torque-domain figures are those of the seed.
+    /// only `a / R` enters the torque, so the torque-domain figures are those of the paper.
     pub const ACCEL_RADIUS_M: f64 = 0.6727;
     /// Range of one sensor `a_max`, m/s² (seed: PCB 352B, 50 m/s²).
     pub const ACCEL_MAX_M_S2: f64 = 50.0;
     /// Resolution of one sensor `a_min`, m/s² (implied by eq. 10's 21 µN·m with this `R`).
     pub const ACCEL_MIN_M_S2: f64 = 0.0108;
-    /// Crossover of the seed's fusion, Hz.
+    /// Crossover of the paper's fusion, Hz.
     pub const CROSSOVER_HZ: f64 = 250.0;
 }
 

@@ -77,7 +77,7 @@ impl<T: Real> KinematicPolynomial<T, 6> {
     /// the HDA-arm paper, Table II: the 5th-order fit `a0 … a5 = −6.5719e−5, 0.0018, 0.032, −0.0017,
     /// 2.6840e−4, −1.2686e−5`, output angle in rad, `θ_k` in rad.
     ///
-    /// The seed does not state the range; the polynomial reaches 1.1 rad at `θ = 2π`, so it
+    /// The paper does not state the range; the polynomial reaches 1.1 rad at `θ = 2π`, so it
     /// can only describe a short stretch (one motor revolution, `2π/N` of output, gives
     /// 0.2 mrad for N = 100). Use it there, or fit a Fourier model.
     ///

@@ -1,4 +1,4 @@
-//! What drives the arm: the motor command, the hand torque and the seed experiments.
+//! What drives the arm: the motor command, the hand torque and the paper's experiments.
 
 use super::*;
 
@@ -102,23 +102,23 @@ impl HandTorque {
     }
 }
 
-/// The seed-002 runs, built from the preset.
+/// The HDA-arm runs, built from the preset.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SeedExperiment {
     /// No load: the PID turns the link one revolution forward and back at 0.2 rad/s
-    /// (for the kinematic error; the seed's Fig. 7 runs).
+    /// (for the kinematic error; the paper's Fig. 7 runs).
     NoLoad,
     /// Motor held, a multi-sine hand torque (0.2 to 7 Hz) up to ±59 N·m (for the compliance fit).
     LoadedHold,
-    /// Seed §IV-A, step: motor held, 15 N·m step by hand at 1 s, released at 4 s.
+    /// Paper §IV-A, step: motor held, 15 N·m step by hand at 1 s, released at 4 s.
     StepHold,
-    /// Seed §IV-A, periodic: motor held, 12 N·m at 1 Hz by hand.
+    /// Paper §IV-A, periodic: motor held, 12 N·m at 1 Hz by hand.
     PeriodicHold,
-    /// Seed §IV-B, step: constant motor torque (4.14 N·m at the link: read at the motor
-    /// shaft, the seed's 4.14 N·m would be 414 N·m at the link, ten times the rating) turning the arm
+    /// Paper §IV-B, step: constant motor torque (4.14 N·m at the link: read at the motor
+    /// shaft, the paper's 4.14 N·m would be 414 N·m at the link, ten times the rating) turning the arm
     /// about one revolution, 3 N·m step by hand from 1.0 to 2.2 s.
     StepConstantTorque,
-    /// Seed §IV-B, periodic: constant motor torque, 5 N·m at 1.5 Hz by hand.
+    /// Paper §IV-B, periodic: constant motor torque, 5 N·m at 1.5 Hz by hand.
     PeriodicConstantTorque,
     /// Seed Fig. 4 (a, b): motor torque step (10 N·m at the link) on the free arm.
     Fig4Step,
@@ -153,7 +153,7 @@ impl SeedExperiment {
         }
     }
 
-    /// The seed's mean and max |error| for this run, N·m (§IV), where it gives them.
+    /// The paper's mean and max |error| for this run, N·m (§IV), where it gives them.
     pub fn seed_figures_nm(self) -> Option<(f64, f64)> {
         match self {
             SeedExperiment::StepHold => Some((0.46, 2.54)),

@@ -24,14 +24,14 @@
 //! `θ_h = θ − θ_m/n_s = θ_k − w` is docs/physics.md §5's. The kinematic error is periodic (output
 //! and relative-angle harmonics) plus an optional polynomial in the output angle.
 //!
-//! The motor is either held by a digital PID on its angle (the seed's first experiment),
+//! The motor is either held by a digital PID on its angle (the paper's first experiment),
 //! driven along a position ramp (a no-load run for identification), or given an
-//! open-loop torque: constant (the seed's second experiment), a step or a sinusoid
-//! (the seed's Fig. 4 simulations). A hand applies the external torque `τ_d`: smooth
+//! open-loop torque: constant (the paper's second experiment), a step or a sinusoid
+//! (the paper's Fig. 4 simulations). A hand applies the external torque `τ_d`: smooth
 //! steps and sinusoids. [`SeedExperiment`] builds each seed run from the preset.
 //!
 //! Encoders count `floor(θ/step + noise)`; with `single_turn` the counters wrap every
-//! revolution, with the zero offsets added. The reference torque stands in for the seed's
+//! revolution, with the zero offsets added. The reference torque stands in for the paper's
 //! six-axis sensor at the flange: `τ` plus white noise.
 
 use serde::{Deserialize, Serialize};

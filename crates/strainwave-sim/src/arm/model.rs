@@ -77,7 +77,7 @@ impl ArmModel {
         })
     }
 
-    /// The seed's springs.
+    /// The paper's springs.
     pub fn springs(&self) -> &SeedCompliance<f64> {
         &self.springs
     }

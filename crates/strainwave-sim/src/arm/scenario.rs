@@ -1,4 +1,4 @@
-//! The arm scenario: its sections, parsing, presets of the seed experiments and validation.
+//! The arm scenario: its sections, parsing, presets of the paper's experiments and validation.
 
 use super::*;
 
@@ -35,7 +35,7 @@ pub struct ArmScenario {
     pub external_torque: Vec<HandTorque>,
 }
 
-/// Gear: ratio and the seed's two springs.
+/// Gear: ratio and the paper's two springs.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ArmGear {
@@ -128,7 +128,7 @@ impl ArmMotor {
 pub struct ArmLink {
     /// Inertia `J`, kg·m².
     pub inertia_kg_m2: f64,
-    /// Viscous drag `b_L`, N·m·s/rad (not in the seed's model; see the preset).
+    /// Viscous drag `b_L`, N·m·s/rad (not in the paper's model; see the preset).
     pub viscous_nm_s_per_rad: f64,
 }
 
@@ -200,7 +200,7 @@ impl ArmScenario {
         Self::from_toml(PRESET_TOML)
     }
 
-    /// A seed-002 run on the preset arm.
+    /// A HDA-arm run on the preset arm.
     ///
     /// ```
     /// use strainwave_sim::arm::{ArmScenario, SeedExperiment};
@@ -214,7 +214,7 @@ impl ArmScenario {
         Ok(s)
     }
 
-    /// Replaces the command, hand torque, duration and name by one of the seed's runs.
+    /// Replaces the command, hand torque, duration and name by one of the paper's runs.
     pub fn with_experiment(&mut self, which: SeedExperiment) {
         let n = self.gear.ratio;
         // CS fixed: a negative motor torque drives the link forward.

@@ -3,7 +3,7 @@
 //! torque carries harmonics of the electrical angle, a speed ramp or a current sweep.
 //!
 //! A run is a [`BenchScenario`] (TOML, unknown keys rejected, [`BenchScenario::validate`]
-//! names the key at fault); [`preset`] has the seed's bench (`kit-bench`: speed ramp
+//! names the key at fault); [`preset`] has the paper's bench (`kit-bench`: speed ramp
 //! 0 → 3200 rpm, Fig. 8) and its sweep (`kit-bench-sweep`: current injection at
 //! standstill, §V). [`BenchSimulator`] streams rows like [`crate::Simulator`]; the columns
 //! are in [`MEASURED_COLUMNS`] and [`TRUE_COLUMNS`]. The dynamics are in [`model`].
@@ -68,7 +68,7 @@ pub struct MechanicsParams {
     pub stator_inertia_kg_m2: f64,
     /// Rotor–brake stiffness through the torsion shaft `k_RB,TS`, N·m/rad.
     pub shaft_stiffness_nm_per_rad: f64,
-    /// Damping across the shaft (the seed's `2 Γ_LP` of eq. 1), N·m·s/rad.
+    /// Damping across the shaft (the paper's `2 Γ_LP` of eq. 1), N·m·s/rad.
     pub shaft_damping_nm_s_per_rad: f64,
     /// DUT bearing damping between rotor and housing (carries rotor motion into the
     /// accelerometers, seed eq. 5), N·m·s/rad.
@@ -140,7 +140,7 @@ pub struct DutParams {
     pub cogging: Vec<CoggingHarmonic>,
 }
 
-/// Torsion-shaft sensor (Kistler 4503B in the seed).
+/// Torsion-shaft sensor (Kistler 4503B in the paper).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TorsionSensorParams {
@@ -165,7 +165,7 @@ pub struct Vibration {
     pub order_mech: Option<f64>,
 }
 
-/// The two opposed accelerometers (PCB 352B in the seed).
+/// The two opposed accelerometers (PCB 352B in the paper).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct AccelerometerParams {
@@ -209,7 +209,7 @@ pub enum SweepSpacing {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum BenchProfile {
-    /// Speed-controlled ramp (seed §IV): a PI speed loop sets `i_q`, `i_d` is held.
+    /// Speed-controlled ramp (paper §IV): a PI speed loop sets `i_q`, `i_d` is held.
     SpeedRamp {
         /// Start speed, rpm (≥ 0).
         from_rpm: f64,
@@ -222,7 +222,7 @@ pub enum BenchProfile {
         /// Speed loop bandwidth, Hz.
         speed_loop_bandwidth_hz: f64,
     },
-    /// Current injection at standstill (seed §V): `i_q = I cos φ(t)`, `i_d = 0`, in the
+    /// Current injection at standstill (paper §V): `i_q = I cos φ(t)`, `i_d = 0`, in the
     /// rotor frame (ideal current loop), the frequency swept from `from_hz` to `to_hz` over
     /// the run.
     CurrentSweep {
@@ -366,7 +366,7 @@ impl BenchScenario {
     }
 }
 
-/// The commented TOML of the seed's bench.
+/// The commented TOML of the paper's bench.
 pub const KIT_BENCH_TOML: &str = include_str!("../../presets/kit-bench.toml");
 
 /// Preset names.
@@ -386,7 +386,7 @@ pub fn preset_text(name: &str) -> Result<&'static str, SimError> {
 ///
 /// - `kit-bench`: Table I/II bench, speed ramp 0 → 3200 rpm at `i_d = −4 A` (seed Fig. 8);
 /// - `kit-bench-sweep`: the same bench at standstill, brake not braked, `i_q` of 0.1 A
-///   swept logarithmically from 0.5 Hz to 8 kHz over 40 s (seed §V: 100 Hz … 8 kHz,
+///   swept logarithmically from 0.5 Hz to 8 kHz over 40 s (paper §V: 100 Hz … 8 kHz,
 ///   extended down into the torsion sensor's range).
 ///
 /// ```

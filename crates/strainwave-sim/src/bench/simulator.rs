@@ -20,7 +20,7 @@ use crate::rng::Rng;
 /// | `accel_torque` | N·m | `J_S (a1 + a2) / (2R)` as the bench computes it |
 /// | `current_d`, `current_q` | A | measured rotor-frame currents |
 /// | `inner_torque` | N·m | eq. 12 online: flux map, measured currents, encoder angle |
-/// | `model_torque` | N·m | eq. 13 with the angle-averaged flux (the seed's sweep reference) |
+/// | `model_torque` | N·m | eq. 13 with the angle-averaged flux (the paper's sweep reference) |
 pub const MEASURED_COLUMNS: &[&str] = &[
     "time",
     "speed_rpm",

@@ -33,7 +33,7 @@ fn sweep(seed: u64, amplitude: f64) -> BenchRecording {
 }
 
 /// The headline: calibrate on one sweep (H1 of each path against the bench's online eq.-12
-/// torque, as seed §V does against its model), validate on another (other noise, 1.5×
+/// torque, as paper §V does against its model), validate on another (other noise, 1.5×
 /// the current) against the true air-gap torque. Prints the table of every method.
 ///
 /// `cargo test --release -p strainwave-sim --lib bench::tests::hybrid_fusion_accuracy -- --nocapture`
@@ -75,7 +75,7 @@ fn hybrid_fusion_accuracy() {
     }
 }
 
-/// The twin's paths are the seed's models: the shaft torque follows eq. 1 and the ideal
+/// The twin's paths are the paper's models: the shaft torque follows eq. 1 and the ideal
 /// accelerometer torque `J_S · eq. 6`, both driven by the true air-gap torque.
 #[test]
 fn twin_paths_follow_seed_models() {
@@ -123,7 +123,7 @@ fn twin_paths_follow_seed_models() {
     });
 }
 
-/// Relative complex error allowed between the twin's H1 and the seed's models (the
+/// Relative complex error allowed between the twin's H1 and the paper's models (the
 /// rotor–housing bearing the models leave out, and the H1 of a chirp).
 const MODEL_TOL: f64 = 0.02;
 
