@@ -122,8 +122,7 @@ fn a_learned_file_on_a_full_disk_is_an_error_and_the_previous_one_stays() {
     let d = tmp("learn");
     let rec = recording(&d);
     let learned = d.join("learned.toml");
-    std::fs::write(&learned, PREVIOUS).unwrap();
-    let args = [
+    let mut args = [
         "filter",
         "--config",
         "../../examples/joint-taghirad.toml",
@@ -135,20 +134,28 @@ fn a_learned_file_on_a_full_disk_is_an_error_and_the_previous_one_stays() {
         s(&learned),
         "--quiet",
     ];
+    // A learned file from an earlier run: `--learn` merges into it, so it must be one.
+    let o = run(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let previous = std::fs::read(&learned).unwrap();
     let o = run_on_full_disk(0, &args);
-    check(&o, &learned, &learned, &d, &["learned.toml", "rec.csv"], "filter --learn");
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert_eq!(e.trim_end().lines().count(), 1, "not one line: {e}");
+    assert!(e.contains("learned.toml") && e.contains("(os error"), "{e}");
+    assert_eq!(std::fs::read(&learned).unwrap(), previous, "the previous learned file changed");
+    assert_eq!(names(&d), ["learned.toml", "rec.csv"], "files left behind");
 
     // With both on the full disk, neither file is replaced.
     let out = d.join("out.csv");
     std::fs::write(&out, PREVIOUS).unwrap();
-    let mut args = args;
     args[6] = s(&out);
     let o = run_on_full_disk(64, &args);
     let e = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{e}");
     assert_eq!(e.trim_end().lines().count(), 1, "{e}");
     assert_eq!(std::fs::read_to_string(&out).unwrap(), PREVIOUS);
-    assert_eq!(std::fs::read_to_string(&learned).unwrap(), PREVIOUS);
+    assert_eq!(std::fs::read(&learned).unwrap(), previous);
     assert_eq!(names(&d), ["learned.toml", "out.csv", "rec.csv"]);
 }
 
