@@ -210,10 +210,11 @@ pub fn smooth_torque(y_nm: &[f64], cuts: &[bool], (mut fwd, mut back): (TorqueTr
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
-    fn gaussians(seed: u64) -> impl FnMut() -> f64 {
+    /// Standard normal draws from a seeded generator (shared with the ripple smoother's tests).
+    pub(crate) fn gaussians(seed: u64) -> impl FnMut() -> f64 {
         let mut s = seed;
         let mut uniform = move || {
             s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
@@ -222,7 +223,7 @@ mod tests {
         move || (-2.0 * uniform().ln()).sqrt() * (std::f64::consts::TAU * uniform()).cos()
     }
 
-    fn rms(v: impl Iterator<Item = f64>) -> f64 {
+    pub(crate) fn rms(v: impl Iterator<Item = f64>) -> f64 {
         let (s, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x * x, n + 1));
         (s / n.max(1) as f64).sqrt()
     }

@@ -404,22 +404,9 @@ pub fn smooth_torque_with_ripple(
 
 #[cfg(test)]
 mod tests {
+    use super::super::torque::tests::{gaussians, rms};
     use super::super::torque::{smooth_torque, TorqueTrack};
     use super::*;
-
-    fn gaussians(seed: u64) -> impl FnMut() -> f64 {
-        let mut s = seed;
-        let mut uniform = move || {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            ((s >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-        };
-        move || (-2.0 * uniform().ln()).sqrt() * (std::f64::consts::TAU * uniform()).cos()
-    }
-
-    fn rms(v: impl Iterator<Item = f64>) -> f64 {
-        let (s, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x * x, n + 1));
-        (s / n.max(1) as f64).sqrt()
-    }
 
     /// A load with steps and a slow sine, white noise, and a residual 4× ripple of
     /// 0.03 N·m at 100 Hz whose amplitude drifts.
