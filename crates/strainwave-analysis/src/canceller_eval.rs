@@ -20,7 +20,7 @@
 use strainwave_core::gear::Gear;
 use strainwave_core::iir::Biquad;
 use strainwave_core::ripple::{
-    step as ripple_step, PhaseSource, ReferenceValues, RippleInput, RippleModel, RippleOutput, RippleState,
+    step as ripple_step, PhaseSource, ReferenceValues, RippleInput, RippleModel, RippleOutput, RippleState, StepFlags,
 };
 
 use crate::error::AnalysisError;
@@ -281,14 +281,20 @@ fn step_delay(
 }
 
 /// Learns the full configuration's coefficients on a commissioning run (the
-/// commissioning tuning, forward pass; the final state is what was learned).
+/// commissioning tuning, forward pass; the final state is what was learned). A canceller
+/// locked by its load-step test starts again ([`crate::step_lock`]).
 pub fn commission(s: &RunSignals, gear: &Gear<f64>, noise_nm: f64) -> Result<Learned, AnalysisError> {
     check(s)?;
     let m = RippleModel::<f64, 5>::full_commissioning(s.sample_rate_hz, noise_nm).map_err(core_err("full model"))?;
     let mut state = RippleState::new(&m);
+    let mut lock = crate::step_lock::StepLock::new(s.sample_rate_hz);
     for k in 0..s.measured_nm.len() {
         let refs = ReferenceValues::from_gear(gear, s.motor_angle_rad[k], s.output_angle_rad[k]);
-        ripple_step(&m, &mut state, &RippleInput::new(s.measured_nm[k], refs)).map_err(core_err("ripple filter"))?;
+        let out = ripple_step(&m, &mut state, &RippleInput::new(s.measured_nm[k], refs))
+            .map_err(core_err("ripple filter"))?;
+        if lock.locked(out.flags.contains(StepFlags::LOAD_STEP)) {
+            state.reset(&m);
+        }
     }
     Ok(state.learned_all())
 }

@@ -14,6 +14,7 @@ pub mod psd;
 pub mod smoother;
 pub mod spectrum;
 pub mod stats;
+pub mod step_lock;
 pub mod stft;
 
 pub use error::AnalysisError;

@@ -19,7 +19,8 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
-use strainwave_core::ripple::{step, Order, Reference, RippleInput, RippleModel, RippleState};
+use strainwave_analysis::step_lock::StepLock;
+use strainwave_core::ripple::{step, Order, Reference, RippleInput, RippleModel, RippleState, StepFlags};
 use strainwave_io::output::AtomicFile;
 
 use crate::canceller::{build_model_with, ModelVisitor, MAX_ORDERS};
@@ -102,7 +103,8 @@ impl ModelVisitor for MakeLearner {
         let limits = model.limits();
         let scan =
             OrderScan::new(model.sample_rate_hz(), limits.nyquist_fraction, limits.hold_below_hz, model.phase_source());
-        Ok(Box::new(Learner { state: RippleState::new(&model), model, scan, identity: self.identity }))
+        let lock = StepLock::new(model.sample_rate_hz());
+        Ok(Box::new(Learner { state: RippleState::new(&model), model, scan, identity: self.identity, lock }))
     }
 }
 
@@ -111,6 +113,7 @@ struct Learner<const M: usize> {
     state: RippleState<f64, M>,
     scan: OrderScan,
     identity: JointIdentity,
+    lock: StepLock,
 }
 
 /// Posterior of order `i`: rotating-frame mean and 2×2 covariance from the state's
@@ -133,6 +136,10 @@ impl<const M: usize> RunLearner for Learner<M> {
         // A covariance gone bad resets the learning state; the next samples start over.
         if let Ok(o) = step(&self.model, &mut self.state, input) {
             self.scan.observe(input, o.innovation_nm, o.flags);
+            // Locked by its own load-step test: learning starts again (see `StepLock`).
+            if self.lock.locked(o.flags.contains(StepFlags::LOAD_STEP)) {
+                self.state.reset(&self.model);
+            }
         }
     }
 
