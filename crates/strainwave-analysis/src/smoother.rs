@@ -24,6 +24,7 @@ use strainwave_core::ripple::{
 use strainwave_core::Real;
 
 mod checkpointed;
+mod spd;
 pub mod torque;
 pub mod torque_ripple;
 pub use checkpointed::{CheckpointStore, CheckpointedSmoother};
