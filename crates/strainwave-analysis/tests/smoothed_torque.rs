@@ -26,7 +26,7 @@ fn measure(commissioning: &Scenario, test: &Scenario) -> (SmoothedAccuracy, f64,
 fn show(name: &str, a: &SmoothedAccuracy, floor: f64, causal_nm: f64) {
     let at = a.step_offset_samples.map_or("never".to_string(), |k| k.to_string());
     eprintln!(
-        "| {name} | {floor:.4} | {:.4} | {:.3} | {causal_nm:.4} | {:.1} % | {at} | {:.4} N·m | {:.3} N·m |",
+        "| {name} | {floor:.4} | {:.4} | {:.3} | {causal_nm:.4} | {:.2} % | {at} | {:.4} N·m | {:.3} N·m |",
         a.rms_error_nm,
         a.rms_error_nm / floor,
         100.0 * a.coverage_1sd,
@@ -39,10 +39,8 @@ fn show(name: &str, a: &SmoothedAccuracy, floor: f64, causal_nm: f64) {
 /// and not smeared backwards.
 fn check(name: &str, a: &SmoothedAccuracy, floor: f64) {
     assert!(a.rms_error_nm <= TARGET_X_FLOOR * floor, "{name}: {:.4} vs floor {floor:.4}", a.rms_error_nm);
-    // Target 68 % ± 5 %; measured 71.1–75.2 % (docs/smoothing.md): on the wide side,
-    // because the load is quieter than the model allows for most of the time. The band
-    // checked is the target's floor and the measured top, rounded up.
-    assert!((0.63..=0.76).contains(&a.coverage_1sd), "{name}: coverage {:.3}", a.coverage_1sd);
+    // The target: 68 % ± 5 %.
+    assert!((0.63..=0.73).contains(&a.coverage_1sd), "{name}: coverage {:.4}", a.coverage_1sd);
     let at = a.step_offset_samples.unwrap_or(i64::MAX);
     assert!((0..=2).contains(&at), "{name}: step crosses 0.5 N·m at {at} samples");
     assert!(a.step_smear_before_nm < 0.05, "{name}: smeared {:.4} N·m before the step", a.step_smear_before_nm);
@@ -77,10 +75,9 @@ fn smoothed_torque_on_random_joints_and_load_profiles() {
     }
 }
 
-/// More random joints, beyond the three checked against the targets: what the canceller
-/// leaves on some draws (residual ripple, a misalignment learned a little off, or a
-/// commissioning that fails outright) bounds the smoothed torque there, so only
-/// "never worse than the causal torque" is checked. Run by `scripts/smooth-check`.
+/// Seven more random joints, against the same targets (random joint 18 is the one whose
+/// commissioning locked before `step_lock`, random joint 15 the one whose misalignment came
+/// out 0.008 N·m off). Run by `scripts/smooth-check`.
 #[test]
 #[ignore = "slow: seven more simulated joints; scripts/smooth-check runs it"]
 fn smoothed_torque_on_more_random_joints() {
@@ -89,5 +86,6 @@ fn smoothed_torque_on_more_random_joints() {
         let (a, floor, causal) = measure(&comm, &test);
         show(&test.name, &a, floor, causal);
         assert!(a.rms_error_nm < causal, "{}: smoothed {:.4} vs causal {causal:.4}", test.name, a.rms_error_nm);
+        check(&test.name, &a, floor);
     }
 }

@@ -30,9 +30,9 @@ pub struct Args {
     pub out: Option<PathBuf>,
     /// Offline: forward filter plus Rauch–Tung–Striebel smoother (zero phase; reads the whole
     /// recording). `torque` stays the measurement minus the smoothed ripple and misalignment;
-    /// torque_smoothed is that torque smoothed as a level-and-rate torque state (40 Hz, zero
+    /// torque_smoothed is that torque smoothed as a level-and-rate torque state (60 Hz, zero
     /// phase, white noise averaged out; a jump beyond 4σ restarts it, so load steps stay
-    /// sharp), torque_smoothed_sd its 1σ.
+    /// sharp), torque_smoothed_sd its 1σ band (the noise's share of its error).
     #[arg(long)]
     pub smooth: bool,
     /// Learn from this run (any run: a canceller of the same joint learns cold beside

@@ -343,9 +343,8 @@ fn learn_on_commissioning_then_filter_and_smooth_a_loaded_run() {
     assert!(raw > 0.5, "raw {raw}");
     assert!(filtered < 1.5 * 0.0162, "filtered {filtered}");
     assert!(smoothed < 1.5 * 0.0162, "smoothed {smoothed}");
-    // The smoothed torque: below half the floor, its 1σ band covering the truth about
-    // 68 % of the time (measured 73.8 % here; the band is the one the analysis tests
-    // check, see docs/smoothing.md).
+    // The smoothed torque: below half the floor, its 1σ band covering the truth
+    // 68 % ± 5 % of the time (the target; see docs/smoothing.md).
     let torque_smoothed = rms_error(&smooth, "torque_smoothed", 0.3);
     assert!(torque_smoothed < 0.5 * 0.0162, "torque_smoothed {torque_smoothed}");
     let (h, rows) = read(&smooth);
@@ -357,7 +356,7 @@ fn learn_on_commissioning_then_filter_and_smooth_a_loaded_run() {
     );
     let after: Vec<usize> = (0..t.len()).filter(|&k| t[k] > 0.3).collect();
     let covered = after.iter().filter(|&&k| (x[k] - truth[k]).abs() <= sd[k]).count() as f64 / after.len() as f64;
-    assert!((0.63..=0.76).contains(&covered), "coverage {covered}");
+    assert!((0.63..=0.73).contains(&covered), "coverage {covered}");
     // The causal denoised torque is the same with and without --smooth (the same forward
     // filter, up to the streaming kernel's rounding), and the streaming output has no
     // smoothed columns.

@@ -139,7 +139,8 @@ impl SmoothedTorque {
         let mut body = String::from(
             "<p><code>torque_smoothed</code> is the offline, zero-phase estimate of the transmitted torque \
              (<code>filter --smooth</code>): the clean torque smoothed as a level-and-rate state, load steps kept \
-             sharp. <code>torque_smoothed_sd</code> is its 1σ.</p>",
+             sharp. <code>torque_smoothed_sd</code> is its 1σ band: the noise's share of its error (around fast \
+             transients the lag adds to it).</p>",
         );
         body += &whole.to_svg();
         body += &zoom.to_svg();
