@@ -7,6 +7,7 @@
 mod twin;
 
 use strainwave_analysis::canceller_eval::{commission, evaluate, Method};
+use strainwave_analysis::step_lock::StepLock;
 use strainwave_core::ripple::{step, ReferenceValues, RippleInput, RippleModel, RippleState, StepFlags};
 use twin::{random_joint, run, signals};
 
@@ -33,6 +34,22 @@ fn a_stalled_commissioning_starts_again() {
     );
     assert!(fired > s.measured_nm.len() / 2, "the stall is no longer reproduced: {fired} load steps");
     assert!(stalled_2x_nm > 1.0, "{stalled_2x_nm}");
+
+    // The watch, as `commission` runs it: where it restarts the learning.
+    let mut state = RippleState::new(&m);
+    let mut lock = StepLock::new(s.sample_rate_hz);
+    let mut restarts = Vec::new();
+    for k in 0..s.measured_nm.len() {
+        let refs = ReferenceValues::from_gear(&c.gear, s.motor_angle_rad[k], s.output_angle_rad[k]);
+        let out = step(&m, &mut state, &RippleInput::new(s.measured_nm[k], refs)).unwrap();
+        if lock.locked(out.flags.contains(StepFlags::LOAD_STEP)) {
+            state.reset(&m);
+            restarts.push(k);
+        }
+    }
+    eprintln!("watched: restarts at samples {restarts:?}");
+    assert!(!restarts.is_empty() && restarts.len() <= 3, "{restarts:?}");
+    assert_eq!(state.learned_all(), commission(&s, &c.gear, c.noise_nm).unwrap());
 
     // With the watch.
     let learned = commission(&s, &c.gear, c.noise_nm).unwrap();
