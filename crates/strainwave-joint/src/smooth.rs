@@ -33,7 +33,7 @@ use crate::run::{FilterOptions, FilterSummary, RowSink, RowSource};
 pub const BLOCK_ROWS: usize = 4096;
 
 /// Values per row the smoother adds before the smoothed torque's backward prediction
-/// (its state and covariance, [`RippleTorqueEstimate::values_len`] values): torque,
+/// (its state, covariance and noise share, [`RippleTorqueEstimate::values_len`] values): torque,
 /// ripple, misalignment, innovation, nis, flags.
 const ADDED: usize = 6;
 /// The canceller's input as stored: torque, expected torque, three references, dt (NaN:
