@@ -149,11 +149,9 @@ fn run_fma<T: Real, const M: usize, const J: usize, const TRACE: bool>(
     advance::<T, M, J, true, TRACE>(model, bank, input, out, trace);
 }
 
-/// Every joint's step in three passes over the joints, each a loop without a branch
-/// of its own, so that a bank's loops vectorize across joints: the decisions and the
-/// time update; the orders' phasors, order by order (the choice by multiple made once
-/// per order); the prediction and the measurement update. Then the reset of joints
-/// whose covariance went bad.
+/// Every joint's step in passes over the joints, each a loop without a branch of its
+/// own so that a bank's loops vectorize: decisions and time update, the orders' phasors
+/// (order by order), prediction and update; then the reset of joints gone bad.
 #[inline(always)]
 fn advance<T: Real, const M: usize, const J: usize, const F: bool, const TRACE: bool>(
     model: &RippleModel<T, M>,
@@ -169,9 +167,8 @@ fn advance<T: Real, const M: usize, const J: usize, const F: bool, const TRACE: 
     }
 }
 
-/// What the first pass decided, `[order][joint]` or `[joint]`: order state kept (else
-/// restarted from its prior), its applied increment (rad) and process noise (N·m²);
-/// measurement used, time gap, samples of noise.
+/// What the first pass decided (`[order][joint]`, `[joint]`): order kept (else reset),
+/// increment (rad), process noise (N·m²); measurement used, gap, samples of noise.
 #[derive(Clone, Copy)]
 struct Decided<T, const M: usize, const J: usize> {
     keep: [[bool; J]; M],
@@ -197,7 +194,9 @@ fn passes<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bo
     for l in 0..J {
         decide::<T, M, J, F, BIAS>(model, bank, input, l, &mut d, out);
     }
-    phasors::<T, M, J, F>(model, bank, input, &d.inc);
+    if J > 1 {
+        phasors::<T, M, J, F>(model, bank, input, &d.inc);
+    }
     let mut bad = [false; J];
     for l in 0..J {
         let tr = if TRACE && l == 0 { trace.as_deref_mut() } else { None };
@@ -234,7 +233,7 @@ fn decide<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bo
 
     // The sample: skipped (a used reference or `dt` not finite: the state stays as it
     // was, the next increment spans the gap), first, or after a time gap.
-    let skip = !(dt_ok & (0..3).all(|r| !plan.uses[r] | finite(refs[r])));
+    let skip = !(0..3).fold(dt_ok, |ok, r| ok & (!plan.uses[r] | finite(refs[r])));
     let pending = bank.pending_samples[l];
     let n_samples = pending + T::ONE;
     let total_dt = bank.pending_dt[l] + dt;
@@ -329,6 +328,10 @@ fn decide<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bo
         flags.set(StepFlags::ORDER_HELD, status == OrderStatus::Held);
     }
     out.flags[l] = flags;
+    if J == 1 {
+        // One joint: its phasors now, so that their chain starts before the time update.
+        phasors::<T, M, J, F>(model, bank, input, &dec.inc);
+    }
 
     // Time update: inflation `ρ (P_00 + P_11)/2 · I₂` (rotation invariant, like Q) and
     // process noise on the diagonal blocks; a reset order restarts from its prior and
@@ -351,10 +354,14 @@ fn decide<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bo
                 bank.pb[i][r][l] = if couple[i] { bank.pb[i][r][l] } else { T::ZERO };
             }
         }
-        for j in (0..M).filter(|&j| j > i) {
+        for j in 0..M {
+            // Constant bounds (no filter): every index is known, no bounds check is left.
             let both = couple[i] & couple[j];
-            for v in bank.p[i][j].iter_mut().flatten() {
-                v[l] = if both { v[l] } else { T::ZERO };
+            for r in 0..2 {
+                for c in 0..2 {
+                    let v = bank.p[i][j][r][c][l];
+                    bank.p[i][j][r][c][l] = if (j <= i) | both { v } else { T::ZERO };
+                }
             }
         }
     }
@@ -414,8 +421,7 @@ fn phasors<T: Real, const M: usize, const J: usize, const F: bool>(
     }
 }
 
-/// Joint `l`'s prediction that is output and its measurement update, as `dec`
-/// decided. Returns whether its covariance went bad.
+/// Joint `l`'s prediction (the output) and measurement update; whether it went bad.
 #[allow(clippy::too_many_lines)]
 #[inline(always)]
 fn update<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool, const TRACE: bool>(

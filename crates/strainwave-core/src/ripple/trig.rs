@@ -70,17 +70,8 @@ fn estrin<T: Real, const N: usize, const F: bool>(c: &[f64; N], x: T) -> T {
     madd::<T, F>(low, x4, high)
 }
 
-/// `(sin a, cos a)` for `|a| ≤ π`; arguments beyond are clamped to `±π` (NaN to `−π`),
-/// so the result is always a finite unit vector.
-///
-/// Accurate to a few ulp of 1 (absolute) over the whole range.
-#[cfg(test)]
-fn sin_cos_small<T: Real>(a: T) -> (T, T) {
-    let p = sin_cos_with::<T, false>(a);
-    (p.s, p.c)
-}
-
-/// The phasor `(cos a, sin a)` of [`sin_cos_small`] with its double, its multiply–adds
+/// The phasor `(cos a, sin a)` for `|a| ≤ π` (beyond: clamped to `±π`, NaN to `−π`, so
+/// always a finite unit vector) with its double, its multiply–adds
 /// fused in the build `F` (see [`madd`]).
 #[inline(always)]
 pub(super) fn sin_cos_with<T: Real, const F: bool>(a: T) -> Doubling<T> {
@@ -214,6 +205,15 @@ pub(super) fn wrap_angle<T: Real>(x: T) -> T {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `(sin a, cos a)` for `|a| ≤ π`; arguments beyond are clamped to `±π` (NaN to `−π`),
+    /// so the result is always a finite unit vector.
+    ///
+    /// Accurate to a few ulp of 1 (absolute) over the whole range.
+    fn sin_cos_small<T: Real>(a: T) -> (T, T) {
+        let p = sin_cos_with::<T, false>(a);
+        (p.s, p.c)
+    }
 
     const TOL_F64: f64 = 2e-15;
     const TOL_F32: f64 = 1.5e-6;
