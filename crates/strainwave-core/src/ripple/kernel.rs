@@ -3,7 +3,7 @@
 //! (`docs/physics.md`, section 4): with the update row `h = [cos ψ_1, sin ψ_1, …, 1]`,
 //! `P(k|k−1) = P + Q`, `g = P hᵀ`, `S = R + h g`, `ẑ += g e / S`, `P −= g gᵀ / S`, and
 //! `Φ` never multiplies `P`. Every per-joint decision (skip, first sample, gap, jump,
-//! order held or off, load step) is a select, so a bank's passes over its joints
+//! order held or off, load step) is a select, so a bank's passes over its joints can
 //! vectorize. The CPU-specific build is chosen in one place, `run`: on x86-64 with AVX2
 //! and FMA (std builds) the same step compiled with its multiply–adds fused.
 
@@ -150,7 +150,7 @@ fn run_fma<T: Real, const M: usize, const J: usize, const TRACE: bool>(
 }
 
 /// Every joint's step in passes over the joints, each a loop without a branch of its
-/// own so that a bank's loops vectorize: decisions and time update, the orders' phasors
+/// own so that a bank's loops can vectorize: decisions and time update, the orders' phasors
 /// (order by order), prediction and update; then the reset of joints gone bad.
 #[inline(always)]
 fn advance<T: Real, const M: usize, const J: usize, const F: bool, const TRACE: bool>(
