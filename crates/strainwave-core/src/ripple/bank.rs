@@ -1,14 +1,7 @@
 //! The filter state of `J` joints that share one model, laid out as structure of
-//! arrays (the joint index innermost) so one step vectorizes across joints.
-//!
-//! The state is kept in the rotating frame of each oscillator (see the module doc):
-//!
-//! ```text
-//! x_i = Φ(ψ_i) z_i,   ψ_i = Σ a_i (accumulated phase, kept as the phasor (cos ψ_i, sin ψ_i))
-//! ```
-//!
-//! so `z` and its covariance `P_z` are what is stored; [`RippleBank::estimate`] and
-//! [`RippleBank::covariance`] give the fixed-frame `x` and `P` back.
+//! arrays (the joint index innermost) so one step vectorizes across joints. It is kept
+//! in each oscillator's rotating frame `x_i = Φ(ψ_i) z_i` (see the kernel): `z` and `P_z`
+//! are stored; [`RippleBank::estimate`] and [`RippleBank::covariance`] give `x` and `P`.
 
 use super::io::{OrderStatus, ReferenceValues, StepFlags};
 use super::model::RippleModel;

@@ -1,28 +1,11 @@
 //! The one step of the canceller, written once for `J` joints that share a model (one
-//! joint is `J = 1`): the decisions, the time update, the prediction that is output and
-//! the measurement update.
-//!
-//! Each oscillator is kept in its rotating frame `x_i = Φ(ψ_i) z_i`; with the update
-//! row `h(k) = [cos ψ_1, sin ψ_1, …, 1]` and `Q = diag(q_i I₂, q_b)` (rotation invariant)
-//! the filter of the [module documentation](super) becomes
-//!
-//! ```text
-//! time update     ψ_i += a_i,  ẑ(k|k−1) = ẑ(k−1|k−1),  P(k|k−1) = P(k−1|k−1) + Q(k)
-//! prediction      ŷ(k) = h ẑ(k|k−1)                      (output before y(k) is used)
-//! update          g = P hᵀ,  S = R + h g,  ẑ += g e / S,  P −= g gᵀ / S
-//! ```
-//!
-//! which is the same filter: identical `ŷ`, `x̂ = Φ(ψ) ẑ`, `P_x = Φ(ψ) P_z Φ(ψ)ᵀ`.
-//! `Φ` never multiplies `P`; a step costs one symmetric mat-vec and one rank-1 update.
-//!
-//! One joint's step is scalar code (`lane`); a bank runs it for each joint. Every
-//! per-joint decision (skipped sample, first sample, gap, jump, order active, held or
-//! off, load step) is a select, so the common sample takes no branch of its own.
-//!
-//! The CPU-specific build is chosen in one place, `run`: on x86-64 CPUs with AVX2 and
-//! FMA (std builds) the same generic step is compiled with its multiply–adds fused,
-//! else the portable build runs. The decisions are the same in both; the numbers agree
-//! to rounding.
+//! joint is `J = 1`). Each oscillator is kept in its rotating frame `x_i = Φ(ψ_i) z_i`
+//! (`docs/physics.md`, section 4): with the update row `h = [cos ψ_1, sin ψ_1, …, 1]`,
+//! `P(k|k−1) = P + Q`, `g = P hᵀ`, `S = R + h g`, `ẑ += g e / S`, `P −= g gᵀ / S`, and
+//! `Φ` never multiplies `P`. Every per-joint decision (skip, first sample, gap, jump,
+//! order held or off, load step) is a select, so a bank's passes over its joints can
+//! vectorize. The CPU-specific build is chosen in one place, `run`: on x86-64 with AVX2
+//! and FMA (std builds) the same step compiled with its multiply–adds fused.
 
 // Lane loops index several arrays by the same joint index (structure of arrays), and
 // `!(x <= limit)` is deliberate: NaN must count as out of range.
@@ -38,8 +21,7 @@ use crate::Real;
 /// Weight of the newest increment in the running mean that decides holding (1/16).
 const HOLD_AVERAGE: f64 = 1.0 / 16.0;
 
-/// What the kernel precomputes from a model (kept in the model, refreshed whenever a
-/// builder changes it).
+/// What the kernel precomputes from a model (refreshed whenever a builder changes it).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Plan<T: Real, const M: usize> {
     /// Nominal sample interval, s.
@@ -56,8 +38,7 @@ pub(crate) struct Plan<T: Real, const M: usize> {
     pub(crate) uses: [bool; 3],
     /// The reference index of each order.
     pub(crate) reference: [usize; M],
-    /// Whole multiple `n ≤ 16` of each order (its phasor is the reference's to the
-    /// `n`th power), or 0 for a fractional or larger multiple (own accumulated phase).
+    /// Whole multiple `n ≤ 16` of each order, or 0 (fractional or larger: own phase).
     pub(crate) power: [u8; M],
     /// Initial (and reset) variance of each order: its prior's, or the model's.
     pub(crate) p0_nm2: [T; M],
@@ -143,8 +124,7 @@ pub(crate) fn run<T: Real, const M: usize, const J: usize, const TRACE: bool>(
     run_portable::<T, M, J, TRACE>(model, bank, input, out, trace);
 }
 
-/// `advance` in the portable build. Out of line, so that a caller of [`run`] saves no
-/// registers for the build it does not take.
+/// `advance` in the portable build (out of line: callers save no registers for it).
 #[inline(never)]
 fn run_portable<T: Real, const M: usize, const J: usize, const TRACE: bool>(
     model: &RippleModel<T, M>,
@@ -169,70 +149,91 @@ fn run_fma<T: Real, const M: usize, const J: usize, const TRACE: bool>(
     advance::<T, M, J, true, TRACE>(model, bank, input, out, trace);
 }
 
-/// Every joint's step: `lane` for each, then the reset of joints whose covariance
-/// went bad.
+/// Every joint's step in passes over the joints, each a loop without a branch of its
+/// own so that a bank's loops can vectorize: decisions and time update, the orders' phasors
+/// (order by order), prediction and update; then the reset of joints gone bad.
 #[inline(always)]
 fn advance<T: Real, const M: usize, const J: usize, const F: bool, const TRACE: bool>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
     out: &mut BankOutput<T, J>,
+    trace: Option<&mut StepTrace<T, M>>,
+) {
+    if model.bias_q_nm2.is_some() {
+        passes::<T, M, J, F, true, TRACE>(model, bank, input, out, trace);
+    } else {
+        passes::<T, M, J, F, false, TRACE>(model, bank, input, out, trace);
+    }
+}
+
+/// What the first pass decided (`[order][joint]`, `[joint]`): order kept (else reset),
+/// increment (rad), process noise (N·m²); measurement used, gap, samples of noise.
+#[derive(Clone, Copy)]
+struct Decided<T, const M: usize, const J: usize> {
+    keep: [[bool; J]; M],
+    inc: [[T; J]; M],
+    q: [[T; J]; M],
+    meas_ok: [bool; J],
+    gap: [bool; J],
+    n_noise: [T; J],
+}
+
+/// The passes of [`advance`] for a model with (`BIAS`) or without the bias state.
+#[inline(always)]
+fn passes<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool, const TRACE: bool>(
+    model: &RippleModel<T, M>,
+    bank: &mut RippleBank<T, M, J>,
+    input: &BankInput<T, J>,
+    out: &mut BankOutput<T, J>,
     mut trace: Option<&mut StepTrace<T, M>>,
 ) {
-    let has_bias = model.bias_q_nm2.is_some();
+    let (no, zero) = ([[false; J]; M], [[T::ZERO; J]; M]);
+    let mut d = Decided { keep: no, inc: zero, q: zero, meas_ok: no[0], gap: no[0], n_noise: zero[0] };
+    bank.steps = bank.steps.map(|s| s.wrapping_add(1));
+    for l in 0..J {
+        decide::<T, M, J, F, BIAS>(model, bank, input, l, &mut d, out);
+    }
+    if J > 1 {
+        phasors::<T, M, J, F>(model, bank, input, &d.inc);
+    }
     let mut bad = [false; J];
     for l in 0..J {
         let tr = if TRACE && l == 0 { trace.as_deref_mut() } else { None };
-        bad[l] = if has_bias {
-            lane::<T, M, J, F, true, TRACE>(model, bank, input, l, out, tr)
-        } else {
-            lane::<T, M, J, F, false, TRACE>(model, bank, input, l, out, tr)
-        };
+        bad[l] = update::<T, M, J, F, BIAS, TRACE>(model, bank, input, l, &d, out, tr);
     }
-    if bad.iter().any(|&b| b) {
-        for l in 0..J {
-            if bad[l] {
-                bank.reset_lane(model, l);
-                out.flags[l].insert(StepFlags::COVARIANCE_RESET);
-                if has_bias {
-                    out.torque_state_nm[l] = input.expected_torque_nm[l] + bank.b[l];
-                }
-            }
+    for l in (0..J).filter(|&l| bad[l]) {
+        bank.reset_lane(model, l);
+        out.flags[l].insert(StepFlags::COVARIANCE_RESET);
+        if BIAS {
+            out.torque_state_nm[l] = input.expected_torque_nm[l] + bank.b[l];
         }
     }
 }
 
-/// Joint `l`'s whole step but the reset of a bad covariance: the decisions (input
-/// validity, reference increments `Δθ = wrap_π(θ(k) − θ(k−1))` or `(ω(k−1) + ω(k))/2 · dt`,
-/// encoder jumps and time gaps, each order's status), the phase bookkeeping and
-/// phasors, the time update, the prediction that is output and the measurement
-/// update, every decision applied as a select. Returns whether the covariance went bad.
+/// Joint `l`'s decisions (valid input, increments `Δθ = wrap_π(θ(k) − θ(k−1))` or
+/// `(ω(k−1) + ω(k))/2 · dt`, jumps, gaps, order status), phases and time update.
 #[allow(clippy::too_many_lines)]
 #[inline(always)]
-fn lane<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool, const TRACE: bool>(
+fn decide<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
     l: usize,
+    dec: &mut Decided<T, M, J>,
     out: &mut BankOutput<T, J>,
-    trace: Option<&mut StepTrace<T, M>>,
-) -> bool {
+) {
     let (plan, lim, orders) = (&model.plan, &model.limits, &model.orders);
     let angle_input = model.phase_source == PhaseSource::Angle;
     let dt = input.dt_s.unwrap_or(plan.dt_s);
     let dt_ok = finite(dt) & (dt > T::ZERO);
     let q_bias = model.bias_q_nm2.unwrap_or(T::ZERO);
     let refs = [input.references.relative[l], input.references.output[l], input.references.motor[l]];
-    let (torque, expected) = (input.torque_nm[l], input.expected_torque_nm[l]);
-    let y = torque - expected;
+    let y = input.torque_nm[l] - input.expected_torque_nm[l];
 
     // The sample: skipped (a used reference or `dt` not finite: the state stays as it
     // was, the next increment spans the gap), first, or after a time gap.
-    let mut refs_ok = dt_ok;
-    for r in 0..3 {
-        refs_ok &= !plan.uses[r] | finite(refs[r]);
-    }
-    let skip = !refs_ok;
+    let skip = !(0..3).fold(dt_ok, |ok, r| ok & (!plan.uses[r] | finite(refs[r])));
     let pending = bank.pending_samples[l];
     let n_samples = pending + T::ONE;
     let total_dt = bank.pending_dt[l] + dt;
@@ -243,12 +244,15 @@ fn lane<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool
     let counted = !skip & !first;
     let n_noise = if counted { n_samples } else { T::ZERO };
     let infl = if counted { lim.covariance_inflation } else { T::ZERO };
+    (dec.meas_ok[l], dec.gap[l], dec.n_noise[l]) = (meas_ok, gap, n_noise);
 
-    // Each reference: its increment, whether it jumped, its phase and phasor.
+    // Each reference: its increment, whether it jumped, its phase. A bank works out
+    // the unused ones too (a branch would stop its loop vectorizing) and keeps nothing
+    // of them.
     let (mut delta, mut jump, mut mean) = ([T::ZERO; 3], [false; 3], [T::ZERO; 3]);
-    let mut base = [Doubling::new(T::ONE, T::ZERO); 3];
     for r in 0..3 {
-        if !plan.uses[r] {
+        let used = plan.uses[r];
+        if J == 1 && !used {
             continue;
         }
         let (v, last) = (refs[r], bank.last[r][l]);
@@ -256,8 +260,8 @@ fn lane<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool
         // A glitch: an increment too large, or too different from the last one.
         let expected_d = bank.last_delta[r][l] * n_samples;
         let changed = bank.delta_known[l] & !((d - expected_d).abs() <= lim.max_step_change_rad);
-        let jumped = counted & (!(d.abs() <= lim.max_angle_step_rad) | changed);
-        let accept = counted & !jumped;
+        let jumped = used & counted & (!(d.abs() <= lim.max_angle_step_rad) | changed);
+        let accept = used & counted & !jumped;
         let per_sample = if pending == T::ZERO { d } else { d / n_samples };
         // Mean increment over ~16 samples: encoder jitter at standstill averages out of
         // it, so it alone decides whether an order is held.
@@ -270,17 +274,11 @@ fn lane<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool
         // The phase: the angle itself, or the accumulated increments.
         let psi = bank.psi[r][l];
         let next = wrap(if angle_input { v } else { psi + delta[r] });
-        let psi = if skip | (!angle_input & jumped) { psi } else { next };
-        bank.psi[r][l] = psi;
-        bank.last[r][l] = if skip { last } else { v };
-    }
-    for r in 0..3 {
-        if plan.uses[r] {
-            base[r] = sin_cos_with::<T, F>(bank.psi[r][l]);
-        }
+        let keep_psi = !used | skip | (!angle_input & jumped);
+        bank.psi[r][l] = if keep_psi { psi } else { next };
+        bank.last[r][l] = if skip | !used { last } else { v };
     }
     let any_jump = jump[0] | jump[1] | jump[2];
-    bank.steps[l] = bank.steps[l].wrapping_add(1);
     bank.has_last[l] |= !skip;
     // After a jump or a gap the next increment sets a new baseline.
     bank.delta_known[l] = if skip { bank.delta_known[l] } else { !first & !gap & !any_jump };
@@ -294,13 +292,9 @@ fn lane<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool
     flags.set(StepFlags::JUMP_RESET, !gap & any_jump);
 
     // Each order: its status (active, held or off), what the time update does with it
-    // (keep its state or restart from its prior, keep its covariances with the others),
-    // its process noise `q_i = q_s + q_rad |a_i|` and its phasor (times the load
-    // `|T_exp + b̂(k|k−1)|` for a load-scaled order).
-    let load = (expected + bank.b[l]).abs();
-    let load = if finite(load) { load } else { T::ZERO };
-    let (mut keep, mut couple, mut pred, mut upd) = ([true; M], [true; M], [true; M], [false; M]);
-    let (mut inc, mut q) = ([T::ZERO; M], [T::ZERO; M]);
+    // (keep its state or restart from its prior, keep its covariances with the others)
+    // and its process noise `q_i = q_s + q_rad |a_i|`.
+    let mut couple = [true; M];
     for i in 0..M {
         // The order's reference by selects, not by index: the per-reference values
         // then stay in registers.
@@ -325,35 +319,18 @@ fn lane<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool
         bank.status[i][l] = status;
         let (off, active) = (status == OrderStatus::Off, status == OrderStatus::Active);
         let zeroed = !skip & (reset | off);
-        keep[i] = !zeroed;
+        dec.keep[i][l] = !zeroed;
         couple[i] = skip | active;
-        pred[i] = !off;
-        upd[i] = meas_ok & active;
-        inc[i] = if zeroed { T::ZERO } else { a };
+        dec.inc[i][l] = if zeroed { T::ZERO } else { a };
         let q_i = madd::<T, F>(orders[i].q_per_sample_nm2 * n_noise, orders[i].q_per_rad_nm2, abs_a);
-        q[i] = if off | skip { T::ZERO } else { q_i };
+        dec.q[i][l] = if off | skip { T::ZERO } else { q_i };
         flags.set(StepFlags::ORDER_OFF, off);
         flags.set(StepFlags::ORDER_HELD, status == OrderStatus::Held);
-        let b = pick(&base, r);
-        let n = plan.power[i];
-        let ph = match n {
-            1 => b,
-            2 => b.doubled::<F>(),
-            4 => b.doubled::<F>().doubled::<F>(),
-            0 => {
-                // A fractional multiple: its own accumulated phase.
-                let psi = wrap(bank.order_psi[i][l] + inc[i]);
-                bank.order_psi[i][l] = psi;
-                sin_cos_with::<T, F>(psi)
-            }
-            n => {
-                let (c, s) = phasor_power_with::<T, F>(b.c, b.s, n);
-                Doubling::new(c, s)
-            }
-        };
-        let scale = if orders[i].load_scaled { load } else { T::ONE };
-        bank.phasor[i][0][l] = ph.c * scale;
-        bank.phasor[i][1][l] = ph.s * scale;
+    }
+    out.flags[l] = flags;
+    if J == 1 {
+        // One joint: its phasors now, so that their chain starts before the time update.
+        phasors::<T, M, J, F>(model, bank, input, &dec.inc);
     }
 
     // Time update: inflation `ρ (P_00 + P_11)/2 · I₂` (rotation invariant, like Q) and
@@ -361,25 +338,30 @@ fn lane<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool
     // forgets its covariances, an order not active is decoupled from the others.
     let grow = infl * T::HALF;
     for i in 0..M {
+        let (keep, q) = (dec.keep[i][l], dec.q[i][l]);
         let d = &mut bank.p[i][i];
         let (v0, v1) = (d[0][0][l], d[1][1][l]);
         let trace = v0 + v1;
-        let fresh = plan.p0_nm2[i] + q[i];
-        d[0][0][l] = if keep[i] { madd::<T, F>(v0, grow, trace) + q[i] } else { fresh };
-        d[1][1][l] = if keep[i] { madd::<T, F>(v1, grow, trace) + q[i] } else { fresh };
-        let off = if keep[i] { d[0][1][l] } else { T::ZERO };
+        let fresh = plan.p0_nm2[i] + q;
+        d[0][0][l] = if keep { madd::<T, F>(v0, grow, trace) + q } else { fresh };
+        d[1][1][l] = if keep { madd::<T, F>(v1, grow, trace) + q } else { fresh };
+        let off = if keep { d[0][1][l] } else { T::ZERO };
         d[0][1][l] = off;
         d[1][0][l] = off;
         for r in 0..2 {
-            bank.z[i][r][l] = if keep[i] { bank.z[i][r][l] } else { orders[i].prior_nm[r] };
+            bank.z[i][r][l] = if keep { bank.z[i][r][l] } else { orders[i].prior_nm[r] };
             if BIAS {
                 bank.pb[i][r][l] = if couple[i] { bank.pb[i][r][l] } else { T::ZERO };
             }
         }
-        for j in i + 1..M {
+        for j in 0..M {
+            // Constant bounds (no filter): every index is known, no bounds check is left.
             let both = couple[i] & couple[j];
-            for v in bank.p[i][j].iter_mut().flatten() {
-                v[l] = if both { v[l] } else { T::ZERO };
+            for r in 0..2 {
+                for c in 0..2 {
+                    let v = bank.p[i][j][r][c][l];
+                    bank.p[i][j][r][c][l] = if (j <= i) | both { v } else { T::ZERO };
+                }
             }
         }
     }
@@ -389,7 +371,72 @@ fn lane<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool
         let v = if gap & (v < model.p0_bias_nm2) { model.p0_bias_nm2 } else { v };
         bank.pbb[l] = madd::<T, F>(v, v, infl) + q_bias * n_noise;
     }
+}
 
+/// Each order's phasor (times `|T_exp + b̂(k|k−1)|` if load-scaled): its reference's to
+/// a whole power, or of its own phase (`inc`: increments) for a fractional multiple.
+#[inline(always)]
+fn phasors<T: Real, const M: usize, const J: usize, const F: bool>(
+    model: &RippleModel<T, M>,
+    bank: &mut RippleBank<T, M, J>,
+    input: &BankInput<T, J>,
+    inc: &[[T; J]; M],
+) {
+    let plan = &model.plan;
+    let mut base = [[[T::ZERO; J]; 2]; 3];
+    for r in 0..3 {
+        if plan.uses[r] {
+            for l in 0..J {
+                let p = sin_cos_with::<T, F>(bank.psi[r][l]);
+                (base[r][0][l], base[r][1][l]) = (p.c, p.s);
+            }
+        }
+    }
+    for i in 0..M {
+        let [c, s] = base[plan.reference[i]];
+        let ph = match plan.power[i] {
+            1 => [c, s],
+            2 => each_lane(&c, &s, |_, b| b.doubled::<F>()),
+            4 => each_lane(&c, &s, |_, b| b.doubled::<F>().doubled::<F>()),
+            0 => {
+                // A fractional multiple: its own accumulated phase.
+                for l in 0..J {
+                    bank.order_psi[i][l] = wrap(bank.order_psi[i][l] + inc[i][l]);
+                }
+                let psi = bank.order_psi[i];
+                each_lane(&c, &s, |l, _| sin_cos_with::<T, F>(psi[l]))
+            }
+            n => each_lane(&c, &s, |_, b| {
+                let (c, s) = phasor_power_with::<T, F>(b.c, b.s, n);
+                Doubling::new(c, s)
+            }),
+        };
+        for l in 0..J {
+            let load = (input.expected_torque_nm[l] + bank.b[l]).abs();
+            let load = if finite(load) { load } else { T::ZERO };
+            let scale = if model.orders[i].load_scaled { load } else { T::ONE };
+            bank.phasor[i][0][l] = ph[0][l] * scale;
+            bank.phasor[i][1][l] = ph[1][l] * scale;
+        }
+    }
+}
+
+/// Joint `l`'s prediction (the output) and measurement update; whether it went bad.
+#[allow(clippy::too_many_lines)]
+#[inline(always)]
+fn update<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool, const TRACE: bool>(
+    model: &RippleModel<T, M>,
+    bank: &mut RippleBank<T, M, J>,
+    input: &BankInput<T, J>,
+    l: usize,
+    dec: &Decided<T, M, J>,
+    out: &mut BankOutput<T, J>,
+    trace: Option<&mut StepTrace<T, M>>,
+) -> bool {
+    let (lim, orders) = (&model.limits, &model.orders);
+    let (torque, expected) = (input.torque_nm[l], input.expected_torque_nm[l]);
+    let y = torque - expected;
+    let meas_ok = dec.meas_ok[l];
     // Prediction ŷ(k) = h ẑ(k|k−1) (every order not off) and the update row h (the
     // orders updated; the bias entry is 1 when the measurement is used).
     let (mut ripple, mut mis) = (T::ZERO, T::ZERO);
@@ -398,7 +445,8 @@ fn lane<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool
     for i in 0..M {
         let (c, s) = (bank.phasor[i][0][l], bank.phasor[i][1][l]);
         let v = madd::<T, F>(c * bank.z[i][0][l], s, bank.z[i][1][l]);
-        let v = if pred[i] { v } else { T::ZERO };
+        let status = bank.status[i][l];
+        let v = if status != OrderStatus::Off { v } else { T::ZERO };
         if orders[i].reference.is_ripple() {
             ripple = sum_from(!any_ripple, ripple, v);
             any_ripple = true;
@@ -406,7 +454,7 @@ fn lane<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool
             mis = sum_from(!any_mis, mis, v);
             any_mis = true;
         }
-        h[i] = if upd[i] { [c, s] } else { [T::ZERO; 2] };
+        h[i] = if meas_ok & (status == OrderStatus::Active) { [c, s] } else { [T::ZERO; 2] };
     }
 
     // Gains g = P hᵀ from the upper blocks of the symmetric P, and the bias entry.
@@ -441,20 +489,12 @@ fn lane<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool
     let e_used = if meas_ok { e } else { T::ZERO };
     let load_step = BIAS & (lim.load_step_nis > T::ZERO) & (e_used * e_used > lim.load_step_nis * s_var);
     let inv = if load_step { T::ZERO } else { T::ONE / s_var };
-    flags.set(StepFlags::LOAD_STEP, load_step);
+    out.flags[l].set(StepFlags::LOAD_STEP, load_step);
     let mut trace = trace;
     if let Some(tr) = trace.as_deref_mut().filter(|_| TRACE) {
         let row_b = if BIAS && meas_ok { T::ONE } else { T::ZERO };
-        let masks = [keep, pred];
-        record(
-            tr,
-            bank,
-            l,
-            (inc, q, masks, h, g),
-            [q_bias * n_noise, row_b, gb, s_var, e_used, y],
-            BIAS & gap,
-            load_step,
-        );
+        let q_b = model.bias_q_nm2.unwrap_or(T::ZERO) * dec.n_noise[l];
+        record(tr, bank, l, dec, (h, g), [q_b, row_b, gb, s_var, e_used, y], [BIAS, load_step]);
     }
 
     // Measurement update `ẑ += g e / S`, `P −= g gᵀ / S` (upper blocks; each product
@@ -473,7 +513,7 @@ fn lane<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool
         let off = madd::<T, F>(d[0][1][l], -(g0 * g1), inv);
         d[0][1][l] = off;
         d[1][0][l] = off;
-        for j in i + 1..M {
+        for j in (0..M).filter(|&j| j > i) {
             let [gj0, gj1] = g[j];
             let b = &mut bank.p[i][j];
             b[0][0][l] = madd::<T, F>(b[0][0][l], -(g0 * gj0), inv);
@@ -519,7 +559,6 @@ fn lane<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool
     out.innovation_nm[l] = e;
     out.innovation_variance_nm2[l] = s_var;
     out.nis[l] = e * e / s_var;
-    out.flags[l] = flags;
     !healthy(BIAS, bank, l, s_var)
 }
 
@@ -549,6 +588,21 @@ pub(super) fn healthy<T: Real, const M: usize, const J: usize>(
         low = low.min(bank.pbb[l]);
     }
     finite(total) & (low >= T::ZERO) & (s_var > T::ZERO)
+}
+
+/// `f(l, (cos, sin))` of each lane `l` of the phasors `(c, s)`, as `[cos, sin]` lanes.
+#[inline(always)]
+fn each_lane<T: Real, const J: usize>(
+    c: &[T; J],
+    s: &[T; J],
+    f: impl Fn(usize, Doubling<T>) -> Doubling<T>,
+) -> [[T; J]; 2] {
+    let mut ph = [[T::ZERO; J]; 2];
+    for l in 0..J {
+        let p = f(l, Doubling::new(c[l], s[l]));
+        (ph[0][l], ph[1][l]) = (p.c, p.s);
+    }
+    ph
 }
 
 /// `P_ij h_j` for joint `l` (two entries of `g_i`), from the upper blocks of the
@@ -629,30 +683,29 @@ fn gaussian<T: Real, const M: usize, const J: usize>(bank: &RippleBank<T, M, J>,
     g
 }
 
-/// Per order: increments, process noise, [kept, predicted], update row, gains.
-type OrderQuantities<T, const M: usize> = ([T; M], [T; M], [[bool; M]; 2], [[T; 2]; M], [[T; 2]; M]);
-
-/// Joint `l`'s quantities of this step into `tr`, before the measurement update;
-/// `scalars`: bias noise, update row and gain entries, `S`, the innovation used, `y`.
+/// Joint `l`'s quantities of this step into `tr`, before the measurement update: what
+/// `dec` decided, the update row and gains `(h, g)`; `scalars`: bias noise, update row
+/// and gain entries, `S`, the innovation used, `y`.
 #[inline(never)]
 fn record<T: Real, const M: usize, const J: usize>(
     tr: &mut StepTrace<T, M>,
     bank: &RippleBank<T, M, J>,
     l: usize,
-    (inc, q, [kept, predicted], h, g): OrderQuantities<T, M>,
+    dec: &Decided<T, M, J>,
+    (h, g): ([[T; 2]; M], [[T; 2]; M]),
     [q_b, row_b, g_b, s_var, e_used, y]: [T; 6],
-    reinflated: bool,
-    load_step: bool,
+    [bias, load_step]: [bool; 2],
 ) {
-    (tr.increment_rad, tr.q_nm2, tr.kept, tr.predicted, tr.update_row, tr.gain_numerator) =
-        (inc, q, kept, predicted, h, g);
     for i in 0..M {
+        (tr.increment_rad[i], tr.q_nm2[i], tr.kept[i], tr.predicted[i]) =
+            (dec.inc[i][l], dec.q[i][l], dec.keep[i][l], bank.status[i][l] != OrderStatus::Off);
         tr.phasor[i] = [bank.phasor[i][0][l], bank.phasor[i][1][l]];
     }
+    (tr.update_row, tr.gain_numerator) = (h, g);
     tr.prior = gaussian(bank, l);
     (tr.q_bias_nm2, tr.update_row_bias, tr.gain_numerator_bias) = (q_b, row_b, g_b);
     (tr.innovation_variance_nm2, tr.innovation_used_nm, tr.measurement_nm) = (s_var, e_used, y);
-    tr.bias_reinflated = reinflated;
+    tr.bias_reinflated = bias & dec.gap[l];
     tr.load_step = load_step;
 }
 

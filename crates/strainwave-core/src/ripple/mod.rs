@@ -16,10 +16,6 @@
 //! T̂(k)   = T_meas(k) − C_osc x̂(k|k−1)
 //! ```
 //!
-//! Implementation: each oscillator is kept in its rotating frame `x_i = Φ(ψ_i) z_i`: the
-//! same filter, but `Φ` never multiplies `P`. One step, in [`kernel`], serves one joint
-//! ([`step`]) and banks of joints ([`step_many`]) alike.
-//!
 //! **Feeding angles.** Each sample carries the three reference angles in
 //! [`ReferenceValues`] (`relative` = `φ = θ_wg − θ_fs`, wave generator minus flexspline; `output`; `motor`),
 //! e.g. [`ReferenceValues::from_gear`] from the two encoders; only the references some

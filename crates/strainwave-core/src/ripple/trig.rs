@@ -1,9 +1,7 @@
 //! Branch-free sine and cosine of a wrapped phase, phasor powers, the orders' phasors
 //! of a step and angle wrapping.
 //!
-//! The filter needs `(cos ψ, sin ψ)` of each oscillator's phase `ψ = n θ` every sample,
-//! with `θ` wrapped into `[−π, π]`, so the argument never needs a general range
-//! reduction:
+//! The phase `θ` is wrapped into `[−π, π]`, so no general range reduction is needed:
 //!
 //! ```text
 //! h = a / 4                       |h| ≤ π/4
@@ -12,15 +10,10 @@
 //! sin 2h = (2 sin h) cos h,  cos 2h = 1 − (2 sin h) sin h      applied twice
 //! ```
 //!
-//! The polynomial error is below 4e-18 (f64) and 1e-9 (f32) on |h| ≤ π/4; the two
-//! doublings multiply it by at most 4. There is no branch and no table, so the loop
-//! over the lanes of a joint bank vectorizes. Whole multiples of a reference angle
-//! come from its phasor by the same doubling ([`Doubling::doubled`]), so a step needs one
-//! sine/cosine per reference angle, not one per order.
-//!
-//! Each doubling carries the phasor's double along ([`Doubling`]), which rounds exactly
-//! like the phasor (doubling is exact): one multiply–add per doubling on the chain from
-//! the angle to the orders' phasors instead of two.
+//! Error below 4e-18 (f64) and 1e-9 (f32) on |h| ≤ π/4, times at most 4 after the
+//! doublings. No branch and no table, so a bank's lane loop vectorizes. Whole multiples
+//! of a reference angle come from its phasor by doubling ([`Doubling::doubled`], which
+//! carries the phasor's exact double along: one multiply–add per doubling).
 
 use super::kernel::madd;
 use crate::Real;
@@ -77,17 +70,8 @@ fn estrin<T: Real, const N: usize, const F: bool>(c: &[f64; N], x: T) -> T {
     madd::<T, F>(low, x4, high)
 }
 
-/// `(sin a, cos a)` for `|a| ≤ π`; arguments beyond are clamped to `±π` (NaN to `−π`),
-/// so the result is always a finite unit vector.
-///
-/// Accurate to a few ulp of 1 (absolute) over the whole range.
-#[cfg(test)]
-fn sin_cos_small<T: Real>(a: T) -> (T, T) {
-    let p = sin_cos_with::<T, false>(a);
-    (p.s, p.c)
-}
-
-/// The phasor `(cos a, sin a)` of [`sin_cos_small`] with its double, its multiply–adds
+/// The phasor `(cos a, sin a)` for `|a| ≤ π` (beyond: clamped to `±π`, NaN to `−π`, so
+/// always a finite unit vector) with its double, its multiply–adds
 /// fused in the build `F` (see [`madd`]).
 #[inline(always)]
 pub(super) fn sin_cos_with<T: Real, const F: bool>(a: T) -> Doubling<T> {
@@ -221,6 +205,15 @@ pub(super) fn wrap_angle<T: Real>(x: T) -> T {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `(sin a, cos a)` for `|a| ≤ π`; arguments beyond are clamped to `±π` (NaN to `−π`),
+    /// so the result is always a finite unit vector.
+    ///
+    /// Accurate to a few ulp of 1 (absolute) over the whole range.
+    fn sin_cos_small<T: Real>(a: T) -> (T, T) {
+        let p = sin_cos_with::<T, false>(a);
+        (p.s, p.c)
+    }
 
     const TOL_F64: f64 = 2e-15;
     const TOL_F32: f64 = 1.5e-6;

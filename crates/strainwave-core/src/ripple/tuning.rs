@@ -1,33 +1,10 @@
 //! From a tracking bandwidth in Hz to process noise, and back.
 //!
-//! **Oscillator.** At constant speed one oscillator's steady-state prediction filter is a
-//! resonator `H(z) = ŷ/y` with unit gain at its line `f0` (and a notch `1 − H` in the
-//! clean torque). In the rotating frame the oscillator is a 2-D random walk `z` seen
-//! through `h = (cos ψ, sin ψ)`; averaged over a turn `E hᵀh = I/2`, so with `P ≈ p I`
-//!
-//! ```text
-//! steady state   p² / (2 (R + p)) = q      →  p = q + √(q² + 2 q R)   (≈ √(2 q R))
-//! error decay    z̃⁺ = (1 − δ) z̃,  δ = p / (2 (R + p))               (≈ √(q / 2R))
-//! ```
-//!
-//! The envelope follows a first-order loop with pole `1 − δ`, whose −3 dB point is `δ`
-//! rad/sample from the line: the resonator's −3 dB half-width is `B = δ fs / 2π`, so
-//!
-//! ```text
-//! δ = 2π B / fs,   p = 2 R δ / (1 − 2δ),   q = p² / (2 (R + p))     (≈ 2 R δ²)
-//! q_rad = q / |a|,  a = 2π f_line / fs    (per radian of the order's phase, at f_line)
-//! ```
-//!
-//! Checked against the exact steady state (unit tests, 20–400 Hz lines at 1 kHz): the
-//! closed-loop pole gives `B` within 3 %, and the mean of the two −3 dB offsets of
-//! `|H|` is within 6 % of `B` (the prediction form makes them slightly asymmetric).
-//! The approximation needs `B ≪ f0` and `f0` away from 0 and `fs/2` (where the line's
-//! mirror image interferes); [`oscillator_q_calibrated`] solves the exact steady-state
-//! Riccati equation instead and bisects `q` until the pole gives exactly `B`.
-//!
-//! **Random walk (bias state).** Exact: with prediction variance `p`,
-//! `p² = q (p + R)`, gain `K = p / (p + R)`, pole `ρ = 1 − K`; the low-pass
-//! `K / |e^{iω} − ρ|` is at −3 dB where `ρ² − (4 − 2 cos ω) ρ + 1 = 0`, and `q = R K² / (1 − K)`.
+//! An oscillator's steady-state prediction filter is a resonator with unit gain at its
+//! line; its −3 dB half-width `B` sets `δ = 2π B / fs`, `p = 2 R δ / (1 − 2δ)` and
+//! `q = p² / (2 (R + p))` (≈ 2 R δ²), `q_rad = q / |a|`. A random walk's `q = R K² / (1 − K)`
+//! for the gain `K` of its −3 dB point. The derivation is in `docs/physics.md` (section
+//! 4, "Tuning by bandwidth"); [`oscillator_q_calibrated`] solves the exact steady state.
 //!
 //! All computations run in f64 whatever `T`.
 
