@@ -9,8 +9,10 @@
 pub mod canceller;
 pub mod config;
 pub mod discover;
+pub mod estimate;
 pub mod export_c;
 pub mod health;
+pub mod identify;
 pub mod identity;
 pub mod learn;
 pub mod learned;
