@@ -126,3 +126,28 @@ def test_estimate_errors_are_the_cli_errors(cli, runs, tmp_path):
     with pytest.raises(sw.StrainwaveError) as e:
         sw.estimate(runs["step"], config=edited)
     assert str(e.value) == expected
+
+
+def test_identify_lets_other_threads_run(runs):
+    import threading
+    import time
+
+    frame = sw.read_recording(runs["ld"])
+    span = {}
+
+    def work():
+        t0 = time.perf_counter()
+        sw.identify(frame, config=CONFIG)
+        span["s"] = time.perf_counter() - t0
+
+    ticks = []
+    t = threading.Thread(target=work)
+    t.start()
+    while t.is_alive():
+        ticks.append(time.perf_counter())
+        sum(range(200))
+    t.join()
+    gaps = np.diff(ticks)
+    assert span["s"] > 0.05, f"the call took {span['s']:.3f} s, too short to tell"
+    # With the GIL held for the whole fit, this thread would stall for about its length.
+    assert gaps.max() < 0.5 * span["s"], f"longest stall {gaps.max():.3f} s of a {span['s']:.3f} s call"
