@@ -107,7 +107,7 @@ pub fn load_run(cfg: &ArmConfig, input: RunInput<'_>, with_reference: bool, leni
         used.push(("time", t));
     }
     let cols: Vec<(&str, &Channel, &[f64])> =
-        used.iter().map(|(k, c)| Ok((*k, *c, column(&table, c, k, path)?))).collect::<Result<_>>()?;
+        used.iter().map(|(k, c)| Ok((*k, *c, column(table, c, k, path)?))).collect::<Result<_>>()?;
     let mut rows = Vec::with_capacity(table.rows());
     let (mut skipped, mut first_skipped) = (0usize, None);
     for k in 0..table.rows() {
