@@ -35,7 +35,7 @@ def fuse(
 
     Example::
 
-        >>> rec = sw.simulate("kit-bench", duration=1, seed=1)
+        >>> rec = sw.read_recording("bench.csv")   # strainwave simulate --preset kit-bench
         >>> out = sw.fuse(rec, config="examples/bench-kit.toml", reference="true_dut_torque")
         >>> print(out.attrs["strainwave_report"])
     """
