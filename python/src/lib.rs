@@ -7,9 +7,11 @@
 
 use pyo3::prelude::*;
 
+mod bench;
 mod calibrate;
 mod canceller;
 mod columns;
+mod encoders;
 mod error;
 mod filter;
 mod recording;
@@ -29,6 +31,9 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(spectra::welch_psd, m)?)?;
     m.add_function(wrap_pyfunction!(spectra::stft_frames, m)?)?;
     m.add_function(wrap_pyfunction!(spectra::order_slice_blocks, m)?)?;
+    m.add_function(wrap_pyfunction!(encoders::identify_runs, m)?)?;
+    m.add_function(wrap_pyfunction!(encoders::estimate_columns, m)?)?;
+    m.add_function(wrap_pyfunction!(bench::fuse_columns, m)?)?;
     m.add("OUTPUT_COLUMNS", strainwave_joint::OUTPUT_COLUMNS.to_vec())?;
     Ok(())
 }

@@ -14,17 +14,23 @@ Example::
 """
 
 from ._native import OUTPUT_COLUMNS, StrainwaveError
+from .bench import fuse
 from .calibrate import calibrate
+from .encoders import Identified, estimate, identify
 from .canceller import RippleCanceller
 from .recording import filter_recording, read_recording, simulate, write_recording
 from .spectra import orders, sample_rate_hz, stft, welch
 
 __all__ = [
+    "Identified",
     "OUTPUT_COLUMNS",
     "RippleCanceller",
     "StrainwaveError",
     "calibrate",
+    "estimate",
     "filter_recording",
+    "fuse",
+    "identify",
     "orders",
     "read_recording",
     "sample_rate_hz",

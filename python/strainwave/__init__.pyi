@@ -1,5 +1,7 @@
 from ._native import OUTPUT_COLUMNS as OUTPUT_COLUMNS, StrainwaveError as StrainwaveError
+from .bench import fuse as fuse
 from .calibrate import calibrate as calibrate
+from .encoders import Identified as Identified, estimate as estimate, identify as identify
 from .canceller import RippleCanceller as RippleCanceller
 from .recording import (
     filter_recording as filter_recording,

@@ -104,3 +104,25 @@ def calibrate_experiments(
     degree: int = ...,
     extrapolation: str = ...,
 ) -> str: ...
+def identify_runs(
+    config: str,
+    loaded: Any,
+    no_load: Any = ...,
+    *,
+    out: Optional[str] = ...,
+    holdout: Optional[int] = ...,
+    lenient: bool = ...,
+    allow_unconverged: bool = ...,
+) -> tuple[str, str]: ...
+def estimate_columns(
+    config: str, names: list[str], arrays: list[npt.NDArray[np.float64]], *, input_name: str
+) -> tuple[list[str], list[npt.NDArray[np.float64]], str]: ...
+def fuse_columns(
+    config: str,
+    names: list[str],
+    arrays: list[npt.NDArray[np.float64]],
+    *,
+    input_name: str,
+    method: str = ...,
+    reference: Optional[str] = ...,
+) -> tuple[list[str], list[npt.NDArray[np.float64]], str]: ...

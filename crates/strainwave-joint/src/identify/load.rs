@@ -1,8 +1,6 @@
 //! Reading a recording for `identify`: encoder counts or angles into gear-convention
 //! angles, the reference torque, non-finite values refused (or skipped with `--lenient`).
 
-use std::path::Path;
-
 use anyhow::{bail, Context, Result};
 use strainwave_core::compliance::ThreeSlopeStiffness;
 use strainwave_core::gear::Gear;
@@ -10,6 +8,7 @@ use strainwave_core::torsion::{EstimatorState, NoKinematicError, TorqueSolver, T
 use strainwave_io::Channel;
 
 use super::config::{ArmConfig, EncodersConfig};
+use super::RunInput;
 
 /// Motor and link angles (gear convention, unwrapped) of a recording, with the rows kept.
 pub struct Run {
@@ -27,14 +26,9 @@ pub struct Run {
     pub first_skipped: Option<usize>,
 }
 
-fn column<'a>(t: &'a strainwave_io::Table, ch: &Channel, key: &str, path: &Path) -> Result<&'a [f64]> {
+fn column<'a>(t: &'a strainwave_io::Table, ch: &Channel, key: &str, path: &str) -> Result<&'a [f64]> {
     t.column(ch.column_name()).with_context(|| {
-        format!(
-            "{}: no column `{}` (channels.{key}); columns: {}",
-            path.display(),
-            ch.column_name(),
-            t.columns.join(", ")
-        )
+        format!("{path}: no column `{}` (channels.{key}); columns: {}", ch.column_name(), t.columns.join(", "))
     })
 }
 
@@ -60,7 +54,7 @@ fn angles_from_counts(
     motor: &[f64],
     link: &[f64],
     rows: &[usize],
-    path: &Path,
+    path: &str,
 ) -> Result<(Vec<f64>, Vec<f64>)> {
     let (m, l) = enc.configs()?;
     let spring = ThreeSlopeStiffness::linear(1.0e4).map_err(|e| anyhow::anyhow!("{e}"))?;
@@ -72,17 +66,13 @@ fn angles_from_counts(
     for &k in rows {
         let (mc, lc) = (motor[k], link[k]);
         if mc.fract() != 0.0 || lc.fract() != 0.0 || mc.abs() > 9.0e15 || lc.abs() > 9.0e15 {
-            bail!("{}: data row {}: encoder counts {mc}, {lc} are not whole numbers", path.display(), k + 1);
+            bail!("{path}: data row {}: encoder counts {mc}, {lc} are not whole numbers", k + 1);
         }
         let e = est
             .step_counts(&mut st, mc as i64, lc as i64)
-            .map_err(|e| anyhow::anyhow!("{}: data row {}: {e}", path.display(), k + 1))?;
+            .map_err(|e| anyhow::anyhow!("{}: data row {}: {e}", path, k + 1))?;
         if e.flags.any_jump() {
-            bail!(
-                "{}: data row {}: encoder count jumped (wrapping counter? check encoders.single_turn)",
-                path.display(),
-                k + 1
-            );
+            bail!("{}: data row {}: encoder count jumped (wrapping counter? check encoders.single_turn)", path, k + 1);
         }
         la.push(e.output_angle_rad);
         ma.push((e.output_angle_rad - e.torsion_rad) * n_s);
@@ -93,10 +83,18 @@ fn angles_from_counts(
 /// Reads a recording. `with_reference` asks for the reference torque. A non-finite
 /// value in a used column is an error naming the data row (1-based) and column, or with
 /// `lenient` the row is skipped and counted.
-pub fn load_run(cfg: &ArmConfig, path: &Path, with_reference: bool, lenient: bool) -> Result<Run> {
-    let table = strainwave_io::read_all(path).with_context(|| format!("{}", path.display()))?;
+pub fn load_run(cfg: &ArmConfig, input: RunInput<'_>, with_reference: bool, lenient: bool) -> Result<Run> {
+    let read;
+    let (table, path) = match input {
+        RunInput::File(p) => {
+            read = strainwave_io::read_all(p).with_context(|| format!("{}", p.display()))?;
+            (&read, p.display().to_string())
+        }
+        RunInput::Table { table, name } => (table, name.to_string()),
+    };
+    let path = path.as_str();
     if table.rows() < 20 {
-        bail!("{}: {} rows, too short to identify from", path.display(), table.rows());
+        bail!("{}: {} rows, too short to identify from", path, table.rows());
     }
     let gear = cfg.gear.gear()?;
     let ch = &cfg.channels;
@@ -109,7 +107,7 @@ pub fn load_run(cfg: &ArmConfig, path: &Path, with_reference: bool, lenient: boo
         used.push(("time", t));
     }
     let cols: Vec<(&str, &Channel, &[f64])> =
-        used.iter().map(|(k, c)| Ok((*k, *c, column(&table, c, k, path)?))).collect::<Result<_>>()?;
+        used.iter().map(|(k, c)| Ok((*k, *c, column(table, c, k, path)?))).collect::<Result<_>>()?;
     let mut rows = Vec::with_capacity(table.rows());
     let (mut skipped, mut first_skipped) = (0usize, None);
     for k in 0..table.rows() {
@@ -117,7 +115,7 @@ pub fn load_run(cfg: &ArmConfig, path: &Path, with_reference: bool, lenient: boo
             if !lenient {
                 bail!(
                     "{}: data row {}: column `{}` (channels.{key}) is {} (use --lenient to skip such rows)",
-                    path.display(),
+                    path,
                     k + 1,
                     c.column_name(),
                     v[k]
@@ -130,7 +128,7 @@ pub fn load_run(cfg: &ArmConfig, path: &Path, with_reference: bool, lenient: boo
         rows.push(k);
     }
     if rows.len() < 20 {
-        bail!("{}: {} usable rows, too few to identify from", path.display(), rows.len());
+        bail!("{}: {} usable rows, too few to identify from", path, rows.len());
     }
     let scaled = |c: &Channel, v: &[f64]| -> Vec<f64> {
         let (s, o) = c.scale_offset();
@@ -153,7 +151,7 @@ pub fn load_run(cfg: &ArmConfig, path: &Path, with_reference: bool, lenient: boo
 }
 
 /// The sample rate: given, or from the time channel.
-pub fn sample_rate(cfg: &ArmConfig, run: &Run, path: &Path) -> Result<f64> {
+pub fn sample_rate(cfg: &ArmConfig, run: &Run, path: &str) -> Result<f64> {
     if let Some(fs) = cfg.sample_rate_hz {
         if !(fs.is_finite() && fs > 0.0) {
             bail!("sample_rate_hz: must be positive, got {fs}");
@@ -163,7 +161,7 @@ pub fn sample_rate(cfg: &ArmConfig, run: &Run, path: &Path) -> Result<f64> {
     let Some(t) = &run.time else { bail!("give sample_rate_hz or channels.time") };
     let span = t[t.len() - 1] - t[0];
     if !(span.is_finite() && span > 0.0) {
-        bail!("{}: time does not increase", path.display());
+        bail!("{}: time does not increase", path);
     }
     Ok((t.len() - 1) as f64 / span)
 }

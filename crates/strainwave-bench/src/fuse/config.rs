@@ -1,0 +1,192 @@
+//! The bench configuration `fuse` reads (`--config BENCH.toml`, see
+//! `examples/bench-kit.toml`): the columns, the accelerometer pair, the crossover and the
+//! mechanics the corrected methods invert.
+
+use std::path::Path;
+
+use anyhow::{bail, Context, Result};
+use serde::Deserialize;
+use strainwave_core::fusion::{
+    AccelerometerModel, CrossoverOrder, OnlineCorrectedFusion, OnlineCorrectionConfig, TorsionShaftModel,
+};
+
+/// Column names in the recording.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Columns {
+    /// Time, s.
+    #[serde(default = "default_time")]
+    pub time: String,
+    /// Torsion-shaft torque, N·m.
+    pub torsion: String,
+    /// First accelerometer, m/s² (with `accel_2`).
+    pub accel_1: Option<String>,
+    /// Second accelerometer, m/s², mounted opposite.
+    pub accel_2: Option<String>,
+    /// Accelerometer torque `J_S (a1 + a2) / (2R)`, N·m (instead of `accel_1`/`accel_2`).
+    pub accel_torque: Option<String>,
+}
+
+fn default_time() -> String {
+    "time".into()
+}
+
+/// Mechanics used by the `online-corrected` and `corrected` methods.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Model {
+    /// `J_R`, kg·m².
+    pub rotor_inertia_kg_m2: f64,
+    /// `J_B`, kg·m².
+    pub brake_inertia_kg_m2: f64,
+    /// `k`, N·m/rad.
+    pub shaft_stiffness_nm_per_rad: f64,
+    /// `Γ` (the shaft sees `2Γ`), N·m·s/rad.
+    pub bearing_damping_nm_s_per_rad: f64,
+    /// `k_S`, N·m/rad.
+    pub coupling_stiffness_nm_per_rad: f64,
+    /// `Γ_LS`, N·m·s/rad.
+    pub stator_damping_nm_s_per_rad: f64,
+    /// Taps of each correction FIR (odd).
+    #[serde(default = "default_taps")]
+    pub fir_taps: usize,
+    /// Crossover of `online-corrected` (`|LP| = |HP|`), Hz.
+    #[serde(default = "default_online_crossover")]
+    pub online_crossover_hz: f64,
+    /// Below this the `online-corrected` torsion gain returns from `(J_B + J_R)/J_B` to 1
+    /// (a steady torque is carried by the brake), Hz; 0: never.
+    #[serde(default = "default_static_corner")]
+    pub static_corner_hz: f64,
+}
+
+/// Most taps of a correction FIR (2¹⁸ + 1: 262 s at 1 kHz).
+pub const MAX_FIR_TAPS: usize = (1 << 18) + 1;
+
+fn default_taps() -> usize {
+    8191
+}
+
+fn default_online_crossover() -> f64 {
+    OnlineCorrectionConfig::<f64>::kit().crossover_hz
+}
+
+fn default_static_corner() -> f64 {
+    OnlineCorrectionConfig::<f64>::kit().static_corner_hz
+}
+
+impl Model {
+    /// The torsion-shaft and housing models (`J_S` from the top level).
+    pub(super) fn paths(
+        &self,
+        stator_inertia_kg_m2: f64,
+        config: &str,
+    ) -> Result<(TorsionShaftModel<f64>, AccelerometerModel<f64>)> {
+        let bad = |e: strainwave_core::Error| anyhow::anyhow!("{config}: [model]: {e}");
+        let ts = TorsionShaftModel::new(
+            self.rotor_inertia_kg_m2,
+            self.brake_inertia_kg_m2,
+            self.shaft_stiffness_nm_per_rad,
+            self.bearing_damping_nm_s_per_rad,
+        )
+        .map_err(bad)?;
+        let acc = AccelerometerModel::new(
+            stator_inertia_kg_m2,
+            self.coupling_stiffness_nm_per_rad,
+            self.stator_damping_nm_s_per_rad,
+        )
+        .map_err(bad)?;
+        Ok((ts, acc))
+    }
+
+    /// The online corrected fusion at `fs`.
+    pub(super) fn online(
+        &self,
+        stator_inertia_kg_m2: f64,
+        fs: f64,
+        config: &str,
+    ) -> Result<OnlineCorrectedFusion<f64>> {
+        let (ts, acc) = self.paths(stator_inertia_kg_m2, config)?;
+        let cfg =
+            OnlineCorrectionConfig { crossover_hz: self.online_crossover_hz, static_corner_hz: self.static_corner_hz };
+        OnlineCorrectedFusion::new(&ts, &acc, &cfg, fs).map_err(|e| {
+            let e = e.to_string().replace("`crossover_hz`", "`online_crossover_hz`");
+            anyhow::anyhow!("{config}: [model]: {e} (at {fs} Hz sampling)")
+        })
+    }
+}
+
+/// A bench configuration file.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BenchConfig {
+    /// Columns.
+    pub columns: Columns,
+    /// `J_S`, kg·m².
+    pub stator_inertia_kg_m2: f64,
+    /// `R`, m.
+    pub radius_m: f64,
+    /// Crossover, Hz.
+    pub crossover_hz: f64,
+    /// Order of the complementary pair: 1 or 2.
+    #[serde(default = "default_order")]
+    pub order: u32,
+    /// Sample rate, Hz (default: from the time column).
+    pub sample_rate_hz: Option<f64>,
+    /// Mechanics for `corrected`.
+    pub model: Option<Model>,
+}
+
+fn default_order() -> u32 {
+    2
+}
+
+impl BenchConfig {
+    /// Reads and checks a configuration.
+    pub fn load(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
+        let c: Self = toml::from_str(&text).map_err(|e| strainwave_joint::toml_error::one_line(path, &text, &e))?;
+        for (v, key) in [
+            (c.stator_inertia_kg_m2, "stator_inertia_kg_m2"),
+            (c.radius_m, "radius_m"),
+            (c.crossover_hz, "crossover_hz"),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                bail!("{}: `{key}` must be positive, got {v}", path.display());
+            }
+        }
+        if !matches!(c.order, 1 | 2) {
+            bail!("{}: `order` must be 1 or 2, got {}", path.display(), c.order);
+        }
+        let cols = &c.columns;
+        match (&cols.accel_1, &cols.accel_2, &cols.accel_torque) {
+            (Some(_), Some(_), None) | (None, None, Some(_)) => {}
+            _ => bail!("{}: `columns` needs `accel_1` and `accel_2`, or `accel_torque`", path.display()),
+        }
+        Ok(c)
+    }
+
+    pub(super) fn crossover_order(&self) -> CrossoverOrder {
+        if self.order == 1 {
+            CrossoverOrder::First
+        } else {
+            CrossoverOrder::Second
+        }
+    }
+
+    /// The `[model]` section, required by `method`.
+    pub(super) fn model(&self, method: &str, config: &str) -> Result<&Model> {
+        self.model.as_ref().with_context(|| format!("{config}: the `{method}` method needs a `[model]` section"))
+    }
+
+    /// Checks the crossover against the sample rate.
+    pub(super) fn check_crossover(&self, fs: f64, config: &str) -> Result<()> {
+        if self.crossover_hz >= fs / 2.0 {
+            bail!(
+                "{config}: `crossover_hz` = {} Hz is at or above the Nyquist frequency {} Hz",
+                self.crossover_hz,
+                fs / 2.0
+            );
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,133 @@
+//! The model file `identify` writes and `estimate` reads: the fitted kinematic error and
+//! compliance (and friction), with the gear, encoders and channels they were fitted for.
+
+use std::path::Path;
+
+use anyhow::{bail, Context, Result};
+use serde::{Deserialize, Serialize};
+use strainwave_analysis::ident::{
+    ComplianceFit, ComplianceParams, FitMetrics, FittedHysteresis, FrictionParams, KinematicBasis, KinematicFit,
+};
+use strainwave_core::torsion::MeshAngle;
+
+use super::config::{Channels, EncodersConfig, GearConfig};
+
+/// Fitted spring parameters, as written to the model file.
+pub type Spring = ComplianceParams;
+
+/// Fitted hysteresis, as written to the model file.
+pub type Hysteresis = FittedHysteresis;
+
+/// The fitted kinematic error.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct KinematicModel {
+    /// `fourier` or `polynomial`.
+    pub basis: String,
+    /// Output harmonics or polynomial order.
+    pub order: usize,
+    /// Mesh harmonics, Fourier only.
+    pub mesh_harmonics: usize,
+    /// The mesh angle of the harmonics: `relative` (WG relative to the output) or `motor`.
+    #[serde(default = "relative")]
+    pub mesh_angle: String,
+    /// Coefficients in the basis order, rad.
+    pub coefficients: Vec<f64>,
+}
+
+/// The fitted compliance.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ComplianceModel {
+    /// Structural damping, N·m·s/rad.
+    pub damping_nm_s_per_rad: f64,
+    /// Wind-up offset, rad.
+    pub windup_offset_rad: f64,
+    /// Rated torque the solver is set for, N·m.
+    pub rated_torque_nm: f64,
+    /// Spring.
+    pub spring: Spring,
+    /// Hysteresis.
+    pub hysteresis: Hysteresis,
+}
+
+/// `identify`'s output, `estimate --config`'s input.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelFile {
+    /// Sample rate the damping and plays were fitted at, Hz.
+    pub sample_rate_hz: f64,
+    /// Largest |torque| the model is valid for (1.25 × the loaded run's peak), N·m.
+    pub torque_range_nm: f64,
+    /// Gear.
+    pub gear: GearConfig,
+    /// Raw counts (absent: angle channels).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub encoders: Option<EncodersConfig>,
+    /// Columns of the encoder channels.
+    pub channels: Channels,
+    /// Kinematic error.
+    pub kinematic: KinematicModel,
+    /// Compliance.
+    pub compliance: ComplianceModel,
+    /// Friction and rotor inertia referred to the link (when identified against a
+    /// motor-current torque): `estimate` then also outputs `current_torque`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction: Option<FrictionParams>,
+}
+
+fn relative() -> String {
+    "relative".into()
+}
+
+impl ModelFile {
+    /// Reads a model file.
+    pub fn load(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
+        toml::from_str(&text).map_err(|e| crate::toml_error::one_line(path, &text, &e))
+    }
+
+    /// The library's kinematic fit.
+    pub fn kinematic_fit(&self) -> Result<KinematicFit> {
+        let k = &self.kinematic;
+        let basis = match k.basis.as_str() {
+            "fourier" => KinematicBasis::Fourier {
+                output_harmonics: k.order,
+                mesh_harmonics: k.mesh_harmonics,
+                mesh_angle: match k.mesh_angle.as_str() {
+                    "relative" => MeshAngle::Relative,
+                    "motor" => MeshAngle::Motor,
+                    other => bail!("kinematic.mesh_angle: `{other}` is neither relative nor motor"),
+                },
+            },
+            "polynomial" => KinematicBasis::Polynomial { order: k.order },
+            other => bail!("kinematic.basis: `{other}` is neither fourier nor polynomial"),
+        };
+        if k.coefficients.len() != basis.n_terms() {
+            bail!("kinematic.coefficients: {} values, the basis has {}", k.coefficients.len(), basis.n_terms());
+        }
+        Ok(KinematicFit {
+            basis,
+            coefficients: k.coefficients.clone(),
+            direction_offset_rad: 0.0,
+            metrics: FitMetrics::of(&[], &[]),
+        })
+    }
+
+    /// The library's compliance fit.
+    pub fn compliance_fit(&self) -> ComplianceFit {
+        let c = &self.compliance;
+        ComplianceFit {
+            params: c.spring,
+            hysteresis: c.hysteresis.clone(),
+            damping_nm_s_per_rad: c.damping_nm_s_per_rad,
+            windup_offset_rad: c.windup_offset_rad,
+            rated_torque_nm: c.rated_torque_nm,
+            metrics: FitMetrics::of(&[], &[]),
+            iterations: 0,
+            termination: None,
+            friction: self.friction,
+            parameters: Vec::new(),
+        }
+    }
+}
