@@ -37,11 +37,10 @@ pub fn build_model<V: ModelVisitor>(cfg: &JointConfig, with_learned_priors: bool
         ModelChoice::Full => {
             let noise = noise("full")?;
             let m = if with_learned_priors {
-                RippleModel::<f64, 5>::full(fs, noise)
+                RippleModel::<f64, 5>::full(fs, noise).map_err(core)?
             } else {
-                RippleModel::<f64, 5>::full_commissioning(fs, noise)
+                cold_start(RippleModel::<f64, 5>::full_commissioning(fs, noise).map_err(core)?).map_err(core)?
             }
-            .map_err(core)?
             .with_phase_source(phase);
             visitor.visit(m)
         }
@@ -87,6 +86,20 @@ pub fn build_model<V: ModelVisitor>(cfg: &JointConfig, with_learned_priors: bool
             with_m!(1 2 3 4 5 6 7 8)
         }
     }
+}
+
+/// Initial variance of each component of a ripple order learned from zero, N·m² (1σ
+/// 0.1 N·m, as the misalignment's prior). The core's 1 N·m² lets the ripple orders take
+/// the torque of the first acceleration, while their line is still slow, for ripple:
+/// confidently wrong, they keep the innovation above the load-step threshold, which
+/// skips their updates, so they stay wrong for seconds (the diagnosis is in
+/// `docs/do-no-harm.md`).
+pub const COLD_OSCILLATOR_VARIANCE_NM2: f64 = 0.01;
+
+/// The learning-from-zero model with [`COLD_OSCILLATOR_VARIANCE_NM2`].
+fn cold_start<const M: usize>(m: RippleModel<f64, M>) -> Result<RippleModel<f64, M>, strainwave_core::Error> {
+    let (_, bias) = m.initial_variance_nm2();
+    m.with_initial_variance(COLD_OSCILLATOR_VARIANCE_NM2, bias)
 }
 
 /// Largest number of orders a model holds: the config's plus the discovered ones (the
