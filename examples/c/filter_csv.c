@@ -75,7 +75,7 @@ int main(int argc, char **argv) {
     FILE *out = fopen(argv[2], "w");
     if (!out) { perror(argv[2]); return 1; }
 
-    static sw_state state; /* 6 KB: static, as firmware would keep it */
+    static sw_state state; /* 12 KB: static, as firmware would keep it */
     int rc = sw_init(&state, &SW_MODEL);
     if (rc != SW_OK) {
         fprintf(stderr, "sw_init: %s\n", sw_error_text(rc));
