@@ -102,16 +102,28 @@ fn c_example_matches_filter_and_cpp_example_builds() {
     let cc_flags = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-ffp-contract=off"];
     let libs = ["-lm", "-lpthread", "-ldl"];
 
-    // The guard on (the default, as firmware runs it) for the learned full model and the
-    // paper's 6th-order model, and off (`filter.guard = false`, the bare canceller).
-    for (config, guard) in
-        [("joint-taghirad.toml", true), ("joint-taghirad.toml", false), ("joint-taghirad-seed-6th.toml", true)]
-    {
-        let stem = format!("{}_{}", config.trim_end_matches(".toml"), if guard { "guarded" } else { "bare" });
+    // The guard on (the default, as firmware runs it) for the learned full model, the full
+    // model learning from zero (its cold start) and the paper's 6th-order model, and off
+    // (`filter.guard = false`, the bare canceller).
+    for (config, guard, learned) in [
+        ("joint-taghirad.toml", true, true),
+        ("joint-taghirad.toml", true, false),
+        ("joint-taghirad.toml", false, true),
+        ("joint-taghirad-seed-6th.toml", true, false),
+    ] {
+        let kind = match (guard, learned) {
+            (true, true) => "guarded",
+            (true, false) => "guarded_cold",
+            (false, _) => "bare",
+        };
+        let stem = format!("{}_{kind}", config.trim_end_matches(".toml"));
         // A copy of the config with its learned file named from the examples, for both
         // `export-c` and the reference `filter` run.
         let examples = root.join("examples");
-        let text = std::fs::read_to_string(examples.join(config)).unwrap();
+        let mut text = std::fs::read_to_string(examples.join(config)).unwrap();
+        if !learned {
+            text = text.lines().filter(|l| !l.starts_with("learned =")).map(|l| format!("{l}\n")).collect();
+        }
         let mut copy = text.replace("learned = \"", &format!("learned = \"{}/", examples.display()));
         if !guard {
             copy = copy.replace("[filter]\n", "[filter]\nguard = false\n");

@@ -4,6 +4,7 @@
 //! the model the command line runs.
 
 use anyhow::{anyhow, bail, Context, Result};
+use strainwave_core::guard::cold_start;
 use strainwave_core::ripple::{Order, PhaseSource, RippleModel};
 
 use crate::config::{JointConfig, ModelChoice, PhaseChoice};
@@ -37,10 +38,11 @@ pub fn build_model<V: ModelVisitor>(cfg: &JointConfig, with_learned_priors: bool
         ModelChoice::Full => {
             let noise = noise("full")?;
             let m = if with_learned_priors {
-                RippleModel::<f64, 5>::full(fs, noise).map_err(core)?
+                RippleModel::<f64, 5>::full(fs, noise)
             } else {
-                cold_start(RippleModel::<f64, 5>::full_commissioning(fs, noise).map_err(core)?).map_err(core)?
+                RippleModel::<f64, 5>::full_commissioning(fs, noise)
             }
+            .map_err(core)?
             .with_phase_source(phase);
             visitor.visit(m)
         }
@@ -88,18 +90,19 @@ pub fn build_model<V: ModelVisitor>(cfg: &JointConfig, with_learned_priors: bool
     }
 }
 
-/// Initial variance of each component of a ripple order learned from zero, N·m² (1σ
-/// 0.1 N·m, as the misalignment's prior). The core's 1 N·m² lets the ripple orders take
-/// the torque of the first acceleration, while their line is still slow, for ripple:
-/// confidently wrong, they keep the innovation above the load-step threshold, which
-/// skips their updates, so they stay wrong for seconds (the diagnosis is in
-/// `docs/do-no-harm.md`).
-pub const COLD_OSCILLATOR_VARIANCE_NM2: f64 = 0.01;
-
-/// The learning-from-zero model with [`COLD_OSCILLATOR_VARIANCE_NM2`].
-fn cold_start<const M: usize>(m: RippleModel<f64, M>) -> Result<RippleModel<f64, M>, strainwave_core::Error> {
-    let (_, bias) = m.initial_variance_nm2();
-    m.with_initial_variance(COLD_OSCILLATOR_VARIANCE_NM2, bias)
+/// The model the do-no-harm guard runs when the `full` model learns from zero (no learned
+/// file): its orders start at [`strainwave_core::guard::COLD_OSCILLATOR_VARIANCE_NM2`]
+/// (see [`cold_start`]), so that a cold run reaches the noise floor. Other models, the
+/// bare canceller (`filter.guard = false`) and the learner run the model as built.
+pub fn guarded_cold_start<const M: usize>(
+    cfg: &JointConfig,
+    model: RippleModel<f64, M>,
+) -> Result<RippleModel<f64, M>> {
+    if !(cfg.filter.guard && cfg.filter.model == ModelChoice::Full) {
+        return Ok(model);
+    }
+    let config = cfg.path.display().to_string();
+    cold_start(model).map_err(|e| anyhow!("{config}: {}", in_config_terms(e, false, cfg.filter.sample_rate_hz)))
 }
 
 /// Largest number of orders a model holds: the config's plus the discovered ones (the

@@ -18,7 +18,7 @@ use strainwave_core::guard::GuardSettings;
 use strainwave_core::ripple::{Limits, PhaseSource, Reference, RippleModel};
 use strainwave_io::Channel;
 
-use crate::canceller::{build_model_with, ModelVisitor};
+use crate::canceller::{build_model_with, guarded_cold_start, ModelVisitor};
 use crate::config::{JointConfig, MAX_TABLE_LEN};
 use crate::learned::LearnedFile;
 
@@ -73,7 +73,7 @@ impl ModelVisitor for Extract<'_> {
             Some((file, path)) => {
                 file.apply(model, path).with_context(|| format!("{}: `filter.learned`", self.cfg.path.display()))?
             }
-            None => model,
+            None => guarded_cold_start(self.cfg, model)?,
         };
         let orders = model
             .orders()
