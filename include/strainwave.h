@@ -62,20 +62,25 @@
 #define SW_ERROR_COVARIANCE 10
 
 /**
+ * A guard threshold is negative or not finite, or `off` / `learned_prior` is not 0 or 1.
+ */
+#define SW_ERROR_GUARD 11
+
+/**
  * 64-bit words of storage in [`sw_state`].
  */
-#define SW_STATE_WORDS 768
+#define SW_STATE_WORDS 1536
 
 /**
  * 64-bit words of storage in [`sw32_state`].
  */
-#define SW32_STATE_WORDS 400
+#define SW32_STATE_WORDS 768
 
 /**
  * Layout version of [`sw_model`] / [`sw32_model`]; `sw_init` refuses any other value, so
  * a model exported for another version of this header is caught at start-up.
  */
-#define SW_MODEL_VERSION 1
+#define SW_MODEL_VERSION 2
 
 /**
  * Most orders (oscillators) a model can hold.
@@ -225,6 +230,27 @@
 #define SW_FLAG_CALIBRATION_EXTRAPOLATED (1 << 8)
 
 /**
+ * `sw_output.guard_flags` bit: the model does not fit (running mean NIS too high); the
+ * output is the calibrated torque.
+ */
+#define SW_GUARD_PASS_THROUGH 1
+
+/**
+ * `sw_output.guard_flags` bit: an order was not applied for lack of evidence or travel.
+ */
+#define SW_GUARD_WITHHELD (1 << 1)
+
+/**
+ * `sw_output.guard_flags` bit: an order was stepped back (removing it fits the data better).
+ */
+#define SW_GUARD_CONTRADICTED (1 << 2)
+
+/**
+ * `sw_output.guard_flags` bit: a held order was clamped to its amplitude while moving.
+ */
+#define SW_GUARD_STANDSTILL_BOUND (1 << 3)
+
+/**
  * One joint's canceller state (double precision): fixed size, no heap, owned by the
  * caller (static, stack or a struct member). Opaque: set it up with `sw_init`.
  */
@@ -347,6 +373,83 @@ typedef struct sw_calibration {
 } sw_calibration;
 
 /**
+ * The do-no-harm guard (double precision): each order's correction is applied only while
+ * the data support it, so the clean torque is never made worse than the calibrated one.
+ * All zero is the guard on with its default thresholds; a threshold of 0 takes its
+ * default (see the core's `GuardSettings`).
+ */
+typedef struct sw_guard {
+    /**
+     * 1: no guard (the bare canceller), 0: guard on.
+     */
+    uint32_t off;
+    /**
+     * 1: the orders start from learned priors (travel taken as shown).
+     */
+    uint32_t learned_prior;
+    /**
+     * `χ²` (2 degrees of freedom) of an order's amplitude above which it is applied (25).
+     */
+    double apply_chi2;
+    /**
+     * `χ²` below which an applied order stops (9).
+     */
+    double release_chi2;
+    /**
+     * Largest wander of the estimate, fraction of its amplitude, to apply (0.2).
+     */
+    double apply_wander;
+    /**
+     * Wander fraction above which an applied order stops (0.4).
+     */
+    double release_wander;
+    /**
+     * Full cycles of a ripple order's line before it may apply (3).
+     */
+    double min_cycles;
+    /**
+     * Full cycles of an output-angle order's line before it may apply (3).
+     */
+    double min_cycles_output;
+    /**
+     * Time constant of the running means, s (0.25).
+     */
+    double window_s;
+    /**
+     * Running mean NIS above which every order steps back (6).
+     */
+    double nis_pass_through;
+    /**
+     * Running mean NIS below which they come back (3).
+     */
+    double nis_recover;
+    /**
+     * Margin of the per-order health test (0.1).
+     */
+    double contradiction_margin;
+    /**
+     * Clip of each sample's NIS in the running mean (25).
+     */
+    double nis_clip;
+    /**
+     * Slowest line applied from an incomplete model, Hz (10).
+     */
+    double partial_min_line_hz;
+    /**
+     * Largest slow mean NIS of a complete model (3).
+     */
+    double complete_max_nis;
+    /**
+     * Largest slow mean NIS for held orders to apply at a standstill (2).
+     */
+    double standstill_max_nis;
+    /**
+     * Time constant of the slow mean NIS, s (2).
+     */
+    double standstill_window_s;
+} sw_guard;
+
+/**
  * A joint's complete canceller: gear, calibration, orders, tuning and learned priors
  * (double precision). Written by `strainwave export-c`; `sw_init` checks every field.
  */
@@ -411,6 +514,10 @@ typedef struct sw_model {
      * Turns the raw torque channel into N·m.
      */
     struct sw_calibration calibration;
+    /**
+     * The do-no-harm guard (all zero: on, default thresholds).
+     */
+    struct sw_guard guard;
 } sw_model;
 
 /**
@@ -474,6 +581,14 @@ typedef struct sw_output {
      * `SW_FLAG_*` bits.
      */
     uint32_t flags;
+    /**
+     * `SW_GUARD_*` bits: what the do-no-harm guard did (0 with the guard off).
+     */
+    uint32_t guard_flags;
+    /**
+     * Bit `i` set: order `i` was not applied by the guard (0 with the guard off).
+     */
+    uint32_t withheld_orders;
 } sw_output;
 
 /**
@@ -597,6 +712,83 @@ typedef struct sw32_calibration {
 } sw32_calibration;
 
 /**
+ * The do-no-harm guard (single precision); see [`sw_guard`]: each order's correction is applied only while
+ * the data support it, so the clean torque is never made worse than the calibrated one.
+ * All zero is the guard on with its default thresholds; a threshold of 0 takes its
+ * default (see the core's `GuardSettings`).
+ */
+typedef struct sw32_guard {
+    /**
+     * 1: no guard (the bare canceller), 0: guard on.
+     */
+    uint32_t off;
+    /**
+     * 1: the orders start from learned priors (travel taken as shown).
+     */
+    uint32_t learned_prior;
+    /**
+     * `χ²` (2 degrees of freedom) of an order's amplitude above which it is applied (25).
+     */
+    float apply_chi2;
+    /**
+     * `χ²` below which an applied order stops (9).
+     */
+    float release_chi2;
+    /**
+     * Largest wander of the estimate, fraction of its amplitude, to apply (0.2).
+     */
+    float apply_wander;
+    /**
+     * Wander fraction above which an applied order stops (0.4).
+     */
+    float release_wander;
+    /**
+     * Full cycles of a ripple order's line before it may apply (3).
+     */
+    float min_cycles;
+    /**
+     * Full cycles of an output-angle order's line before it may apply (3).
+     */
+    float min_cycles_output;
+    /**
+     * Time constant of the running means, s (0.25).
+     */
+    float window_s;
+    /**
+     * Running mean NIS above which every order steps back (6).
+     */
+    float nis_pass_through;
+    /**
+     * Running mean NIS below which they come back (3).
+     */
+    float nis_recover;
+    /**
+     * Margin of the per-order health test (0.1).
+     */
+    float contradiction_margin;
+    /**
+     * Clip of each sample's NIS in the running mean (25).
+     */
+    float nis_clip;
+    /**
+     * Slowest line applied from an incomplete model, Hz (10).
+     */
+    float partial_min_line_hz;
+    /**
+     * Largest slow mean NIS of a complete model (3).
+     */
+    float complete_max_nis;
+    /**
+     * Largest slow mean NIS for held orders to apply at a standstill (2).
+     */
+    float standstill_max_nis;
+    /**
+     * Time constant of the slow mean NIS, s (2).
+     */
+    float standstill_window_s;
+} sw32_guard;
+
+/**
  * A joint's complete canceller (single precision); see [`sw_model`].
  */
 typedef struct sw32_model {
@@ -660,6 +852,10 @@ typedef struct sw32_model {
      * The calibration.
      */
     struct sw32_calibration calibration;
+    /**
+     * The do-no-harm guard.
+     */
+    struct sw32_guard guard;
 } sw32_model;
 
 /**
@@ -721,6 +917,14 @@ typedef struct sw32_output {
      * `SW_FLAG_*` bits.
      */
     uint32_t flags;
+    /**
+     * `SW_GUARD_*` bits.
+     */
+    uint32_t guard_flags;
+    /**
+     * Bit `i` set: order `i` was not applied.
+     */
+    uint32_t withheld_orders;
 } sw32_output;
 
 /**

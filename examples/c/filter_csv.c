@@ -75,7 +75,7 @@ int main(int argc, char **argv) {
     FILE *out = fopen(argv[2], "w");
     if (!out) { perror(argv[2]); return 1; }
 
-    static sw_state state; /* 6 KB: static, as firmware would keep it */
+    static sw_state state; /* 12 KB: static, as firmware would keep it */
     int rc = sw_init(&state, &SW_MODEL);
     if (rc != SW_OK) {
         fprintf(stderr, "sw_init: %s\n", sw_error_text(rc));
@@ -113,9 +113,11 @@ int main(int argc, char **argv) {
             fprintf(stderr, "%s: data row %ld: %s\n", argv[1], row, sw_error_text(rc));
             return 1;
         }
-        /* The core's flags only, as `strainwave filter` writes them. */
+        /* `filter_flags` as `strainwave filter` writes them: the core's flags (bits 0-7), the
+         * guard's (from bit 8) and the orders it did not apply (from bit 16). */
+        unsigned flags = (o.flags & 0xffu) | (o.guard_flags << 8) | (o.withheld_orders << 16);
         fprintf(out, "%s,%.17g,%.17g,%.17g,%.17g,%.17g,%u\n", line, o.torque, o.ripple, o.misalignment,
-                o.innovation, o.nis, o.flags & 0xffu);
+                o.innovation, o.nis, flags);
     }
     if (fclose(out) != 0) { perror(argv[2]); return 1; }
     fclose(in);

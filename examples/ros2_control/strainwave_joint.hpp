@@ -61,6 +61,18 @@ class JointCanceller {
     add(SW_FLAG_LOAD_STEP, Level::Ok, "load step");
     add(SW_FLAG_ORDER_HELD, Level::Ok, "order held (slow or standstill)");
     add(SW_FLAG_ORDER_OFF, Level::Ok, "order off (above Nyquist fraction)");
+    // The do-no-harm guard: the torque is never worse than raw, but not cleaned either.
+    const std::uint32_t g = last_.guard_flags;
+    auto add_guard = [&](std::uint32_t bit, Level l, const char *text) {
+      if (!(g & bit)) return;
+      if (!m.empty()) m += "; ";
+      m += text;
+      if (l > level) level = l;
+    };
+    add_guard(SW_GUARD_PASS_THROUGH, Level::Warn, "model does not fit, raw torque passed through");
+    add_guard(SW_GUARD_CONTRADICTED, Level::Warn, "an order contradicted by the data, not applied");
+    add_guard(SW_GUARD_WITHHELD, Level::Ok, "an order not applied yet (learning)");
+    add_guard(SW_GUARD_STANDSTILL_BOUND, Level::Ok, "standstill: correction bounded");
     return {level, m.empty() ? std::string("ok") : m};
   }
 

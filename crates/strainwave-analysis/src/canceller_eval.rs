@@ -169,6 +169,14 @@ fn notch(f0_hz: f64, fs: f64) -> Result<Biquad<f64>, AnalysisError> {
     Biquad::from_analog([1.0, 0.0, w0 * w0], [1.0, w0 / q, w0 * w0], f0_hz, fs).map_err(core_err("notch"))
 }
 
+/// The full configuration learning from zero under the guard, as `strainwave filter` runs
+/// it without a learned file (commissioning tuning, [`strainwave_core::guard::cold_start`]).
+fn cold_full(fs: f64, noise_nm: f64) -> Result<RippleModel<f64, 5>, AnalysisError> {
+    RippleModel::<f64, 5>::full_commissioning(fs, noise_nm)
+        .and_then(strainwave_core::guard::cold_start)
+        .map_err(core_err("full model"))
+}
+
 /// The full configuration from `learned`.
 fn full_model(fs: f64, noise_nm: f64, learned: Option<&Learned>) -> Result<RippleModel<f64, 5>, AnalysisError> {
     let learned = learned.ok_or(AnalysisError::Invalid {
@@ -458,9 +466,7 @@ pub fn guarded(
     check(s)?;
     let model = match learned {
         Some(_) => full_model(s.sample_rate_hz, noise_nm, learned)?,
-        None => {
-            RippleModel::<f64, 5>::full_commissioning(s.sample_rate_hz, noise_nm).map_err(core_err("full model"))?
-        }
+        None => cold_full(s.sample_rate_hz, noise_nm)?,
     };
     let mut guard = Guard::new(&model, GuardSettings { learned_prior: learned.is_some(), ..GuardSettings::default() });
     (0..s.measured_nm.len())

@@ -65,6 +65,28 @@ use crate::{Error, Real};
 use order::OrderGuard;
 pub use stats::GuardStats;
 
+/// Initial variance of each component of an order learned from zero, N·m² (1σ 0.1 N·m).
+/// With a larger one (the models' 1 N·m²) the ripple orders take the torque of a first
+/// acceleration, while their line is still slow, for ripple, and confidently: the misfit
+/// keeps the innovation beyond the load-step threshold, which skips their updates, so a
+/// cold start stays wrong for seconds and the guard can only pass the raw torque through.
+pub const COLD_OSCILLATOR_VARIANCE_NM2: f64 = 0.01;
+
+/// `model` for learning from zero (cold, under the guard or not): its orders without a
+/// learned prior start at [`COLD_OSCILLATOR_VARIANCE_NM2`]; the bias is unchanged.
+///
+/// ```
+/// use strainwave_core::guard::cold_start;
+/// use strainwave_core::ripple::RippleModel;
+/// let m = cold_start(RippleModel::<f32, 5>::full_commissioning(1000.0, 0.0162)?)?;
+/// assert!((m.initial_variance_nm2().0 - 0.01).abs() < 1e-9);
+/// # Ok::<(), strainwave_core::Error>(())
+/// ```
+pub fn cold_start<T: Real, const M: usize>(model: RippleModel<T, M>) -> Result<RippleModel<T, M>, Error> {
+    let (_, bias_nm2) = model.initial_variance_nm2();
+    model.with_initial_variance(T::from_f64(COLD_OSCILLATOR_VARIANCE_NM2), bias_nm2)
+}
+
 /// Thresholds of the guard (see the [module documentation](self)).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GuardSettings<T: Real> {

@@ -1,6 +1,6 @@
 //! The C structs into the precision-generic forms of [`crate::engine`] and back.
 
-use crate::engine::{Output, Plain, PlainCalibration, PlainOrder, Sample};
+use crate::engine::{Output, Plain, PlainCalibration, PlainGuard, PlainOrder, Sample};
 use crate::types::*;
 use strainwave_core::ripple::Limits;
 
@@ -10,6 +10,7 @@ macro_rules! convert {
             fn from(m: &$model) -> Self {
                 let l = &m.limits;
                 let c = &m.calibration;
+                let g = &m.guard;
                 Self {
                     version: m.version,
                     order_count: m.order_count,
@@ -51,6 +52,27 @@ macro_rules! convert {
                         alpha: c.alpha,
                         beta_nm: c.beta_nm,
                     },
+                    guard: PlainGuard {
+                        off: g.off,
+                        learned_prior: g.learned_prior,
+                        thresholds: [
+                            g.apply_chi2,
+                            g.release_chi2,
+                            g.apply_wander,
+                            g.release_wander,
+                            g.min_cycles,
+                            g.min_cycles_output,
+                            g.window_s,
+                            g.nis_pass_through,
+                            g.nis_recover,
+                            g.contradiction_margin,
+                            g.nis_clip,
+                            g.partial_min_line_hz,
+                            g.complete_max_nis,
+                            g.standstill_max_nis,
+                            g.standstill_window_s,
+                        ],
+                    },
                 }
             }
         }
@@ -77,6 +99,8 @@ macro_rules! convert {
                     innovation: o.innovation,
                     nis: o.nis,
                     flags: o.flags,
+                    guard_flags: o.guard_flags,
+                    withheld_orders: o.withheld_orders,
                 }
             }
         }

@@ -8,8 +8,9 @@
 
 use strainwave_core::calibration::{Calibration, Extrapolation};
 use strainwave_core::gear::{FixedElement, Gear};
+use strainwave_core::guard::{Guard, GuardSettings};
 use strainwave_core::ripple::{
-    step, Limits, Order, PhaseSource, Reference, ReferenceValues, RippleInput, RippleModel, RippleState,
+    step, Limits, Order, PhaseSource, Reference, ReferenceValues, RippleInput, RippleModel, RippleOutput, RippleState,
 };
 use strainwave_core::Real;
 
@@ -34,6 +35,15 @@ pub(crate) struct Plain<T: Real> {
     pub limits: Limits<T>,
     pub orders: [PlainOrder<T>; SW_MAX_ORDERS],
     pub calibration: PlainCalibration<T>,
+    pub guard: PlainGuard<T>,
+}
+
+/// The guard, as [`sw_guard`]: the thresholds in the struct's order.
+#[derive(Clone, Copy)]
+pub(crate) struct PlainGuard<T> {
+    pub off: u32,
+    pub learned_prior: u32,
+    pub thresholds: [T; 15],
 }
 
 /// One order, as [`sw_order`].
@@ -81,23 +91,63 @@ pub(crate) struct Output<T> {
     pub innovation: T,
     pub nis: T,
     pub flags: u32,
+    pub guard_flags: u32,
+    pub withheld_orders: u32,
 }
 
-/// The model and state for each order count (the core sizes them at compile time).
-#[derive(Clone, Copy)]
+/// The canceller of one order count: bare, or under the do-no-harm guard (which holds
+/// the canceller's state).
+#[derive(Clone)]
+pub(crate) enum Canceller<T: Real, const M: usize> {
+    Bare(RippleState<T, M>),
+    Guarded(Guard<T, M>),
+}
+
+impl<T: Real, const M: usize> Canceller<T, M> {
+    fn new(model: &RippleModel<T, M>, guard: Option<GuardSettings<T>>) -> Self {
+        match guard {
+            Some(settings) => Canceller::Guarded(Guard::new(model, settings)),
+            None => Canceller::Bare(RippleState::new(model)),
+        }
+    }
+
+    fn reset(&mut self, model: &RippleModel<T, M>) {
+        *self = match self {
+            Canceller::Guarded(g) => Canceller::Guarded(Guard::new(model, *g.settings())),
+            Canceller::Bare(_) => Canceller::Bare(RippleState::new(model)),
+        };
+    }
+
+    /// One step: the output, the guard's flags and the withheld orders.
+    fn step(
+        &mut self,
+        model: &RippleModel<T, M>,
+        input: &RippleInput<T>,
+    ) -> Result<(RippleOutput<T>, u32, u32), strainwave_core::Error> {
+        match self {
+            Canceller::Bare(s) => step(model, s, input).map(|o| (o, 0, 0)),
+            Canceller::Guarded(g) => {
+                g.step(model, input).map(|o| (o.output, u32::from(o.flags.bits()), u32::from(o.withheld_mask())))
+            }
+        }
+    }
+}
+
+/// The model and canceller for each order count (the core sizes them at compile time).
+#[derive(Clone)]
 pub(crate) enum Engine<T: Real> {
-    O1(RippleModel<T, 1>, RippleState<T, 1>),
-    O2(RippleModel<T, 2>, RippleState<T, 2>),
-    O3(RippleModel<T, 3>, RippleState<T, 3>),
-    O4(RippleModel<T, 4>, RippleState<T, 4>),
-    O5(RippleModel<T, 5>, RippleState<T, 5>),
-    O6(RippleModel<T, 6>, RippleState<T, 6>),
-    O7(RippleModel<T, 7>, RippleState<T, 7>),
-    O8(RippleModel<T, 8>, RippleState<T, 8>),
+    O1(RippleModel<T, 1>, Canceller<T, 1>),
+    O2(RippleModel<T, 2>, Canceller<T, 2>),
+    O3(RippleModel<T, 3>, Canceller<T, 3>),
+    O4(RippleModel<T, 4>, Canceller<T, 4>),
+    O5(RippleModel<T, 5>, Canceller<T, 5>),
+    O6(RippleModel<T, 6>, Canceller<T, 6>),
+    O7(RippleModel<T, 7>, Canceller<T, 7>),
+    O8(RippleModel<T, 8>, Canceller<T, 8>),
 }
 
 /// Everything one joint needs between steps; lives inside `sw_state` / `sw32_state`.
-#[derive(Clone, Copy)]
+#[derive(Clone)]
 pub(crate) struct Instance<T: Real> {
     engine: Engine<T>,
     gear: Gear<T>,
@@ -170,11 +220,46 @@ fn ripple_model<T: Real, const M: usize>(p: &Plain<T>) -> Result<RippleModel<T, 
     Ok(m)
 }
 
+/// The guard's settings (`None`: off); a threshold of 0 takes its default.
+fn guard_settings<T: Real>(g: &PlainGuard<T>) -> Result<Option<GuardSettings<T>>, i32> {
+    let learned_prior = match (g.off, g.learned_prior) {
+        (1, _) => return Ok(None),
+        (0, 0) => false,
+        (0, 1) => true,
+        _ => return Err(SW_ERROR_GUARD),
+    };
+    if g.thresholds.iter().any(|x| !x.is_finite() || *x < T::ZERO) {
+        return Err(SW_ERROR_GUARD);
+    }
+    let d = GuardSettings::<T>::default();
+    let [a, b, c, e, f, h, i, j, k, l, m, n, o, q, r] = g.thresholds.map(|x| if x == T::ZERO { None } else { Some(x) });
+    Ok(Some(GuardSettings {
+        apply_chi2: a.unwrap_or(d.apply_chi2),
+        release_chi2: b.unwrap_or(d.release_chi2),
+        apply_wander: c.unwrap_or(d.apply_wander),
+        release_wander: e.unwrap_or(d.release_wander),
+        min_cycles: f.unwrap_or(d.min_cycles),
+        min_cycles_output: h.unwrap_or(d.min_cycles_output),
+        learned_prior,
+        window_s: i.unwrap_or(d.window_s),
+        nis_pass_through: j.unwrap_or(d.nis_pass_through),
+        nis_recover: k.unwrap_or(d.nis_recover),
+        contradiction_margin: l.unwrap_or(d.contradiction_margin),
+        nis_clip: m.unwrap_or(d.nis_clip),
+        partial_min_line_hz: n.unwrap_or(d.partial_min_line_hz),
+        complete_max_nis: o.unwrap_or(d.complete_max_nis),
+        standstill_max_nis: q.unwrap_or(d.standstill_max_nis),
+        standstill_window_s: r.unwrap_or(d.standstill_window_s),
+    }))
+}
+
 fn engine<T: Real>(p: &Plain<T>) -> Result<Engine<T>, i32> {
+    let guard = guard_settings(&p.guard)?;
     macro_rules! sized {
         ($v:ident, $m:literal) => {{
             let m = ripple_model::<T, $m>(p)?;
-            Engine::$v(m, RippleState::new(&m))
+            let c = Canceller::new(&m, guard);
+            Engine::$v(m, c)
         }};
     }
     Ok(match p.order_count {
@@ -246,7 +331,7 @@ impl<T: Real> Instance<T> {
     /// Back to the state right after `new`.
     pub(crate) fn reset(&mut self) {
         self.last_time_s = None;
-        with_engine!(&mut self.engine, m, s => *s = RippleState::new(m));
+        with_engine!(&mut self.engine, m, c => c.reset(m));
     }
 
     fn has(&self, channel: u32) -> bool {
@@ -290,9 +375,9 @@ impl<T: Real> Instance<T> {
         if t.is_finite() {
             self.last_time_s = Some(t);
         }
-        let result = with_engine!(&mut self.engine, m, st => step(m, st, &input));
+        let result = with_engine!(&mut self.engine, m, c => c.step(m, &input));
         match result {
-            Ok(o) => (
+            Ok((o, guard_flags, withheld_orders)) => (
                 Output {
                     torque: o.torque_nm,
                     ripple: o.ripple_nm,
@@ -300,6 +385,8 @@ impl<T: Real> Instance<T> {
                     innovation: o.innovation_nm,
                     nis: o.nis,
                     flags: flags | u32::from(o.flags.bits()),
+                    guard_flags,
+                    withheld_orders,
                 },
                 SW_OK,
             ),
@@ -311,6 +398,8 @@ impl<T: Real> Instance<T> {
                     innovation: nan,
                     nis: nan,
                     flags: flags | SW_FLAG_COVARIANCE_RESET,
+                    guard_flags: 0,
+                    withheld_orders: 0,
                 },
                 SW_ERROR_COVARIANCE,
             ),

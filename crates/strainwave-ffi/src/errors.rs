@@ -24,6 +24,8 @@ pub const SW_ERROR_CALIBRATION: i32 = 8;
 pub const SW_ERROR_CHANNELS: i32 = 9;
 /// The covariance went bad: the state was reset and the output is the calibrated torque.
 pub const SW_ERROR_COVARIANCE: i32 = 10;
+/// A guard threshold is negative or not finite, or `off` / `learned_prior` is not 0 or 1.
+pub const SW_ERROR_GUARD: i32 = 11;
 
 /// The text of a return code (a static NUL-terminated string).
 pub(crate) fn text(code: i32) -> *const c_char {
@@ -41,6 +43,7 @@ pub(crate) fn text(code: i32) -> *const c_char {
             c"channels has unknown bits or lacks the angles (angle phase) or motor velocity (velocity phase)"
         }
         SW_ERROR_COVARIANCE => c"the covariance went bad; the state was reset and the torque passed through",
+        SW_ERROR_GUARD => c"a guard threshold is negative or not finite, or guard.off / learned_prior is not 0 or 1",
         _ => c"unknown strainwave error code",
     };
     s.as_ptr()

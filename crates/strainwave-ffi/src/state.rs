@@ -1,5 +1,5 @@
 //! The caller-owned state: fixed-size storage for one joint's canceller (model, filter
-//! state, gear, calibration), tagged with a magic word so that a state never given to a
+//! state, do-no-harm guard, gear, calibration), tagged with a magic word so that a state never given to a
 //! successful `sw_init` is refused.
 //!
 //! The storage holds the core model and state of the largest order count; its size is a
@@ -15,9 +15,9 @@ use strainwave_core::Real;
 use crate::engine::Instance;
 
 /// 64-bit words of storage in [`sw_state`].
-pub const SW_STATE_WORDS: usize = 768;
+pub const SW_STATE_WORDS: usize = 1536;
 /// 64-bit words of storage in [`sw32_state`].
-pub const SW32_STATE_WORDS: usize = 400;
+pub const SW32_STATE_WORDS: usize = 768;
 
 /// `magic` of an initialised double-precision state ("swstate8" in ASCII).
 pub(crate) const MAGIC_F64: u64 = u64::from_le_bytes(*b"swstate8");

@@ -11,7 +11,7 @@ use core::ffi::c_char;
 
 /// Layout version of [`sw_model`] / [`sw32_model`]; `sw_init` refuses any other value, so
 /// a model exported for another version of this header is caught at start-up.
-pub const SW_MODEL_VERSION: u32 = 1;
+pub const SW_MODEL_VERSION: u32 = 2;
 /// Most orders (oscillators) a model can hold.
 pub const SW_MAX_ORDERS: usize = 8;
 /// Most calibration breakpoints or polynomial coefficients.
@@ -80,6 +80,16 @@ pub const SW_FLAG_LOAD_STEP: u32 = 1 << 7;
 /// Output flag: the calibration's speed was outside its range and extrapolated.
 pub const SW_FLAG_CALIBRATION_EXTRAPOLATED: u32 = 1 << 8;
 
+/// `sw_output.guard_flags` bit: the model does not fit (running mean NIS too high); the
+/// output is the calibrated torque.
+pub const SW_GUARD_PASS_THROUGH: u32 = 1;
+/// `sw_output.guard_flags` bit: an order was not applied for lack of evidence or travel.
+pub const SW_GUARD_WITHHELD: u32 = 1 << 1;
+/// `sw_output.guard_flags` bit: an order was stepped back (removing it fits the data better).
+pub const SW_GUARD_CONTRADICTED: u32 = 1 << 2;
+/// `sw_output.guard_flags` bit: a held order was clamped to its amplitude while moving.
+pub const SW_GUARD_STANDSTILL_BOUND: u32 = 1 << 3;
+
 /// One sample of one joint (double precision). NaN where the joint's config has no such
 /// channel. `torque` is the raw torque channel as the config's `[channels]` reads it
 /// (its scale and offset applied); the `[calibration]` is part of the model.
@@ -117,6 +127,10 @@ pub struct sw_output {
     pub nis: f64,
     /// `SW_FLAG_*` bits.
     pub flags: u32,
+    /// `SW_GUARD_*` bits: what the do-no-harm guard did (0 with the guard off).
+    pub guard_flags: u32,
+    /// Bit `i` set: order `i` was not applied by the guard (0 with the guard off).
+    pub withheld_orders: u32,
 }
 
 /// One oscillator of the model (double precision).
@@ -158,6 +172,49 @@ pub struct sw_limits {
     pub covariance_inflation: f64,
     /// Load-step NIS threshold (0: off).
     pub load_step_nis: f64,
+}
+
+/// The do-no-harm guard (double precision): each order's correction is applied only while
+/// the data support it, so the clean torque is never made worse than the calibrated one.
+/// All zero is the guard on with its default thresholds; a threshold of 0 takes its
+/// default (see the core's `GuardSettings`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct sw_guard {
+    /// 1: no guard (the bare canceller), 0: guard on.
+    pub off: u32,
+    /// 1: the orders start from learned priors (travel taken as shown).
+    pub learned_prior: u32,
+    /// `χ²` (2 degrees of freedom) of an order's amplitude above which it is applied (25).
+    pub apply_chi2: f64,
+    /// `χ²` below which an applied order stops (9).
+    pub release_chi2: f64,
+    /// Largest wander of the estimate, fraction of its amplitude, to apply (0.2).
+    pub apply_wander: f64,
+    /// Wander fraction above which an applied order stops (0.4).
+    pub release_wander: f64,
+    /// Full cycles of a ripple order's line before it may apply (3).
+    pub min_cycles: f64,
+    /// Full cycles of an output-angle order's line before it may apply (3).
+    pub min_cycles_output: f64,
+    /// Time constant of the running means, s (0.25).
+    pub window_s: f64,
+    /// Running mean NIS above which every order steps back (6).
+    pub nis_pass_through: f64,
+    /// Running mean NIS below which they come back (3).
+    pub nis_recover: f64,
+    /// Margin of the per-order health test (0.1).
+    pub contradiction_margin: f64,
+    /// Clip of each sample's NIS in the running mean (25).
+    pub nis_clip: f64,
+    /// Slowest line applied from an incomplete model, Hz (10).
+    pub partial_min_line_hz: f64,
+    /// Largest slow mean NIS of a complete model (3).
+    pub complete_max_nis: f64,
+    /// Largest slow mean NIS for held orders to apply at a standstill (2).
+    pub standstill_max_nis: f64,
+    /// Time constant of the slow mean NIS, s (2).
+    pub standstill_window_s: f64,
 }
 
 /// Torque calibration `T = α(ω) x + β(ω)` (double precision).
@@ -217,6 +274,8 @@ pub struct sw_model {
     pub orders: [sw_order; SW_MAX_ORDERS],
     /// Turns the raw torque channel into N·m.
     pub calibration: sw_calibration,
+    /// The do-no-harm guard (all zero: on, default thresholds).
+    pub guard: sw_guard,
 }
 
 /// Where a host program finds one channel in a recording (written by `export-c` beside
@@ -285,6 +344,10 @@ pub struct sw32_output {
     pub nis: f32,
     /// `SW_FLAG_*` bits.
     pub flags: u32,
+    /// `SW_GUARD_*` bits.
+    pub guard_flags: u32,
+    /// Bit `i` set: order `i` was not applied.
+    pub withheld_orders: u32,
 }
 
 /// One oscillator (single precision); see [`sw_order`].
@@ -325,6 +388,49 @@ pub struct sw32_limits {
     pub covariance_inflation: f32,
     /// Load-step NIS threshold.
     pub load_step_nis: f32,
+}
+
+/// The do-no-harm guard (single precision); see [`sw_guard`]: each order's correction is applied only while
+/// the data support it, so the clean torque is never made worse than the calibrated one.
+/// All zero is the guard on with its default thresholds; a threshold of 0 takes its
+/// default (see the core's `GuardSettings`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct sw32_guard {
+    /// 1: no guard (the bare canceller), 0: guard on.
+    pub off: u32,
+    /// 1: the orders start from learned priors (travel taken as shown).
+    pub learned_prior: u32,
+    /// `χ²` (2 degrees of freedom) of an order's amplitude above which it is applied (25).
+    pub apply_chi2: f32,
+    /// `χ²` below which an applied order stops (9).
+    pub release_chi2: f32,
+    /// Largest wander of the estimate, fraction of its amplitude, to apply (0.2).
+    pub apply_wander: f32,
+    /// Wander fraction above which an applied order stops (0.4).
+    pub release_wander: f32,
+    /// Full cycles of a ripple order's line before it may apply (3).
+    pub min_cycles: f32,
+    /// Full cycles of an output-angle order's line before it may apply (3).
+    pub min_cycles_output: f32,
+    /// Time constant of the running means, s (0.25).
+    pub window_s: f32,
+    /// Running mean NIS above which every order steps back (6).
+    pub nis_pass_through: f32,
+    /// Running mean NIS below which they come back (3).
+    pub nis_recover: f32,
+    /// Margin of the per-order health test (0.1).
+    pub contradiction_margin: f32,
+    /// Clip of each sample's NIS in the running mean (25).
+    pub nis_clip: f32,
+    /// Slowest line applied from an incomplete model, Hz (10).
+    pub partial_min_line_hz: f32,
+    /// Largest slow mean NIS of a complete model (3).
+    pub complete_max_nis: f32,
+    /// Largest slow mean NIS for held orders to apply at a standstill (2).
+    pub standstill_max_nis: f32,
+    /// Time constant of the slow mean NIS, s (2).
+    pub standstill_window_s: f32,
 }
 
 /// Torque calibration (single precision); see [`sw_calibration`].
@@ -383,4 +489,6 @@ pub struct sw32_model {
     pub orders: [sw32_order; SW_MAX_ORDERS],
     /// The calibration.
     pub calibration: sw32_calibration,
+    /// The do-no-harm guard.
+    pub guard: sw32_guard,
 }

@@ -1,6 +1,6 @@
 //! The C functions called from Rust: bad input gives error codes (never a crash), and a
 //! model passed through `sw_model` runs exactly as the same core model called directly,
-//! in f64 and in f32.
+//! in f64 and in f32, bare and under the do-no-harm guard.
 
 // The test calls the C entry points as C does, through raw pointers.
 #![allow(unsafe_code)]
@@ -9,12 +9,14 @@ use std::ffi::CStr;
 use std::ptr::{null, null_mut};
 
 use strainwave_core::gear::{FixedElement, Gear};
+use strainwave_core::guard::{Guard, GuardSettings};
 use strainwave_core::ripple::{step, ReferenceValues, RippleInput, RippleModel, RippleState};
 use strainwave_ffi::*;
 
 macro_rules! from_core {
-    ($name:ident, $t:ty, $model:ident, $order:ident, $limits:ident, $cal:ident) => {
-        /// The `sw_model` of a core model (angle phase, both angle channels, gain 2.5).
+    ($name:ident, $t:ty, $model:ident, $order:ident, $limits:ident, $cal:ident, $guard:ident) => {
+        /// The `sw_model` of a core model (angle phase, both angle channels, gain 2.5),
+        /// guard off (the bare canceller).
         fn $name<const M: usize>(core: &RippleModel<$t, M>) -> $model {
             let mut orders = [$order {
                 reference: 0,
@@ -73,12 +75,31 @@ macro_rules! from_core {
                     alpha,
                     beta_nm: [0.0; SW_MAX_CALIBRATION_POINTS],
                 },
+                guard: $guard {
+                    off: 1,
+                    learned_prior: 0,
+                    apply_chi2: 0.0,
+                    release_chi2: 0.0,
+                    apply_wander: 0.0,
+                    release_wander: 0.0,
+                    min_cycles: 0.0,
+                    min_cycles_output: 0.0,
+                    window_s: 0.0,
+                    nis_pass_through: 0.0,
+                    nis_recover: 0.0,
+                    contradiction_margin: 0.0,
+                    nis_clip: 0.0,
+                    partial_min_line_hz: 0.0,
+                    complete_max_nis: 0.0,
+                    standstill_max_nis: 0.0,
+                    standstill_window_s: 0.0,
+                },
             }
         }
     };
 }
-from_core!(from_core64, f64, sw_model, sw_order, sw_limits, sw_calibration);
-from_core!(from_core32, f32, sw32_model, sw32_order, sw32_limits, sw32_calibration);
+from_core!(from_core64, f64, sw_model, sw_order, sw_limits, sw_calibration, sw_guard);
+from_core!(from_core32, f32, sw32_model, sw32_order, sw32_limits, sw32_calibration, sw32_guard);
 
 /// The paper's 6th-order model with a 2.5 N·m/V gain, as a C program would write it.
 fn seed6() -> sw_model {
@@ -118,7 +139,16 @@ fn bad_input_gives_error_codes() {
         motor_velocity: f64::NAN,
         expected_torque: f64::NAN,
     };
-    let mut out = sw_output { torque: 0.0, ripple: 0.0, misalignment: 0.0, innovation: 0.0, nis: 0.0, flags: 0 };
+    let mut out = sw_output {
+        torque: 0.0,
+        ripple: 0.0,
+        misalignment: 0.0,
+        innovation: 0.0,
+        nis: 0.0,
+        flags: 0,
+        guard_flags: 0,
+        withheld_orders: 0,
+    };
     unsafe {
         assert_eq!(sw_init(null_mut(), &model), SW_ERROR_NULL);
         assert_eq!(sw_init(&mut *state, null()), SW_ERROR_NULL);
@@ -175,6 +205,23 @@ fn bad_input_gives_error_codes() {
             (SW_ERROR_CHANNELS, |m| m.channels = SW_CHANNEL_MOTOR_ANGLE),
             (SW_ERROR_CHANNELS, |m| m.channels |= 1 << 9),
             (SW_ERROR_CHANNELS, |m| m.phase_source = SW_PHASE_VELOCITY),
+            (SW_ERROR_GUARD, |m| m.guard.off = 2),
+            (SW_ERROR_GUARD, |m| {
+                m.guard.off = 0;
+                m.guard.learned_prior = 7
+            }),
+            (SW_ERROR_GUARD, |m| {
+                m.guard.off = 0;
+                m.guard.apply_chi2 = f64::NAN
+            }),
+            (SW_ERROR_GUARD, |m| {
+                m.guard.off = 0;
+                m.guard.window_s = -0.25
+            }),
+            (SW_ERROR_GUARD, |m| {
+                m.guard.off = 0;
+                m.guard.nis_clip = f64::INFINITY
+            }),
         ];
         for (i, (code, spoil)) in cases.into_iter().enumerate() {
             let mut bad = model;
@@ -197,7 +244,16 @@ fn same_as_core<const M: usize>(core: RippleModel<f64, M>) {
     let mut core_state = RippleState::new(&core);
     let mut state = new_state();
     assert_eq!(unsafe { sw_init(&mut *state, &model) }, SW_OK);
-    let mut out = sw_output { torque: 0.0, ripple: 0.0, misalignment: 0.0, innovation: 0.0, nis: 0.0, flags: 0 };
+    let mut out = sw_output {
+        torque: 0.0,
+        ripple: 0.0,
+        misalignment: 0.0,
+        innovation: 0.0,
+        nis: 0.0,
+        flags: 0,
+        guard_flags: 0,
+        withheld_orders: 0,
+    };
     let mut last_t = None;
     for k in 0..3000 {
         let (t, volts, motor, output) = sample(k);
@@ -269,7 +325,16 @@ fn single_precision_matches_the_f32_core() {
         assert_eq!(sw32_init(&mut *state, null()), SW_ERROR_NULL);
         assert_eq!(sw32_init(&mut *state, &model), SW_OK);
     }
-    let mut out = sw32_output { torque: 0.0, ripple: 0.0, misalignment: 0.0, innovation: 0.0, nis: 0.0, flags: 0 };
+    let mut out = sw32_output {
+        torque: 0.0,
+        ripple: 0.0,
+        misalignment: 0.0,
+        innovation: 0.0,
+        nis: 0.0,
+        flags: 0,
+        guard_flags: 0,
+        withheld_orders: 0,
+    };
     let mut last_t: Option<f32> = None;
     for k in 0..3000 {
         let (t, volts, motor, output) = sample(k);
@@ -295,4 +360,56 @@ fn single_precision_matches_the_f32_core() {
         assert_eq!(out.flags, u32::from(o.flags.bits()), "row {k}");
     }
     assert!(out.torque.is_finite());
+}
+
+/// The guard on (all thresholds 0: the defaults): `sw_step` gives the core guard's output
+/// bit for bit, its flags in `guard_flags` and the orders it did not apply in
+/// `withheld_orders`; the model starts cold, so some order is withheld at first and later
+/// applied.
+#[test]
+fn guarded_sw_step_equals_the_core_guard() {
+    let core = RippleModel::<f64, 5>::full(1000.0, 0.02).unwrap();
+    let mut model = from_core64(&core);
+    model.guard.off = 0;
+    let gear = Gear::new(100.0, FixedElement::CircularSpline).unwrap();
+    let mut guard = Guard::new(&core, GuardSettings::default());
+    let mut state = new_state();
+    assert_eq!(unsafe { sw_init(&mut *state, &model) }, SW_OK);
+    let mut out = sw_output {
+        torque: 0.0,
+        ripple: 0.0,
+        misalignment: 0.0,
+        innovation: 0.0,
+        nis: 0.0,
+        flags: 0,
+        guard_flags: 0,
+        withheld_orders: 0,
+    };
+    let (mut withheld, mut applied) = (false, false);
+    for k in 0..6000 {
+        let (t, volts, motor, output) = sample(k);
+        let s = sw_sample {
+            time: t,
+            torque: volts,
+            motor_angle: motor,
+            output_angle: output,
+            motor_velocity: f64::NAN,
+            expected_torque: f64::NAN,
+        };
+        assert_eq!(unsafe { sw_step(&mut *state, &s, &mut out) }, SW_OK);
+        let mut input = RippleInput::new(2.5 * volts, ReferenceValues::from_gear(&gear, motor, output));
+        if k > 0 {
+            input = input.with_dt(1e-3);
+        }
+        let o = guard.step(&core, &input).unwrap();
+        assert_eq!(out.torque.to_bits(), o.output.torque_nm.to_bits(), "row {k}");
+        assert_eq!(out.ripple.to_bits(), o.output.ripple_nm.to_bits(), "row {k}");
+        assert_eq!(out.flags, u32::from(o.output.flags.bits()), "row {k}");
+        assert_eq!(out.guard_flags, u32::from(o.flags.bits()), "row {k}");
+        assert_eq!(out.withheld_orders, u32::from(o.withheld_mask()), "row {k}");
+        withheld |= out.guard_flags & SW_GUARD_WITHHELD != 0;
+        // The 4x line (19 Hz here) is applied once shown; the misalignment never is.
+        applied |= out.withheld_orders & 0b10 == 0;
+    }
+    assert!(withheld && applied, "the guard withheld the orders at first, then applied the 4x line");
 }

@@ -2,8 +2,9 @@
 //! `include/strainwave.h` and the static library, on a simulated recording:
 //!
 //! - `examples/c/filter_csv.c` with a model from `strainwave export-c` gives the numbers
-//!   of `strainwave filter` on the same recording and config, to 1e-9 N·m (f64), for the
-//!   learned full model and the paper's 6th-order model;
+//!   of `strainwave filter` on the same recording and config, to 1e-9 N·m (f64) and the
+//!   same `filter_flags`: under the do-no-harm guard (the default) for the learned full
+//!   model and the paper's 6th-order model, and bare (`filter.guard = false`);
 //! - an f32 export compiles and passes `sw32_init`;
 //! - `examples/ros2_control` compiles with `c++ -std=c++17` and runs.
 //!
@@ -60,13 +61,16 @@ fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
     (header, rows)
 }
 
-fn compare(reference: &Path, ours: &Path) -> (usize, f64) {
+/// Rows, the largest difference of the values, and whether any row has guard bits (8 and
+/// up) in `filter_flags`; the flags must be equal row by row.
+fn compare(reference: &Path, ours: &Path) -> (usize, f64, bool) {
     let (h1, r1) = read_csv(reference);
     let (h2, r2) = read_csv(ours);
     assert_eq!(h1, h2, "columns differ");
     assert_eq!(r1.len(), r2.len(), "row counts differ");
     let col = |name: &str| h1.iter().rposition(|c| c == name).unwrap();
     let mut worst = 0.0f64;
+    let mut guard_bits = false;
     for (i, (a, b)) in r1.iter().zip(&r2).enumerate() {
         for name in ["torque", "ripple", "misalignment", "innovation", "nis"] {
             let j = col(name);
@@ -76,8 +80,9 @@ fn compare(reference: &Path, ours: &Path) -> (usize, f64) {
         }
         let j = col("filter_flags");
         assert_eq!(a[j], b[j], "row {}: flags", i + 1);
+        guard_bits |= a[j].parse::<u32>().unwrap() >> 8 != 0;
     }
-    (r1.len(), worst)
+    (r1.len(), worst, guard_bits)
 }
 
 #[test]
@@ -97,29 +102,43 @@ fn c_example_matches_filter_and_cpp_example_builds() {
     let cc_flags = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-ffp-contract=off"];
     let libs = ["-lm", "-lpthread", "-ldl"];
 
-    for config in ["joint-taghirad.toml", "joint-taghirad-seed-6th.toml"] {
-        let stem = config.trim_end_matches(".toml");
-        let model = tmp.join(format!("{stem}_model.h"));
-        run(Command::new(&cli)
-            .arg("export-c")
-            .arg("--config")
-            .arg(root.join("examples").join(config))
-            .arg("--out")
-            .arg(&model));
-        // The C ABI runs the bare canceller: the reference is `filter` with the do-no-harm
-        // guard off (a copy of the config, its learned file named from the examples).
+    // The guard on (the default, as firmware runs it) for the learned full model, the full
+    // model learning from zero (its cold start) and the paper's 6th-order model, and off
+    // (`filter.guard = false`, the bare canceller).
+    for (config, guard, learned) in [
+        ("joint-taghirad.toml", true, true),
+        ("joint-taghirad.toml", true, false),
+        ("joint-taghirad.toml", false, true),
+        ("joint-taghirad-seed-6th.toml", true, false),
+    ] {
+        let kind = match (guard, learned) {
+            (true, true) => "guarded",
+            (true, false) => "guarded_cold",
+            (false, _) => "bare",
+        };
+        let stem = format!("{}_{kind}", config.trim_end_matches(".toml"));
+        // A copy of the config with its learned file named from the examples, for both
+        // `export-c` and the reference `filter` run.
         let examples = root.join("examples");
-        let text = std::fs::read_to_string(examples.join(config)).unwrap();
-        let bare = text
-            .replace("[filter]\n", "[filter]\nguard = false\n")
-            .replace("learned = \"", &format!("learned = \"{}/", examples.display()));
-        let bare_config = tmp.join(format!("{stem}_bare.toml"));
-        std::fs::write(&bare_config, bare).unwrap();
+        let mut text = std::fs::read_to_string(examples.join(config)).unwrap();
+        if !learned {
+            text = text.lines().filter(|l| !l.starts_with("learned =")).map(|l| format!("{l}\n")).collect();
+        }
+        let mut copy = text.replace("learned = \"", &format!("learned = \"{}/", examples.display()));
+        if !guard {
+            copy = copy.replace("[filter]\n", "[filter]\nguard = false\n");
+        }
+        let copy_config = tmp.join(format!("{stem}.toml"));
+        std::fs::write(&copy_config, copy).unwrap();
+        let model = tmp.join(format!("{stem}_model.h"));
+        run(Command::new(&cli).arg("export-c").arg("--config").arg(&copy_config).arg("--out").arg(&model));
+        let exported = std::fs::read_to_string(&model).unwrap();
+        assert!(exported.contains(&format!(".off = {}", u8::from(!guard))), "{stem}: {exported}");
         let reference = tmp.join(format!("{stem}_filter.csv"));
         run(Command::new(&cli)
             .arg("filter")
             .arg("--config")
-            .arg(&bare_config)
+            .arg(&copy_config)
             .arg("--in")
             .arg(&recording)
             .arg("--out")
@@ -137,10 +156,14 @@ fn c_example_matches_filter_and_cpp_example_builds() {
             .arg(&exe));
         let ours = tmp.join(format!("{stem}_c.csv"));
         run(Command::new(&exe).arg(&recording).arg(&ours));
-        let (rows, worst) = compare(&reference, &ours);
-        eprintln!("{config}: {rows} rows, largest difference C vs filter {worst:e} N·m");
+        let (rows, worst, guard_bits) = compare(&reference, &ours);
+        eprintln!("{stem}: {rows} rows, largest difference C vs filter {worst:e} N·m");
         assert_eq!(rows, 5000);
-        assert!(worst <= 1e-9, "{config}: C example differs from filter by {worst:e} N·m");
+        assert!(worst <= 1e-9, "{stem}: C example differs from filter by {worst:e} N·m");
+        // The cold guarded run (no learned file) withholds its orders at first; the learned
+        // one may apply them from the first sample; the bare runs have no guard bits.
+        let cold = !text.lines().any(|l| l.trim_start().starts_with("learned ="));
+        assert_eq!(guard_bits, guard && cold, "{stem}: guard bits in filter_flags");
     }
 
     // Single precision: the export compiles and its model passes sw32_init.
@@ -171,7 +194,7 @@ fn c_example_matches_filter_and_cpp_example_builds() {
     run(&mut Command::new(&exe32));
 
     // The instruction-count workload (docs/performance.md) builds and runs.
-    std::fs::copy(tmp.join("joint-taghirad_model.h"), tmp.join("model.h")).unwrap();
+    std::fs::copy(tmp.join("joint-taghirad_guarded_model.h"), tmp.join("model.h")).unwrap();
     let exe_loop = tmp.join("step_loop");
     run(Command::new("cc")
         .args(cc_flags)
@@ -192,7 +215,7 @@ fn c_example_matches_filter_and_cpp_example_builds() {
     run(Command::new("c++")
         .args(["-std=c++17", "-O2", "-Wall", "-Wextra", "-Werror", "-I"])
         .arg(&include)
-        .arg(format!("-DSW_MODEL_HEADER=\"{}\"", tmp.join("joint-taghirad_model.h").display()))
+        .arg(format!("-DSW_MODEL_HEADER=\"{}\"", tmp.join("joint-taghirad_guarded_model.h").display()))
         .arg(root.join("examples/ros2_control/hardware_interface_example.cpp"))
         .arg(&lib)
         .args(["-lpthread", "-ldl"])

@@ -4,6 +4,7 @@
 //! the model the command line runs.
 
 use anyhow::{anyhow, bail, Context, Result};
+use strainwave_core::guard::cold_start;
 use strainwave_core::ripple::{Order, PhaseSource, RippleModel};
 
 use crate::config::{JointConfig, ModelChoice, PhaseChoice};
@@ -87,6 +88,21 @@ pub fn build_model<V: ModelVisitor>(cfg: &JointConfig, with_learned_priors: bool
             with_m!(1 2 3 4 5 6 7 8)
         }
     }
+}
+
+/// The model the do-no-harm guard runs when the `full` model learns from zero (no learned
+/// file): its orders start at [`strainwave_core::guard::COLD_OSCILLATOR_VARIANCE_NM2`]
+/// (see [`cold_start`]), so that a cold run reaches the noise floor. Other models, the
+/// bare canceller (`filter.guard = false`) and the learner run the model as built.
+pub fn guarded_cold_start<const M: usize>(
+    cfg: &JointConfig,
+    model: RippleModel<f64, M>,
+) -> Result<RippleModel<f64, M>> {
+    if !(cfg.filter.guard && cfg.filter.model == ModelChoice::Full) {
+        return Ok(model);
+    }
+    let config = cfg.path.display().to_string();
+    cold_start(model).map_err(|e| anyhow!("{config}: {}", in_config_terms(e, false, cfg.filter.sample_rate_hz)))
 }
 
 /// Largest number of orders a model holds: the config's plus the discovered ones (the

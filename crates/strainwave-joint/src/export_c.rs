@@ -1,6 +1,6 @@
 //! A joint's canceller as a C initializer for the C ABI (`include/strainwave.h`):
 //! `static const sw_model NAME = { … };` with the gear, the channels the sample carries,
-//! the calibration, the orders, the tuning and the learned priors, plus
+//! the calibration, the orders, the tuning, the learned priors and the do-no-harm guard, plus
 //! `NAME_CHANNELS` (the recording columns behind each sample field) for host programs.
 //! Firmware compiles the file in; no parser runs on the target.
 //!
@@ -14,10 +14,11 @@ use std::path::Path;
 use anyhow::{bail, Context, Result};
 use strainwave_core::calibration::{Calibration, Extrapolation, Model};
 use strainwave_core::gear::FixedElement;
+use strainwave_core::guard::GuardSettings;
 use strainwave_core::ripple::{Limits, PhaseSource, Reference, RippleModel};
 use strainwave_io::Channel;
 
-use crate::canceller::{build_model_with, ModelVisitor};
+use crate::canceller::{build_model_with, guarded_cold_start, ModelVisitor};
 use crate::config::{JointConfig, MAX_TABLE_LEN};
 use crate::learned::LearnedFile;
 
@@ -72,7 +73,7 @@ impl ModelVisitor for Extract<'_> {
             Some((file, path)) => {
                 file.apply(model, path).with_context(|| format!("{}: `filter.learned`", self.cfg.path.display()))?
             }
-            None => model,
+            None => guarded_cold_start(self.cfg, model)?,
         };
         let orders = model
             .orders()
@@ -229,6 +230,7 @@ pub fn export_c(cfg: &JointConfig, learned: Option<&Path>, name: &str, precision
     }
     writeln!(w.out, "    }},")?;
     w.calibration(&cal)?;
+    w.guard(cfg.filter.guard, learned.is_some())?;
     writeln!(w.out, "}};\n")?;
     writeln!(w.out, "static const sw_channels {name}_CHANNELS = {{")?;
     for (key, c) in channels(cfg) {
@@ -340,6 +342,36 @@ impl Writer<'_> {
         let vals: Vec<String> = xs.iter().map(|&x| self.literal(key, x)).collect::<Result<_>>()?;
         let vals = if vals.is_empty() { "0".to_string() } else { vals.join(", ") };
         writeln!(self.out, "{:indent$}.{key} = {{ {vals} }},", "")?;
+        Ok(())
+    }
+
+    /// The do-no-harm guard as `filter` runs it: on unless `filter.guard = false`, from
+    /// learned priors when a learned file was exported, the default thresholds.
+    fn guard(&mut self, on: bool, learned_prior: bool) -> Result<()> {
+        let s = GuardSettings::<f64>::default();
+        writeln!(self.out, "    .guard = {{")?;
+        writeln!(self.out, "        .off = {},", u8::from(!on))?;
+        writeln!(self.out, "        .learned_prior = {},", u8::from(learned_prior))?;
+        for (key, x) in [
+            ("apply_chi2", s.apply_chi2),
+            ("release_chi2", s.release_chi2),
+            ("apply_wander", s.apply_wander),
+            ("release_wander", s.release_wander),
+            ("min_cycles", s.min_cycles),
+            ("min_cycles_output", s.min_cycles_output),
+            ("window_s", s.window_s),
+            ("nis_pass_through", s.nis_pass_through),
+            ("nis_recover", s.nis_recover),
+            ("contradiction_margin", s.contradiction_margin),
+            ("nis_clip", s.nis_clip),
+            ("partial_min_line_hz", s.partial_min_line_hz),
+            ("complete_max_nis", s.complete_max_nis),
+            ("standstill_max_nis", s.standstill_max_nis),
+            ("standstill_window_s", s.standstill_window_s),
+        ] {
+            self.real(key, x, 8)?;
+        }
+        writeln!(self.out, "    }},")?;
         Ok(())
     }
 

@@ -15,7 +15,7 @@ use strainwave_core::ripple::{
 };
 use strainwave_io::{BoundChannel, IoError, RecordingReader, RecordingWriter};
 
-use crate::canceller::{build_model_with, in_config_terms, ModelVisitor};
+use crate::canceller::{build_model_with, guarded_cold_start, in_config_terms, ModelVisitor};
 use crate::config::{JointConfig, ModelChoice, MAX_TABLE_LEN};
 use crate::health::Health;
 use crate::learned::LearnedFile;
@@ -297,13 +297,9 @@ impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
         let Run { cfg, opts, source: r, create, progress, learned, mut session } = self;
         let config = cfg.path.display().to_string();
         let input = opts.input_name.as_str();
-        let learned_model;
-        let model = match learned {
-            Some((file, path)) => {
-                learned_model = file.apply(*model, path).with_context(|| format!("{config}: `filter.learned`"))?;
-                &learned_model
-            }
-            None => model,
+        let model = &match learned {
+            Some((file, path)) => file.apply(*model, path).with_context(|| format!("{config}: `filter.learned`"))?,
+            None => guarded_cold_start(cfg, *model)?,
         };
         let gear = cfg.gear().with_context(|| config.clone())?;
         let cal = cfg.calibration().with_context(|| config.clone())?;
