@@ -7,8 +7,9 @@
 //! docs/safety.md; each test prints its count every 100 000 cases):
 //!
 //! ```text
-//! ulimit -v 6000000   # after building: the limit binds the compiler too
-//! PROPTEST_CASES=1000000 cargo test --release -p strainwave-io --features parquet,mcap,sqlite --test fuzz_readers -- --nocapture
+//! export CARGO_PROFILE_RELEASE_OVERFLOW_CHECKS=true
+//! ulimit -v 4000000   # after building: the limit binds the compiler too
+//! PROPTEST_CASES=1000000 cargo test --release -p strainwave-io --features parquet,mcap,sqlite --test fuzz_readers -- csv_reader_never_panics --exact --nocapture
 //! ```
 #![cfg(all(feature = "parquet", feature = "mcap"))]
 
