@@ -8,11 +8,12 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use strainwave_analysis::calibration::{
-    calibrate_gain, fit_affine, fit_speed_dependent, held_rows, quantization_step, Experiment, Extrapolation, GainFit,
-    SpeedBins, SpeedDependence,
+    calibrate_gain, fit_affine, fit_speed_dependent, held_rows, quantization_step, CalibrationError, Experiment,
+    Extrapolation, GainFit, SpeedBins, SpeedDependence,
 };
 
 mod report;
+mod rows;
 mod summary;
 
 pub use report::{
@@ -240,14 +241,23 @@ fn load(a: &Args, need_speed: bool, mounting: Option<&str>) -> Result<Vec<Experi
 }
 
 /// Keeps the held rows of each experiment (library: `held_rows`).
-fn keep_held(exps: &mut [ExperimentRows], hold_s: f64, band: Option<f64>) -> Result<String> {
+fn keep_held(exps: &mut [ExperimentRows], hold_s: f64, band: Option<f64>, cols: &rows::Columns) -> Result<String> {
     let all: Vec<f64> = exps.iter().flat_map(|e| e.reference.iter().copied()).collect();
     let span =
         all.iter().copied().fold(f64::NEG_INFINITY, f64::max) - all.iter().copied().fold(f64::INFINITY, f64::min);
     let band = band.unwrap_or(0.02 * span);
     let (mut kept, mut total) = (0, 0);
     for e in exps.iter_mut() {
-        let h = held_rows(&e.time, &e.reference, hold_s, band).with_context(|| format!("--held on `{}`", e.label))?;
+        // Checked here so that the row named is the file's (the library counts the experiment's rows).
+        if let Some(i) = (1..e.time.len()).find(|&i| e.time[i] < e.time[i - 1]) {
+            let (t, before) = (e.time[i], e.time[i - 1]);
+            match rows::locate_in(e, i) {
+                Some((file, r)) => bail!("{file}: row {r}: --held: time goes backwards ({t} s after {before} s)"),
+                None => bail!("--held on `{}`: row {}: time goes backwards ({t} s after {before} s)", e.label, i + 1),
+            }
+        }
+        let h = held_rows(&e.time, &e.reference, hold_s, band)
+            .map_err(|err| rows::experiment_error(e, cols, &format!("--held on `{}`", e.label), err))?;
         let keep = |v: &mut Vec<f64>| {
             if !v.is_empty() {
                 *v = v.iter().zip(&h).filter(|(_, &k)| k).map(|(x, _)| *x).collect();
@@ -294,6 +304,7 @@ pub fn run(a: &Args) -> Result<()> {
         (None, false) => None,
     };
     let mut exps = load(a, speed_model, mounting)?;
+    let cols = rows::Columns { reference: &a.reference, sensor: &a.sensor, speed: a.speed.as_deref() };
     let mut out = String::new();
     let names: Vec<String> = a.inputs.iter().map(|p| p.display().to_string()).collect();
     let _ = writeln!(
@@ -307,7 +318,7 @@ pub fn run(a: &Args) -> Result<()> {
     );
     let rows_read: usize = exps.iter().map(|e| e.reference.len()).sum();
     if let Some(hold) = a.held {
-        out += &keep_held(&mut exps, hold, a.held_band)?;
+        out += &keep_held(&mut exps, hold, a.held_band, &cols)?;
     }
     let rows_held: usize = exps.iter().map(|e| e.reference.len()).sum();
     let fs = a.full_scale;
@@ -323,7 +334,7 @@ pub fn run(a: &Args) -> Result<()> {
         Model::Gain => {
             let fit = if a.with_offset { GainFit::WithOffset } else { GainFit::ThroughOrigin };
             let e: Vec<Experiment> = exps.iter().map(|e| Experiment::new(&e.label, &e.reference, &e.sensor)).collect();
-            let g = calibrate_gain(&e, fit, fs).context("fitting the gain")?;
+            let g = calibrate_gain(&e, fit, fs).map_err(|err| gain_error(&exps, &cols, err))?;
             out += &gain_report(&g);
             let (c, source, per) = summary::gain(&g);
             (coefficients, se_source, experiments) = (c, source, per);
@@ -331,8 +342,9 @@ pub fn run(a: &Args) -> Result<()> {
         }
         Model::Static | Model::Dynamic => {
             let name = if a.model == Model::Static { "static" } else { "dynamic" };
-            let f = fit_affine(&all.sensor, &all.reference, fs)
-                .with_context(|| format!("fitting the {name} model to {}", names.join(", ")))?;
+            let f = fit_affine(&all.sensor, &all.reference, fs).map_err(|err| {
+                rows::pooled_error(&exps, &cols, &format!("fitting the {name} model to {}", names.join(", ")), err)
+            })?;
             out += &affine_report(name, &f);
             coefficients = summary::affine(&f);
             se_source = "residuals of the least-squares fit";
@@ -361,8 +373,9 @@ pub fn run(a: &Args) -> Result<()> {
                 SpeedDependence::Polynomial { degree: a.degree }
             };
             let f = fit_speed_dependent(&all.sensor, &all.reference, &all.speed, &dep, a.extrapolation.into(), fs)
-                .with_context(|| {
-                    format!("fitting the speed model to {} (speed column `{speed_col}`)", names.join(", "))
+                .map_err(|err| {
+                    let doing = format!("fitting the speed model to {} (speed column `{speed_col}`)", names.join(", "));
+                    rows::pooled_error(&exps, &cols, &doing, err)
                 })?;
             out += &speed_report(&f, speed_col);
             let (c, source) = summary::speed(&f, &all.sensor, &all.reference, &all.speed);
@@ -403,7 +416,9 @@ pub fn run(a: &Args) -> Result<()> {
         if shown.extrapolation == Some(Extrapolation::Reject) {
             shown.extrapolation = Some(Extrapolation::Clamp);
         }
-        let ev = shown.apply(&all.sensor, speed).context("evaluating the calibration for --plot")?;
+        let ev = shown
+            .apply(&all.sensor, speed)
+            .map_err(|err| rows::pooled_error(&exps, &cols, "evaluating the calibration for --plot", err))?;
         let plots =
             fit_plots(&format!("{} model", a.model.name()), &all.sensor, &all.reference, &ev.torque_nm, &a.sensor);
         strainwave_io::output::write_file(p, stacked_svg(&plots)).context("--plot")?;
@@ -426,7 +441,15 @@ pub fn run(a: &Args) -> Result<()> {
             "coefficients": coefficients,
             "std_error_source": se_source,
             "per_experiment": experiments,
-            "fit": file.metrics.as_ref().map(|m| summary::statistics(m, &all.reference)),
+            "fit": file.metrics.as_ref().map(|m| {
+                let mut v = summary::statistics(m, &all.reference);
+                // The largest error's file and data row, when the metrics cover every row.
+                if let Some((f, r)) = (m.rows == all.reference.len()).then(|| rows::locate(&exps, m.max_abs_row)).flatten() {
+                    v["max_abs_file"] = f.into();
+                    v["max_abs_file_row"] = r.into();
+                }
+                v
+            }),
         });
         strainwave_io::output::write_file(p, summary::document(v)).context("--summary-json")?;
         let _ = writeln!(out, "wrote {}", p.display());
@@ -440,6 +463,21 @@ pub fn run(a: &Args) -> Result<()> {
         crate::stdout::print(&out)?;
     }
     Ok(())
+}
+
+/// A gain fit's error; one naming a row names the experiment's file and data row.
+fn gain_error(exps: &[ExperimentRows], cols: &rows::Columns, err: CalibrationError) -> anyhow::Error {
+    // The library names the experiment as "experiment `LABEL`".
+    let which = match &err {
+        CalibrationError::NonFiniteRow { what, .. } | CalibrationError::AtRow { what, .. } => {
+            exps.iter().find(|e| *what == format!("experiment `{}`", e.label))
+        }
+        _ => None,
+    };
+    match which {
+        Some(e) => rows::experiment_error(e, cols, &format!("fitting the gain of `{}`", e.label), err),
+        None => anyhow::anyhow!(err).context("fitting the gain"),
+    }
 }
 
 fn speed_bins(a: &Args) -> SpeedBins {

@@ -1,7 +1,6 @@
 //! `strainwave export-c`: a joint config's canceller (calibration, orders, tuning, learned
 //! coefficients) as a C initializer for the C ABI, to compile into drive firmware.
 
-use std::io::Write as _;
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
@@ -30,14 +29,19 @@ pub struct Args {
 
 /// Runs `export-c`.
 pub fn run(a: &Args) -> Result<()> {
+    let refuse = |inputs: &[Option<&std::path::Path>]| {
+        strainwave_io::output::refuse_input_as_output(&a.out, inputs.iter().copied().flatten())
+    };
+    refuse(&[Some(&a.config), a.learned.as_deref()])?;
     let cfg = JointConfig::load(&a.config)?;
+    refuse(&[cfg.filter.learned.as_deref(), cfg.calibration.as_ref().and_then(|c| c.file.as_deref())])?;
     let precision = if a.precision == "f32" { Precision::F32 } else { Precision::F64 };
     let text = export_c(&cfg, a.learned.as_deref(), &a.name, precision)?;
-    if a.out.as_os_str() == "-" {
-        let mut out = std::io::stdout().lock();
-        out.write_all(text.as_bytes()).and_then(|()| out.flush()).context("standard output")?;
+    if strainwave_io::output::is_stdout(&a.out) {
+        crate::stdout::print(&text)?;
     } else {
-        std::fs::write(&a.out, text).with_context(|| format!("{}", a.out.display()))?;
+        // A temporary file renamed into place, as every output.
+        strainwave_io::output::write_file(&a.out, text).context("--out")?;
         eprintln!("wrote {} ({} model of {})", a.out.display(), a.precision, a.config.display());
     }
     Ok(())

@@ -352,6 +352,14 @@ fn summary_json_reads_back() {
     assert_eq!(fit["rows"].as_u64(), Some(used));
     assert!((fit["r_squared"].as_f64().unwrap() - (1.0 - sse / syy)).abs() < 1e-9, "{fit}");
     assert!((fit["rms_error_nm"].as_f64().unwrap() - (sse / n).sqrt()).abs() < 1e-9, "{fit}");
+    // The largest error named by the file's own data row (1-based), not by the held rows.
+    let file_rows: Vec<usize> = held.iter().enumerate().filter(|(_, &h)| h).map(|(i, _)| i + 1).collect();
+    let err = |r: &Vec<f64>| (a * r[2] + b - r[1]).abs();
+    let worst = (0..used_rows.len()).max_by(|&i, &j| err(used_rows[i]).total_cmp(&err(used_rows[j]))).unwrap();
+    assert_eq!(fit["max_abs_file_row"].as_u64(), Some(file_rows[worst] as u64), "{fit}");
+    assert_eq!(fit["max_abs_used_row"].as_u64(), Some(worst as u64 + 1), "{fit}");
+    assert_ne!(file_rows[worst], worst + 1, "the held rows must differ from the file's for this check");
+    assert_eq!(fit["max_abs_file"].as_str(), Some(s(&p)), "{fit}");
     assert!(!std::fs::read_dir(&d).unwrap().any(|e| e.unwrap().file_name().to_string_lossy().contains("tmp")));
 
     // Two experiments by a column: the gain's standard error is the spread over √2.
@@ -435,4 +443,91 @@ fn din_errors_name_the_file_row_counted_from_one() {
     write_csv(&p2, "time,torque,volts,position_deg", &rows);
     let e = user_error(&["calibrate", "--in", s(&p2), "--reference", "torque", "--sensor", "volts", "--din"]);
     assert!(e.contains("sign.csv: --din on `sign.csv series 1`: step 3: torque changes sign"), "{e}");
+}
+
+/// With several inputs the fit pools their rows; an error names the file and its own
+/// data row, not the row of the pooled data. The same with `--experiment-column` and
+/// `--held`, where an experiment's rows are not the file's.
+#[test]
+fn errors_with_several_inputs_name_the_file_and_its_row() {
+    let d = tmp("pooled");
+    let loads = |w: f64| (0..=5).map(move |l| vec![(1.5 + 0.01 * w) * l as f64 - 0.1, l as f64, w]);
+    let (a, b) = (d.join("first.csv"), d.join("second.csv"));
+    // first.csv: 42 rows inside [2, 8] rad/s; second.csv: data rows 13–18 at 9 rad/s.
+    write_csv(
+        &a,
+        "torque,sensor,speed",
+        &[2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0].into_iter().flat_map(loads).collect::<Vec<_>>(),
+    );
+    write_csv(&b, "torque,sensor,speed", &[2.0, 3.0, 9.0, 4.0].into_iter().flat_map(loads).collect::<Vec<_>>());
+    let e = user_error(&[
+        "calibrate",
+        "--in",
+        s(&a),
+        "--in",
+        s(&b),
+        "--reference",
+        "torque",
+        "--sensor",
+        "sensor",
+        "--speed",
+        "speed",
+        "--model",
+        "speed-table",
+        "--speed-edges",
+        "2,5,8",
+        "--extrapolation",
+        "reject",
+    ]);
+    let want = format!("{}: row 13, column `speed`: speed 9 rad/s is outside", b.display());
+    assert!(e.contains(&want), "{e}");
+    assert!(!e.contains("row 55"), "a pooled row: {e}");
+    // The file given first: its own row.
+    let e = user_error(&[
+        "calibrate",
+        "--in",
+        s(&b),
+        "--in",
+        s(&a),
+        "--reference",
+        "torque",
+        "--sensor",
+        "sensor",
+        "--speed",
+        "speed",
+        "--model",
+        "speed-table",
+        "--speed-edges",
+        "2,8",
+        "--extrapolation",
+        "reject",
+    ]);
+    assert!(e.contains(&want), "{e}");
+
+    // Two experiments interleaved in one file; time goes backwards at the second
+    // experiment's 10th row, which is the file's data row 20.
+    let mut rows = Vec::new();
+    for k in 0..20 {
+        for exp in [1.0, 2.0] {
+            let tq = if k > 3 { 5.0 } else { 0.0 };
+            rows.push(vec![exp, k as f64 * 0.1, tq, tq / 10.0]);
+        }
+    }
+    rows[19][1] = 0.05;
+    let h = d.join("held.csv");
+    write_csv(&h, "exp,time,torque,volts", &rows);
+    let e = user_error(&[
+        "calibrate",
+        "--in",
+        s(&h),
+        "--experiment-column",
+        "exp",
+        "--reference",
+        "torque",
+        "--sensor",
+        "volts",
+        "--held",
+        "0.2",
+    ]);
+    assert!(e.contains(&format!("{}: row 20: --held: time goes backwards (0.05 s after 0.8 s)", h.display())), "{e}");
 }

@@ -101,3 +101,34 @@ fn errors_are_one_line() {
     assert_user_error(&run(&["export-c", "--config", &cfg, "--out", missing.to_str().unwrap()]), "no/such/dir/model.h");
     std::fs::remove_dir_all(d).unwrap();
 }
+
+/// `--out` is written through a temporary file renamed into place, and never names an
+/// input: the config, `--learned`, or the learned file the config names.
+#[test]
+fn the_output_never_replaces_an_input() {
+    let d = tmp("inputs");
+    let cfg = d.join("joint.toml");
+    let learned = d.join("learned.toml");
+    let text = std::fs::read_to_string(example("joint-taghirad.toml")).unwrap();
+    std::fs::write(&cfg, text.replace("\"joint-taghirad-learned.toml\"", "\"learned.toml\"")).unwrap();
+    std::fs::copy(example("joint-taghirad-learned.toml"), &learned).unwrap();
+    let before = [std::fs::read(&cfg).unwrap(), std::fs::read(&learned).unwrap()];
+    let c = cfg.to_str().unwrap();
+    for out in [&cfg, &learned] {
+        let o = run(&["export-c", "--config", c, "--out", out.to_str().unwrap()]);
+        assert_user_error(&o, "is also an input");
+        let o =
+            run(&["export-c", "--config", c, "--learned", learned.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+        assert_user_error(&o, "is also an input");
+    }
+    assert!(std::fs::read(&cfg).unwrap() == before[0] && std::fs::read(&learned).unwrap() == before[1]);
+    let out = d.join("model.h");
+    std::fs::write(&out, "old").unwrap();
+    let o = run(&["export-c", "--config", c, "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(std::fs::read_to_string(&out).unwrap().contains("SW_MODEL"));
+    let mut names: Vec<String> =
+        std::fs::read_dir(&d).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    names.sort();
+    assert_eq!(names, ["joint.toml", "learned.toml", "model.h"]);
+}

@@ -168,3 +168,44 @@ fn an_unmodelled_line_is_discovered_and_reported() {
     assert!(text.contains("discovered = true"), "{text}");
     std::fs::remove_dir_all(&d).unwrap();
 }
+
+/// Exit status 1 and, after the first run's summary, one error line holding `needle`.
+fn last_line_error(o: &Output, needle: &str) {
+    let e = stderr(o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    let last = e.trim_end().lines().last().unwrap_or("");
+    assert!(last.starts_with("error: ") && last.contains(needle), "`{needle}` not in the last line of: {e}");
+    assert_eq!(e.matches("error").count(), 1, "one error: {e}");
+}
+
+/// Several runs in one call are read one after the other, never pooled: a bad row in
+/// the second names that file and its own data row (1-based), not a row counted from
+/// the start of the first.
+#[test]
+fn a_bad_row_in_a_later_run_names_its_file_and_row() {
+    let d = tmp("later-row");
+    let a = simulate(&d, "taghirad", "1");
+    let text = std::fs::read_to_string(&a).unwrap();
+    let header = text.lines().next().unwrap();
+    let col = |name: &str| header.split(',').position(|c| c == name).unwrap();
+    let (time, torque) = (col("time"), col("bridge_voltage"));
+    // A copy of `a` with cell `c` of data row `row` (1-based) replaced.
+    let edited = |name: &str, row: usize, c: usize, value: &str| {
+        let mut lines: Vec<String> = text.lines().map(String::from).collect();
+        let mut cells: Vec<&str> = lines[row].split(',').collect();
+        cells[c] = value;
+        lines[row] = cells.join(",");
+        let p = d.join(name);
+        std::fs::write(&p, lines.join("\n") + "\n").unwrap();
+        p
+    };
+    let nan = edited("nan.csv", 5, torque, "NaN");
+    let back = edited("back.csv", 7, time, "0.0001");
+    let learned = d.join("learned.toml");
+    let cfg = config(&d, &d.join("none.toml"), |t| t);
+    let o = run(&["filter", "--config", s(&cfg), "--learn", s(&learned), "--in", s(&a), s(&nan)]);
+    last_line_error(&o, &format!("{}: data row 5: column `bridge_voltage`", nan.display()));
+    let o = run(&["filter", "--config", s(&cfg), "--learn", s(&learned), "--in", s(&a), s(&back)]);
+    last_line_error(&o, &format!("{}: data row 7: time 0.0001 s is not after", back.display()));
+    std::fs::remove_dir_all(&d).unwrap();
+}

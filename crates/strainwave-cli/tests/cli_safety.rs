@@ -475,3 +475,96 @@ fn a_reading_the_calibration_makes_infinite_stops_filter_or_is_skipped_with_leni
     let written = std::fs::read_to_string(&out).unwrap();
     assert!(!written.contains("inf"), "an infinity was written");
 }
+
+/// Runs `args` alone; its output file's bytes.
+fn output_of(args: &[&str], out: &Path) -> Vec<u8> {
+    let o = run(args);
+    assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+    std::fs::read(out).unwrap()
+}
+
+/// Two `convert` runs of different recordings (different lengths) into one `--out`,
+/// started together, several rounds, for CSV, Parquet and MCAP: each run succeeds or
+/// fails with a one-line error, at least one succeeds, and the file is byte for byte
+/// what one of the runs writes alone (no rows of the other, no mix of two files),
+/// readable again, with no temporary file left.
+#[test]
+fn concurrent_runs_into_one_output_leave_one_whole_file_of_one_run() {
+    let d = tmp("race-convert");
+    let (a, b) = (d.join("a.csv"), d.join("b.csv"));
+    for (p, seed, seconds) in [(&a, "1", "8"), (&b, "2", "5")] {
+        let o = run(&["simulate", "--preset", "taghirad", "--duration", seconds, "--seed", seed, "--out", s(p), "-q"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    for ext in ["csv", "parquet", "mcap"] {
+        let out = d.join(format!("race.{ext}"));
+        let alone = d.join(format!("alone.{ext}"));
+        let want_a = output_of(&["convert", "--in", s(&a), "--out", s(&alone), "-q"], &alone);
+        let want_b = output_of(&["convert", "--in", s(&b), "--out", s(&alone), "-q"], &alone);
+        assert_ne!(want_a, want_b);
+        let spawn = |input: &Path| {
+            bin().args(["convert", "--in", s(input), "--out", s(&out), "-q"]).stderr(Stdio::piped()).spawn().unwrap()
+        };
+        for round in 0..3 {
+            let _ = std::fs::remove_file(&out);
+            let (ca, cb) = (spawn(&a), spawn(&b));
+            let mut ok = 0;
+            for c in [ca, cb] {
+                let o = c.wait_with_output().unwrap();
+                if o.status.success() {
+                    ok += 1;
+                } else {
+                    assert_error(&o, &[s(&out)]);
+                }
+            }
+            assert!(ok >= 1, "{ext} round {round}: both runs failed");
+            let got = std::fs::read(&out).unwrap();
+            assert!(got == want_a || got == want_b, "{ext} round {round}: the output is neither run's file");
+            let back = d.join("back.csv");
+            let o = run(&["convert", "--in", s(&out), "--out", s(&back), "-q"]);
+            assert!(o.status.success(), "{ext} round {round}: {}", stderr(&o));
+        }
+        let stray: Vec<String> = names(&d).into_iter().filter(|n| n.starts_with('.')).collect();
+        assert!(stray.is_empty(), "{ext}: left {stray:?}");
+    }
+}
+
+/// SIGKILL in the middle of writing over an earlier output: the earlier file is left
+/// byte for byte. The killed run's temporary file stays (nothing runs at SIGKILL); it is
+/// hidden, names the target and the dead process, ends in `.strainwave-tmp`, and a later
+/// run that writes the same target removes it once unchanged for ten minutes
+/// (`strainwave_io::output::STALE_TEMP_AGE`; its process gone).
+#[test]
+fn sigkill_mid_write_leaves_the_previous_file_and_a_later_run_cleans_up() {
+    let d = tmp("kill-previous");
+    let out = d.join("run.csv");
+    assert!(simulate(&out, "0.5").status.success());
+    let before = std::fs::read(&out).unwrap();
+    let mut child = bin()
+        .args(["simulate", "--preset", "taghirad", "--duration", "3000", "--out", s(&out), "--quiet"])
+        .spawn()
+        .unwrap();
+    // Mid-write: the temporary file has grown past the first megabyte.
+    let temp = || names(&d).into_iter().find(|n| n.ends_with(".strainwave-tmp")).map(|n| d.join(n));
+    let t0 = std::time::Instant::now();
+    while temp().and_then(|p| std::fs::metadata(p).ok()).is_none_or(|m| m.len() < 1 << 20) {
+        assert!(t0.elapsed().as_secs() < 120, "no temporary file grew: {:?}", names(&d));
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(std::fs::read(&out).unwrap() == before, "the previous output changed");
+    let left = temp().unwrap();
+    let name = left.file_name().unwrap().to_string_lossy().into_owned();
+    assert!(name.starts_with(&format!(".run.csv.{}-", child.id())), "{name}");
+    assert_eq!(names(&d), [name.clone(), "run.csv".to_string()]);
+
+    // A later run soon after leaves it (its writer might still be alive elsewhere) ...
+    assert!(simulate(&out, "0.2").status.success());
+    assert!(left.exists(), "removed a fresh temporary file");
+    // ... and removes it once it is old.
+    let old = std::time::SystemTime::now() - std::time::Duration::from_secs(3600);
+    std::fs::File::options().write(true).open(&left).unwrap().set_modified(old).unwrap();
+    assert!(simulate(&out, "0.2").status.success());
+    assert_eq!(names(&d), ["run.csv"]);
+}

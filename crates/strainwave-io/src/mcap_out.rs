@@ -4,8 +4,9 @@
 //! A column `j1.torque_filtered` is the topic `/strainwave/j1/torque_filtered`: `.` becomes
 //! `/` and any character outside `[A-Za-z0-9_/]` becomes `_`, under `/strainwave`. Each
 //! row gives one message per column at log and publish time `round(time · 10⁹)` ns; a NaN
-//! gives no message. The file is chunked (zstd) and indexed; it appears under its name
-//! only on [`McapWriter::finish`].
+//! gives no message. The file is chunked (zstd) and indexed; it is written to a
+//! temporary file of its own ([`crate::output::AtomicFile`]) and appears under its name,
+//! synced, only on [`McapWriter::finish`].
 
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -13,6 +14,7 @@ use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
 use crate::error::IoError;
+use crate::output::AtomicFile;
 
 /// The message type of every column topic.
 pub const COLUMN_SCHEMA: &str = "std_msgs/msg/Float64";
@@ -47,8 +49,10 @@ fn mcap_err(path: &Path, e: mcap::McapError) -> IoError {
 /// MCAP writer of a recording.
 pub struct McapWriter {
     path: PathBuf,
-    tmp: PathBuf,
     writer: Option<mcap::Writer<BufWriter<File>>>,
+    /// The temporary file the writer writes through a second handle (declared after
+    /// `writer`, so dropped after it: an unfinished file is removed last).
+    tmp: Option<AtomicFile>,
     time_index: usize,
     /// Channel of each column (`None` for `time`).
     channels: Vec<Option<u16>>,
@@ -66,9 +70,8 @@ impl McapWriter {
                 available: format!("{} (MCAP output needs a `time` column, s)", columns.join(", ")),
             });
         };
-        let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
-        let tmp = path.with_file_name(format!(".{name}.partial"));
-        let file = File::create(&tmp).map_err(|source| IoError::Os { path: path.to_path_buf(), source })?;
+        let tmp = AtomicFile::create(path)?;
+        let file = tmp.try_clone_file()?;
         let mut w = mcap::WriteOptions::new()
             .compression(Some(mcap::Compression::Zstd))
             .profile("ros2")
@@ -90,7 +93,15 @@ impl McapWriter {
             topics.push(topic);
             channels.push(Some(id));
         }
-        Ok(Self { path: path.to_path_buf(), tmp, writer: Some(w), time_index, channels, sequence: 0, rows: 0 })
+        Ok(Self {
+            path: path.to_path_buf(),
+            writer: Some(w),
+            tmp: Some(tmp),
+            time_index,
+            channels,
+            sequence: 0,
+            rows: 0,
+        })
     }
 
     /// Writes one row.
@@ -139,23 +150,17 @@ impl McapWriter {
         self.rows
     }
 
-    /// Writes the summary and moves the file into place.
+    /// Writes the summary, syncs the file and moves it into place.
     pub fn finish(mut self) -> Result<u64, IoError> {
         if let Some(mut w) = self.writer.take() {
             w.finish().map_err(|e| mcap_err(&self.path, e))?;
             let mut file = w.into_inner();
             std::io::Write::flush(&mut file).map_err(|source| IoError::Os { path: self.path.clone(), source })?;
         }
-        std::fs::rename(&self.tmp, &self.path).map_err(|source| IoError::Os { path: self.path.clone(), source })?;
-        Ok(self.rows)
-    }
-}
-
-impl Drop for McapWriter {
-    fn drop(&mut self) {
-        if self.writer.take().is_some() {
-            let _ = std::fs::remove_file(&self.tmp);
+        if let Some(tmp) = self.tmp.take() {
+            tmp.commit()?;
         }
+        Ok(self.rows)
     }
 }
 

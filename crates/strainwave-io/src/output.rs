@@ -7,7 +7,9 @@
 //! so two runs writing one target never share a temporary file. They are hidden and end
 //! in [`TEMP_SUFFIX`], an extension no reader accepts, so one left behind by a killed run
 //! is never taken for output. Live temporary files are registered, so that a signal
-//! handler can remove them ([`remove_live_temps`]) before the process exits.
+//! handler can remove them ([`remove_live_temps`]) before the process exits. One left by
+//! a killed run is removed by a later run writing the same target, once certainly stale
+//! (see [`STALE_TEMP_AGE`]).
 //!
 //! `-` is standard output for every writer here.
 
@@ -18,6 +20,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
 
 use crate::error::IoError;
+
+mod stale;
+pub use stale::STALE_TEMP_AGE;
 
 /// The ending of every temporary file name.
 pub const TEMP_SUFFIX: &str = ".strainwave-tmp";
@@ -149,10 +154,12 @@ impl AtomicFile {
             return Err(os(e));
         }
         // The rename itself reaches the disk with the directory (best effort).
-        if let Some(dir) = self.path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            if let Ok(d) = File::open(dir) {
-                let _ = d.sync_all();
-            }
+        let dir = self.path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        if let Ok(d) = File::open(dir) {
+            let _ = d.sync_all();
+        }
+        if let Some(name) = self.path.file_name().and_then(|n| n.to_str()) {
+            stale::remove_stale_temps(dir, name);
         }
         Ok(())
     }

@@ -10,7 +10,8 @@
 //! record or string that runs past its end is refused with a one-line error. Records
 //! inside compressed chunks are seen only by the library (its decompressor checks the
 //! chunk's sizes). A file cut short is not an error here: the reader yields the messages
-//! before the cut.
+//! before the cut. It also streams the records of an uncompressed chunk that the cut
+//! runs through, so those that lie wholly before the cut are checked too.
 
 use std::fs::File;
 use std::io::{self, BufReader, Read, Seek, SeekFrom};
@@ -38,30 +39,45 @@ pub(super) fn check_records(path: &Path) -> Result<(), IoError> {
     r.seek(SeekFrom::Start(pos)).map_err(os)?;
     while pos + RECORD_HEADER_BYTES <= file_bytes {
         let (opcode, len) = read_header(&mut r).map_err(os)?;
-        let end = (pos + RECORD_HEADER_BYTES).saturating_add(len);
-        if opcode == OP_FOOTER || end > file_bytes {
-            // The end of the records, or a cut-short file: the reader deals with the rest.
+        let corrupt = |what: &str| IoError::Csv {
+            path: path.to_path_buf(),
+            msg: format!("MCAP: corrupt record at byte {pos}: {what}"),
+        };
+        let body = pos + RECORD_HEADER_BYTES;
+        let end = body.saturating_add(len);
+        if opcode == OP_FOOTER {
             return Ok(());
         }
-        let verdict = if opcode == OP_CHUNK { check_chunk(&mut r, len) } else { check_fields(&mut r, opcode, len) };
+        if end > file_bytes {
+            // A cut-short file: the reader deals with the rest, but streams the records of
+            // an uncompressed chunk up to the cut.
+            if opcode == OP_CHUNK {
+                check_chunk(&mut r, len, file_bytes - body).map_err(os)?.map_err(corrupt)?;
+            }
+            return Ok(());
+        }
+        let verdict =
+            if opcode == OP_CHUNK { check_chunk(&mut r, len, len) } else { check_fields(&mut r, opcode, len) };
         match verdict.map_err(os)? {
             Ok(read) => skip(&mut r, len - read).map_err(os)?,
-            Err(what) => {
-                return Err(IoError::Csv {
-                    path: path.to_path_buf(),
-                    msg: format!("MCAP: corrupt record at byte {pos}: {what}"),
-                })
-            }
+            Err(what) => return Err(corrupt(what)),
         }
         pos = end;
     }
     Ok(())
 }
 
-/// Walks one chunk's body of `len` bytes, and each record of it when uncompressed.
-fn check_chunk(r: &mut BufReader<File>, len: u64) -> io::Result<Verdict> {
+/// Walks one chunk's body of `len` bytes, and each record of it when uncompressed,
+/// reading no further than `available` bytes (`len`, or less where the file is cut
+/// short: the walk ends at the cut).
+fn check_chunk(r: &mut BufReader<File>, len: u64, available: u64) -> io::Result<Verdict> {
     if len < CHUNK_FIXED_BYTES + 4 {
         return Ok(Err("a chunk's header runs past its end"));
+    }
+    // Bytes up to here are in the file (the cut is not reached).
+    let present = |upto: u64| upto <= available;
+    if !present(CHUNK_FIXED_BYTES + 4) {
+        return Ok(Ok(0));
     }
     skip(r, CHUNK_FIXED_BYTES)?;
     let compression_bytes = u64::from(read_u32(r)?);
@@ -76,6 +92,9 @@ fn check_chunk(r: &mut BufReader<File>, len: u64) -> io::Result<Verdict> {
     if len - read < 8 {
         return Ok(Err("a chunk's header runs past its end"));
     }
+    if !present(read + 8) {
+        return Ok(Ok(read));
+    }
     let records_bytes = read_u64(r)?;
     read += 8;
     if records_bytes > len - read {
@@ -86,10 +105,17 @@ fn check_chunk(r: &mut BufReader<File>, len: u64) -> io::Result<Verdict> {
         if left < RECORD_HEADER_BYTES {
             return Ok(Err("a record in a chunk is cut off"));
         }
+        let at = read + records_bytes - left;
+        if !present(at + RECORD_HEADER_BYTES) {
+            return Ok(Ok(at));
+        }
         let (opcode, record_bytes) = read_header(r)?;
         left -= RECORD_HEADER_BYTES;
         if record_bytes > left {
             return Ok(Err("a record in a chunk runs past the chunk's end"));
+        }
+        if !present(at + RECORD_HEADER_BYTES + record_bytes) {
+            return Ok(Ok(at + RECORD_HEADER_BYTES));
         }
         match check_fields(r, opcode, record_bytes)? {
             Ok(fields) => skip(r, record_bytes - fields)?,
@@ -268,6 +294,33 @@ mod tests {
     fn a_cut_short_file_is_left_to_the_reader() {
         let bytes = chunked(&[(0x05, b"abcdef")], None);
         assert!(check(&bytes[..bytes.len() - 3], "cut").is_ok());
+        // Cut anywhere: never an error (nor a read past the end) for a sound chunk.
+        let bytes = chunked(&[(0x04, &channel(4)), (0x05, b"abcdef")], None);
+        for cut in 8..bytes.len() {
+            assert!(check(&bytes[..cut], "cut-anywhere").is_ok(), "cut at {cut}");
+        }
+    }
+
+    /// A channel record (id, schema id, topic `/imu`, encoding `json`, no metadata)
+    /// whose topic length claims `topic_bytes`.
+    fn channel(topic_bytes: u32) -> Vec<u8> {
+        let mut c = vec![1, 0, 0, 0];
+        c.extend_from_slice(&topic_bytes.to_le_bytes());
+        c.extend_from_slice(b"/imu");
+        c.extend_from_slice(&4u32.to_le_bytes());
+        c.extend_from_slice(b"json");
+        c.extend_from_slice(&0u32.to_le_bytes());
+        c
+    }
+
+    /// The long fuzz pass's case: the file ends inside an uncompressed chunk, and a
+    /// channel record before the cut claims a topic of 4 GB; the library streamed it and
+    /// reserved the 4 GB.
+    #[test]
+    fn a_string_past_its_record_in_a_cut_short_chunk_is_refused() {
+        let bytes = chunked(&[(0x04, &channel(0xF800_0004)), (0x05, b"abcdef")], None);
+        let e = check(&bytes[..bytes.len() - 10], "cut-string").unwrap_err().to_string();
+        assert!(e.contains("a string in a record runs past") && e.contains("byte 8"), "{e}");
     }
 }
 
