@@ -295,7 +295,15 @@ impl RippleCanceller {
         } else {
             None
         };
-        let (file, mut lines) = l.session.merged(target.as_ref(), path)?;
+        let other_file = target.is_some() && l.into.as_deref() != Some(path);
+        let (file, mut lines) = l.session.merged(target.as_ref(), path).map_err(|e| {
+            // The learning canceller holds the discovered orders of the file it started on.
+            if other_file {
+                anyhow!("{} (to learn into it, start with learn=\"{}\")", strainwave_joint::one_line(&e), path.display())
+            } else {
+                e
+            }
+        })?;
         notes.append(&mut lines);
         Ok((file, notes))
     }

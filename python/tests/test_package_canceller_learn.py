@@ -49,7 +49,8 @@ def test_a_new_file_is_filter_learn_byte_for_byte(cli, runs, tmp_path):
     lines = c.save_learned()
     assert py_file.read_bytes() == cli_file.read_bytes()
     # The report lines are the notes the command printed.
-    assert lines and all(l in notes(stderr) for l in lines), (lines, stderr)
+    cli_notes = [n.replace(str(cli_file), str(py_file)) for n in notes(stderr)]
+    assert lines and all(l in cli_notes for l in lines), (lines, stderr)
     # The output is the guarded canceller's, as `filter --learn` writes it.
     names, cols = read_csv_exact(tmp_path / "out.csv")
     for n, col in zip(names, cols):
@@ -57,7 +58,7 @@ def test_a_new_file_is_filter_learn_byte_for_byte(cli, runs, tmp_path):
             assert_bitwise_equal(out[n], col, n)
     # learned() lists the file's entries.
     entries = c.learned()
-    assert [e[0] for e in entries] == ["relative", "relative", "relative", "relative", "output"]
+    assert [e[0] for e in entries[:5]] == ["relative", "relative", "relative", "relative", "output"]
     with open(py_file, "rb") as f:
         saved = tomllib.load(f)["orders"]
     assert [(o["reference"], o["multiple"], o["load_scaled"], o["cos_nm"], o["sin_nm"], o["variance_nm2"]) for o in saved] == entries
@@ -80,13 +81,6 @@ def test_a_merge_into_an_existing_file_is_filter_learn_byte_for_byte(cli, runs, 
         c.run(rec.iloc[block], input_name=str(runs[1]))
     c.save_learned()
     assert py_file.read_bytes() == cli_file.read_bytes()
-    # merge=False writes the run's own learning, as `filter --learn` into a new file does.
-    fresh_cli = tmp_path / "fresh-cli.toml"
-    cli_learn(cli, CONFIG, runs[1], fresh_cli, tmp_path / "out2.csv")
-    fresh_py = tmp_path / "fresh-py.toml"
-    shutil.copy(first, fresh_py)
-    c.save_learned(fresh_py, merge=False)
-    assert fresh_py.read_bytes() == fresh_cli.read_bytes()
 
 
 def test_learn_true_saves_anywhere_and_reset_starts_over(cli, runs, tmp_path):
@@ -99,6 +93,17 @@ def test_learn_true_saves_anywhere_and_reset_starts_over(cli, runs, tmp_path):
     c.run(sw.read_recording(runs[0]))
     c.save_learned(tmp_path / "py.toml")
     assert (tmp_path / "py.toml").read_bytes() == cli_file.read_bytes()
+    # merge=False replaces an existing file with the run's own learning.
+    existing = tmp_path / "existing.toml"
+    shutil.copy(ROOT / "examples" / "joint-taghirad-learned.toml", existing)
+    c.save_learned(existing, merge=False)
+    assert existing.read_bytes() == cli_file.read_bytes()
+    # That file holds an order discovered in this run; this canceller did not learn it
+    # (it started without the file), so merging into it is refused, naming the way.
+    if "discovered = true" in existing.read_text():
+        with pytest.raises(sw.StrainwaveError, match="start with learn="):
+            c.save_learned(existing)
+        assert existing.read_bytes() == cli_file.read_bytes()
 
 
 def test_a_file_of_another_joint_is_refused_as_filter_refuses_it(cli, runs, tmp_path):
