@@ -299,7 +299,11 @@ impl RippleCanceller {
         let (file, mut lines) = l.session.merged(target.as_ref(), path).map_err(|e| {
             // The learning canceller holds the discovered orders of the file it started on.
             if other_file {
-                anyhow!("{} (to learn into it, start with learn=\"{}\")", strainwave_joint::one_line(&e), path.display())
+                anyhow!(
+                    "{} (to learn into it, start with learn=\"{}\")",
+                    strainwave_joint::one_line(&e),
+                    path.display()
+                )
             } else {
                 e
             }
@@ -340,6 +344,9 @@ impl RippleCanceller {
         ])
     }
 }
+
+/// One learned order: `(reference, multiple, load_scaled, cos_nm, sin_nm, variance_nm2)`.
+type Entry = (String, f64, bool, f64, f64, f64);
 
 /// What `run` returns: column names and arrays.
 type Block<'py> = (Vec<String>, Vec<Bound<'py, PyArray1<f64>>>);
@@ -430,7 +437,7 @@ impl RippleCanceller {
     /// sin_nm, variance_nm2)` per order: when learning, the file `save_learned()` would
     /// write now (merged into the `learn_into` file as it was at the start); else the
     /// output canceller's coefficients.
-    fn learned(&self, py: Python<'_>) -> PyResult<Vec<(String, f64, bool, f64, f64, f64)>> {
+    fn learned(&self, py: Python<'_>) -> PyResult<Vec<Entry>> {
         let file = py
             .detach(|| match &self.learning {
                 Some(l) => {
