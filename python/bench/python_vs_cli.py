@@ -166,6 +166,10 @@ def serial_child(paths, config, out_dir, frames):
     return time.perf_counter() - t0, cpu_s() - c0, peak_mb()
 
 
+def warm_up():
+    import strainwave.dask  # noqa: F401
+
+
 def worker_usage():
     return cpu_s(), peak_mb()
 
@@ -190,6 +194,9 @@ def fleet_side(a, paths, out_dir, frames):
     load1 = load()
     rows.append((f"serial, one process, {what}", t_s, cpu_serial, f"{peak_serial:.0f}", load0, load1))
     with LocalCluster(n_workers=a.workers, processes=True, threads_per_worker=1, dashboard_address=None) as cluster, Client(cluster) as client:
+        # The workers import the package before the clock starts, as the serial child
+        # process did (its imports ran when it loaded this script).
+        client.run(warm_up)
         before = client.run(worker_usage)
         load0 = load()
         t0 = time.perf_counter()
