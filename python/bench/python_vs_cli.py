@@ -6,14 +6,22 @@
    a filterpy Kalman filter with the same state size (6: three oscillators) on the same
    rows, each the best of `--repeat` runs. The Python package is also timed end to end
    (read the CSV, filter, write the CSV) like the command line.
-2. A fleet: `--fleet` recordings of `--minutes` each, filtered serially in this process
-   and with `strainwave.dask.filter_many` on a LocalCluster of `--workers` processes.
+2. A fleet: `--fleet` recordings of `--minutes` each (Parquet, one file per recording),
+   filtered serially in one process and with `strainwave.dask.filter_many` on a
+   LocalCluster of `--workers` processes (one thread each). Each side reports its wall
+   time, the CPU time its processes used, and their peak resident memory; the outputs are
+   compared by SHA-256 (the serial outputs are deleted once hashed, to halve the disk
+   needed). `--fleet-frames` also times the DataFrame path (read, filter, write through
+   pandas) on both sides.
 
     python python/bench/python_vs_cli.py --cli target/release/strainwave --rows 1000000
 """
 
 import argparse
+import hashlib
 import math
+import multiprocessing
+import resource
 import os
 import shutil
 import subprocess
@@ -115,37 +123,127 @@ def part_one(a, tmp):
     print(f"\nPython's CSV output byte for byte the CLI's: {same}")
 
 
-def part_two(a, tmp):
+def load():
+    with open("/proc/loadavg") as f:
+        return " ".join(f.read().split()[:3])
+
+
+def sha256(path):
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def cpu_s():
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def peak_mb():
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def frames_file(path, config, out):
+    """The DataFrame path: read into pandas, filter, write (what `filter_file` did before
+    it streamed file to file)."""
+    df = sw.filter_recording(sw.read_recording(path), config)
+    return sw.write_recording(df, out)
+
+
+def serial_child(paths, config, out_dir, frames):
+    """The serial loop in a fresh process, so that its peak memory is its own:
+    (wall s, CPU s, peak MB)."""
+    import strainwave.dask
+
+    t0, c0 = time.perf_counter(), cpu_s()
+    for p in paths:
+        if frames:
+            frames_file(p, config, os.path.join(out_dir, os.path.basename(p)))
+        else:
+            strainwave.dask.filter_file(p, config, os.path.join(out_dir, os.path.basename(p)))
+    return time.perf_counter() - t0, cpu_s() - c0, peak_mb()
+
+
+def warm_up():
+    import strainwave.dask  # noqa: F401
+
+
+def worker_usage():
+    return cpu_s(), peak_mb()
+
+
+def fleet_side(a, paths, out_dir, frames):
+    """Serial, then the cluster: rows of the table and whether the outputs agree."""
+    from dask import delayed
     from distributed import Client, LocalCluster
 
     import strainwave.dask
 
+    out_dir.mkdir()
+    serial_out, dask_out = out_dir / "serial", out_dir / "dask"
+    serial_out.mkdir()
+    what = "DataFrame path (read, filter, write in pandas)" if frames else "`strainwave.dask.filter_file` (file to file)"
+    rows = []
+    load0 = load()
+    with multiprocessing.get_context("spawn").Pool(1) as pool:
+        t_s, cpu_serial, peak_serial = pool.apply(serial_child, ([str(p) for p in paths], str(FLEET_CONFIG), str(serial_out), frames))
+    hashes = {p.name: sha256(serial_out / p.name) for p in paths}
+    shutil.rmtree(serial_out)
+    load1 = load()
+    rows.append((f"serial, one process, {what}", t_s, cpu_serial, f"{peak_serial:.0f}", load0, load1))
+    with LocalCluster(n_workers=a.workers, processes=True, threads_per_worker=1, dashboard_address=None) as cluster, Client(cluster) as client:
+        # The workers import the package before the clock starts, as the serial child
+        # process did (its imports ran when it loaded this script).
+        client.run(warm_up)
+        before = client.run(worker_usage)
+        load0 = load()
+        t0 = time.perf_counter()
+        if frames:
+            dask_out.mkdir()
+            tasks = [delayed(frames_file, pure=False)(str(p), str(FLEET_CONFIG), str(dask_out / p.name)) for p in paths]
+            import dask
+
+            dask.compute(*tasks)
+        else:
+            strainwave.dask.filter_many(paths, FLEET_CONFIG, out_dir=dask_out)
+        t_d = time.perf_counter() - t0
+        load1 = load()
+        after = client.run(worker_usage)
+    cpu_dask = sum(after[w][0] - before[w][0] for w in after)
+    peaks = "/".join(f"{after[w][1]:.0f}" for w in sorted(after))
+    how = f"LocalCluster, {a.workers} worker processes × 1 thread, {what}"
+    rows.append((how, t_d, cpu_dask, peaks, load0, load1))
+    same = all(sha256(dask_out / p.name) == hashes[p.name] for p in paths)
+    shutil.rmtree(dask_out)
+    return rows, same
+
+
+def part_two(a, tmp):
     rows = int(a.minutes * 60 * 1000)
     d = tmp / "fleet"
     d.mkdir()
     paths = []
+    t0 = time.perf_counter()
     for k in range(a.fleet):
         p = d / f"joint{k:03d}.parquet"
         sw.write_recording(sw.simulate("taghirad", duration=a.minutes * 60, seed=100 + k), p)
         paths.append(p)
-    out1, out2 = tmp / "serial", tmp / "dask"
-    out1.mkdir()
-    t0 = time.perf_counter()
-    for p in paths:
-        strainwave.dask.filter_file(p, FLEET_CONFIG, out1 / p.name)
-    t_serial = time.perf_counter() - t0
-    with LocalCluster(n_workers=a.workers, processes=True, threads_per_worker=1, dashboard_address=None) as cluster, Client(cluster):
-        t0 = time.perf_counter()
-        strainwave.dask.filter_many(paths, FLEET_CONFIG, out_dir=out2)
-        t_dask = time.perf_counter() - t0
-    same = all((out1 / p.name).read_bytes() == (out2 / p.name).read_bytes() for p in paths)
+    size_gb = sum(p.stat().st_size for p in paths) / 1e9
+    print(f"\n(fleet written in {time.perf_counter() - t0:.0f} s: {size_gb:.2f} GB of Parquet)")
+    table, same = fleet_side(a, paths, tmp / "file", frames=False)
+    if a.fleet_frames:
+        more, same_frames = fleet_side(a, paths, tmp / "frames", frames=True)
+        table += more
+        same = same and same_frames
     total = rows * a.fleet
-    print(f"\n### Fleet: {a.fleet} recordings × {a.minutes} min ({total} rows, Parquet in and out)\n")
-    print("| how | time, s | rows/s |")
-    print("|---|---:|---:|")
-    print(f"| serial, one process (`strainwave.dask.filter_file` in a loop) | {t_serial:.2f} | {total / t_serial:.3g} |")
-    print(f"| `strainwave.dask.filter_many`, LocalCluster {a.workers} processes | {t_dask:.2f} | {total / t_dask:.3g} |")
-    print(f"\nOutputs identical: {same}")
+    print(f"\n### Fleet: {a.fleet} recordings × {a.minutes:g} min ({total} rows, Parquet in and out)\n")
+    print("| how | wall, s | rows/s | CPU, s | peak RSS, MB | load before → after |")
+    print("|---|---:|---:|---:|---:|---|")
+    for how, t, cpu, peak, l0, l1 in table:
+        print(f"| {how} | {t:.2f} | {total / t:.3g} | {cpu:.1f} | {peak} | {l0} → {l1} |")
+    print(f"\nOutputs identical (SHA-256 of every file): {same}")
 
 
 def main():
@@ -159,12 +257,16 @@ def main():
     p.add_argument("--minutes", type=float, default=10.0)
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--skip-fleet", action="store_true")
+    p.add_argument("--fleet-frames", action="store_true", help="also time the DataFrame path on both sides")
+    p.add_argument("--tmp", help="folder for the fleet's files (default: the system's temporary folder)")
     p.add_argument("--no-cli", action="store_true", help="the filter table without the command line")
     p.add_argument("--skip-filter", action="store_true", help="only the fleet (no CLI needed)")
     a = p.parse_args()
     if not (a.skip_filter or a.no_cli) and shutil.which(a.cli) is None and not os.access(a.cli, os.X_OK):
         sys.exit(f"{a.cli}: no strainwave binary (cargo build --release -p strainwave-cli)")
-    with tempfile.TemporaryDirectory(prefix="sw-bench-") as t:
+    if a.tmp:
+        os.makedirs(a.tmp, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix="sw-bench-", dir=a.tmp) as t:
         tmp = Path(t)
         if not a.skip_filter:
             part_one(a, tmp)

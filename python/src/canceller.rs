@@ -1,70 +1,99 @@
 //! `RippleCanceller`: the joint config's canceller kept alive between calls, fed one
-//! sample (`step`) or one block of arrays (`run`) at a time. The model is built by the
-//! joint crate (`build_model`, with the learned coefficients), and each sample goes
-//! through the channel scaling and the calibration as `strainwave filter` does it, so a
-//! recording run block by block gives the command line's numbers bit for bit.
+//! sample (`step`) or one block of arrays (`run`) at a time. The model, its learned file,
+//! the canceller (under the do-no-harm guard unless `filter.guard = false`) and the
+//! learning beside it are the joint crate's, built as `strainwave filter` builds them, and
+//! each sample goes through the channel scaling and the calibration as `filter` does it,
+//! so a recording run block by block gives the command line's numbers bit for bit.
 
 use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, bail, Context, Result};
 use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 use strainwave_core::calibration::Calibration;
 use strainwave_core::denoise::TorqueDenoiser;
 use strainwave_core::gear::Gear;
-use strainwave_core::ripple::{
-    step, PhaseSource, ReferenceValues, RippleInput, RippleModel, RippleOutput, RippleState, StepFlags,
-};
-use strainwave_joint::canceller::{build_model, in_config_terms, ModelVisitor};
+use strainwave_core::ripple::{PhaseSource, ReferenceValues, RippleInput, RippleModel, RippleOutput, StepFlags};
+use strainwave_joint::canceller::{build_model_with, in_config_terms, ModelVisitor};
 use strainwave_joint::config::ModelChoice;
+use strainwave_joint::health::Health;
+use strainwave_joint::learn::Session;
 use strainwave_joint::learned::LearnedOrder;
+use strainwave_joint::run::{Canceller, OutputPrior};
 use strainwave_joint::{JointConfig, LearnedFile, MAX_TABLE_LEN};
 
 use crate::columns::{to_numpy, Arrays};
 use crate::error::to_py;
 
-/// The model and its state, whatever the model's order count.
+/// The model and its canceller, whatever the model's order count.
 trait Stream: Send + Sync {
-    fn step(&mut self, input: &RippleInput<f64>) -> Result<RippleOutput<f64>, strainwave_core::Error>;
-    fn learned(&self) -> LearnedFile;
+    /// One sample: the output and its `filter_flags` bits.
+    fn step(&mut self, input: &RippleInput<f64>) -> Result<(RippleOutput<f64>, u32), strainwave_core::Error>;
+    /// The output canceller's coefficients now.
+    fn coefficients(&self) -> LearnedFile;
+    /// The guard's figures (`None` without the guard).
+    fn health(&self) -> Option<Health>;
     fn reset(&mut self);
 }
 
 struct Held<const M: usize> {
     model: RippleModel<f64, M>,
-    state: RippleState<f64, M>,
+    canceller: Canceller<M>,
+    guard: bool,
+    learned_prior: bool,
 }
 
 impl<const M: usize> Stream for Held<M> {
-    fn step(&mut self, input: &RippleInput<f64>) -> Result<RippleOutput<f64>, strainwave_core::Error> {
-        step(&self.model, &mut self.state, input)
+    fn step(&mut self, input: &RippleInput<f64>) -> Result<(RippleOutput<f64>, u32), strainwave_core::Error> {
+        self.canceller.step(&self.model, input)
     }
-    fn learned(&self) -> LearnedFile {
-        LearnedFile::from_state(&self.model, &self.state)
+    fn coefficients(&self) -> LearnedFile {
+        LearnedFile::from_state(&self.model, self.canceller.state())
+    }
+    fn health(&self) -> Option<Health> {
+        self.canceller.health(&self.model)
     }
     fn reset(&mut self) {
-        self.state.reset(&self.model);
+        self.canceller = Canceller::new(&self.model, self.guard, self.learned_prior);
     }
 }
 
-/// Builds the model, applying the learned coefficients of `learned` when given.
+/// Builds the model with the learned file's priors, and its canceller as `filter` does.
 struct Build<'a> {
-    learned: Option<&'a Path>,
+    prior: Option<&'a OutputPrior>,
+    guard: bool,
     config: &'a str,
 }
 
 impl ModelVisitor for Build<'_> {
     type Output = (Box<dyn Stream>, PhaseSource);
     fn visit<const M: usize>(self, model: RippleModel<f64, M>) -> Result<Self::Output> {
-        let model = match self.learned {
-            Some(path) => {
-                let field = || format!("{}: `filter.learned`", self.config);
-                LearnedFile::load(path).with_context(field)?.apply(model, path).with_context(field)?
-            }
+        let model = match self.prior {
+            Some(p) => p.file.apply(model, &p.path).with_context(|| format!("{}: `filter.learned`", self.config))?,
             None => model,
         };
         let phase = model.phase_source();
-        Ok((Box::new(Held { state: RippleState::new(&model), model }), phase))
+        let learned_prior = self.prior.is_some();
+        let canceller = Canceller::new(&model, self.guard, learned_prior);
+        Ok((Box::new(Held { model, canceller, guard: self.guard, learned_prior }), phase))
+    }
+}
+
+/// Learning beside the output, as `strainwave filter --learn FILE` does.
+struct Learning {
+    session: Session,
+    /// The file it merges into by default (`learn=PATH`), `None` for `learn=True`.
+    into: Option<PathBuf>,
+}
+
+impl Learning {
+    fn start(cfg: &JointConfig, into: Option<PathBuf>) -> Result<Self> {
+        let session = match &into {
+            Some(p) => Session::start(cfg, p)?,
+            None => Session::start_new(cfg)?,
+        };
+        Ok(Self { session, into })
     }
 }
 
@@ -102,15 +131,19 @@ struct Sample {
     expected_torque: Option<f64>,
 }
 
-/// What one step gives: the canceller's outputs and the denoised torque (NaN without a
-/// denoiser).
-type StepOut = (RippleOutput<f64>, f64);
+/// What one step gives: the canceller's outputs, the `filter_flags` bits and the denoised
+/// torque (NaN without a denoiser).
+type StepOut = (RippleOutput<f64>, u32, f64);
 
 /// The canceller of a joint config, with state kept between calls. Not thread-safe
 /// from Python: one canceller per stream.
 #[pyclass(module = "strainwave._native")]
 pub struct RippleCanceller {
     stream: Box<dyn Stream>,
+    cfg: JointConfig,
+    learning: Option<Learning>,
+    /// The recording last run (`run`'s `input_name`), for the learned file's header.
+    last_input: String,
     config: String,
     orders_model: bool,
     sample_rate_hz: f64,
@@ -130,15 +163,20 @@ pub struct RippleCanceller {
 }
 
 impl RippleCanceller {
-    fn load(config: &Path, learned: Option<PathBuf>, learn: bool) -> Result<Self> {
-        let cfg = JointConfig::load(config)?;
+    fn load(config: &Path, learned: Option<PathBuf>, learn: bool, learn_into: Option<PathBuf>) -> Result<Self> {
+        let mut cfg = JointConfig::load(config)?;
         let name = cfg.path.display().to_string();
-        if learn && learned.is_some() {
-            bail!("learned= and learn=True: learning starts from the model's commissioning tuning, without priors");
+        let learn = learn || learn_into.is_some();
+        // The output runs from the learned file as `filter` loads it; one named here must exist.
+        let explicit = learned.is_some();
+        if let Some(l) = learned {
+            cfg.filter.learned = Some(l);
         }
-        let learned = if learn { None } else { learned.or_else(|| cfg.filter.learned.clone()) };
-        let (stream, phase) =
-            build_model(&cfg, learned.is_some(), Build { learned: learned.as_deref(), config: &name })?;
+        let prior = OutputPrior::load(&cfg, learn && !explicit)?;
+        let extras = prior.as_ref().map(|p| p.extras.clone()).unwrap_or_default();
+        let build = Build { prior: prior.as_ref(), guard: cfg.filter.guard, config: &name };
+        let (stream, phase) = build_model_with(&cfg, prior.is_some(), &extras, build)?;
+        let learning = if learn { Some(Learning::start(&cfg, learn_into)?) } else { None };
         let gear = cfg.gear().with_context(|| name.clone())?;
         let calibration = cfg.calibration().with_context(|| name.clone())?;
         let denoiser = cfg.denoiser().with_context(|| name.clone())?;
@@ -160,6 +198,9 @@ impl RippleCanceller {
             stream,
             orders_model: cfg.filter.model == ModelChoice::Orders,
             sample_rate_hz: cfg.filter.sample_rate_hz,
+            cfg,
+            learning,
+            last_input: "RippleCanceller.step".to_string(),
             config: name,
             gear,
             calibration,
@@ -209,7 +250,10 @@ impl RippleCanceller {
             self.last_t = Some(t);
         }
         let n = self.samples;
-        let o = self
+        if let Some(l) = self.learning.as_mut() {
+            l.session.observe(&input);
+        }
+        let (o, bits) = self
             .stream
             .step(&input)
             .map_err(|e| anyhow!("{}: {}", what(n), in_config_terms(e, self.orders_model, self.sample_rate_hz)))?;
@@ -226,7 +270,46 @@ impl RippleCanceller {
             Some(d) => d.step(o.torque_nm, o.flags.contains(StepFlags::LOAD_STEP)),
             None => f64::NAN,
         };
-        Ok((o, denoised))
+        Ok((o, bits, denoised))
+    }
+
+    /// The file `save_learned` writes to `path` now (merged into it when `merge` and it
+    /// exists), with the report lines.
+    fn learned_file(&self, path: Option<&Path>, merge: bool) -> Result<(LearnedFile, Vec<String>)> {
+        let Some(l) = &self.learning else {
+            bail!(
+                "{}: this canceller does not learn; start it with learn=True or learn=PATH \
+                 (`filter --learn FILE`)",
+                self.config
+            )
+        };
+        let path = match path.or(l.into.as_deref()) {
+            Some(p) => p,
+            None => bail!("save_learned: no path (the canceller was started with learn=True)"),
+        };
+        let mut notes = Vec::new();
+        let target = if merge && path.exists() {
+            let (file, note) = LearnedFile::load_for(path, &self.cfg)?;
+            notes.extend(note);
+            Some(file)
+        } else {
+            None
+        };
+        let other_file = target.is_some() && l.into.as_deref() != Some(path);
+        let (file, mut lines) = l.session.merged(target.as_ref(), path).map_err(|e| {
+            // The learning canceller holds the discovered orders of the file it started on.
+            if other_file {
+                anyhow!(
+                    "{} (to learn into it, start with learn=\"{}\")",
+                    strainwave_joint::one_line(&e),
+                    path.display()
+                )
+            } else {
+                e
+            }
+        })?;
+        notes.append(&mut lines);
+        Ok((file, notes))
     }
 
     /// The names of the columns `run` returns.
@@ -262,18 +345,29 @@ impl RippleCanceller {
     }
 }
 
+/// One learned order: `(reference, multiple, load_scaled, cos_nm, sin_nm, variance_nm2)`.
+type Entry = (String, f64, bool, f64, f64, f64);
+
 /// What `run` returns: column names and arrays.
 type Block<'py> = (Vec<String>, Vec<Bound<'py, PyArray1<f64>>>);
 
 #[pymethods]
 impl RippleCanceller {
-    /// The canceller of the joint config at `config`. `learned`: a learned-coefficients
-    /// file to start from instead of the config's `filter.learned`; `learn=True`: start
-    /// from the commissioning tuning without priors, as `strainwave filter --learn` does.
+    /// The canceller of the joint config at `config`, under the do-no-harm guard unless
+    /// the config sets `filter.guard = false`. `learned`: a learned-coefficients file to
+    /// run from instead of the config's `filter.learned`. `learn=True`: a cold canceller
+    /// learns beside the output, as `strainwave filter --learn` does; `learn_into`: the
+    /// file it merges into (`--learn FILE`), checked now.
     #[staticmethod]
-    #[pyo3(signature = (config, learned=None, *, learn=false))]
-    fn from_config(py: Python<'_>, config: PathBuf, learned: Option<PathBuf>, learn: bool) -> PyResult<Self> {
-        py.detach(|| Self::load(&config, learned, learn)).map_err(to_py)
+    #[pyo3(signature = (config, learned=None, *, learn=false, learn_into=None))]
+    fn from_config(
+        py: Python<'_>,
+        config: PathBuf,
+        learned: Option<PathBuf>,
+        learn: bool,
+        learn_into: Option<PathBuf>,
+    ) -> PyResult<Self> {
+        py.detach(|| Self::load(&config, learned, learn, learn_into)).map_err(to_py)
     }
 
     /// One sample, in the recording's units (the channels' scale and offset and the
@@ -287,10 +381,10 @@ impl RippleCanceller {
         motor_velocity: f64,
         expected_torque: Option<f64>,
         time: f64,
-    ) -> PyResult<(f64, u16)> {
+    ) -> PyResult<(f64, u32)> {
         let s = Sample { time, torque, motor_angle, output_angle, motor_velocity, expected_torque };
-        let (o, _) = self.step_sample(s, &|n| format!("sample {n}")).map_err(to_py)?;
-        Ok((o.torque_nm, o.flags.bits()))
+        let (o, bits, _) = self.step_sample(s, &|n| format!("sample {n}")).map_err(to_py)?;
+        Ok((o.torque_nm, bits))
     }
 
     /// A block of rows: `names` and their `arrays` (the config's channel columns), with the
@@ -325,9 +419,9 @@ impl RippleCanceller {
                         expected_torque: ei.map(|i| slices[i][k]),
                     };
                     let what = |n: u64| format!("{input_name}: data row {} (sample {n})", n - first);
-                    let (o, d) = self.step_sample(s, &what)?;
+                    let (o, bits, d) = self.step_sample(s, &what)?;
                     let values =
-                        [o.torque_nm, o.ripple_nm, o.misalignment_nm, o.innovation_nm, o.nis, o.flags.bits() as f64, d];
+                        [o.torque_nm, o.ripple_nm, o.misalignment_nm, o.innovation_nm, o.nis, f64::from(bits), d];
                     for (c, v) in out.iter_mut().zip(values) {
                         c.push(v);
                     }
@@ -335,28 +429,83 @@ impl RippleCanceller {
                 Ok(out)
             })
             .map_err(to_py)?;
+        self.last_input = input_name;
         Ok((out_names, to_numpy(py, data)))
     }
 
-    /// The coefficients learned so far, one `(reference, multiple, load_scaled, cos_nm,
-    /// sin_nm, variance_nm2)` per order (the learned file's entries).
-    fn learned(&self) -> Vec<(String, f64, bool, f64, f64, f64)> {
-        let f = self.stream.learned();
-        f.orders
+    /// The learned file's entries, one `(reference, multiple, load_scaled, cos_nm,
+    /// sin_nm, variance_nm2)` per order: when learning, the file `save_learned()` would
+    /// write now (merged into the `learn_into` file as it was at the start); else the
+    /// output canceller's coefficients.
+    fn learned(&self, py: Python<'_>) -> PyResult<Vec<Entry>> {
+        let file = py
+            .detach(|| match &self.learning {
+                Some(l) => {
+                    let path = l.into.clone().unwrap_or_default();
+                    l.session.merged(l.session.target(), &path).map(|(f, _)| f)
+                }
+                None => Ok(self.stream.coefficients()),
+            })
+            .map_err(to_py)?;
+        Ok(file
+            .orders
             .into_iter()
             .map(|o: LearnedOrder| (o.reference, o.multiple, o.load_scaled, o.cos_nm, o.sin_nm, o.variance_nm2))
-            .collect()
+            .collect())
     }
 
-    /// Writes the learned coefficients as `strainwave filter --learn FILE` does.
-    fn save_learned(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
-        let file = self.stream.learned();
-        let header = format!("learned by strainwave.RippleCanceller from {} samples", self.samples);
-        py.detach(|| file.save(&path, &header)).map_err(to_py)
+    /// Writes what the learning canceller learned as `strainwave filter --learn FILE`
+    /// does: merged by covariance into `path` when `merge` and it exists (after checking
+    /// it is this joint's), written atomically. `path` defaults to `learn_into`. Returns
+    /// the report lines (discovered orders, orders that learned nothing).
+    #[pyo3(signature = (path=None, merge=true))]
+    fn save_learned(&self, py: Python<'_>, path: Option<PathBuf>, merge: bool) -> PyResult<Vec<String>> {
+        py.detach(|| -> Result<Vec<String>> {
+            let (file, lines) = self.learned_file(path.as_deref(), merge)?;
+            let path = path.as_deref().or(self.learning.as_ref().and_then(|l| l.into.as_deref())).context("path")?;
+            let header = strainwave_joint::learn::header(&self.last_input, self.samples);
+            file.stage(path, &header)?.commit()?;
+            Ok(lines)
+        })
+        .map_err(to_py)
     }
 
-    /// Back to the state of a new canceller (the learned priors kept).
-    fn reset(&mut self) {
+    /// The do-no-harm guard's figures so far, as `filter` prints them at the end of a run:
+    /// `None` when the config sets `filter.guard = false`.
+    fn health<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let Some(h) = self.stream.health() else { return Ok(None) };
+        let d = PyDict::new(py);
+        d.set_item("samples", h.samples)?;
+        d.set_item("mean_nis", h.mean_nis)?;
+        d.set_item("expected_nis", 1.0)?;
+        d.set_item("pass_through_share", h.pass_through_share)?;
+        d.set_item("contradicted_share", h.contradicted_share)?;
+        let orders: Vec<(String, f64)> = h.orders.iter().map(|o| (o.label.clone(), o.applied_share)).collect();
+        d.set_item("applied_share", orders)?;
+        d.set_item("warnings", h.warnings())?;
+        d.set_item("lines", h.lines())?;
+        Ok(Some(d))
+    }
+
+    /// Whether the do-no-harm guard runs (`filter.guard`).
+    #[getter]
+    fn guard(&self) -> bool {
+        self.cfg.filter.guard
+    }
+
+    /// Whether a cold canceller learns beside the output.
+    #[getter]
+    fn learning(&self) -> bool {
+        self.learning.is_some()
+    }
+
+    /// Back to the state of a new canceller (the learned priors kept; the learning starts
+    /// over, from the `learn_into` file as it is now).
+    fn reset(&mut self) -> PyResult<()> {
+        if let Some(l) = &self.learning {
+            self.learning = Some(Learning::start(&self.cfg, l.into.clone()).map_err(to_py)?);
+        }
+        self.last_input = "RippleCanceller.step".to_string();
         self.stream.reset();
         if let Some(d) = self.denoiser.as_mut() {
             d.reset();
@@ -364,6 +513,7 @@ impl RippleCanceller {
         self.last_t = None;
         self.samples = 0;
         self.extrapolated = 0;
+        Ok(())
     }
 
     /// Samples stepped since the start or the last `reset`.

@@ -57,3 +57,47 @@ pub fn filter_columns<'py>(
         .map_err(to_py)?;
     Ok((added, to_numpy(py, data), summary.notes, summary.warnings, summary.extrapolated))
 }
+
+/// What `filter_file` returns: the rows written, the notes, the warnings and the count of
+/// samples the calibration extrapolated.
+type FiledSummary = (u64, Vec<String>, Vec<String>, u64);
+
+/// `strainwave filter --config CONFIG --in INPUT --out OUTPUT` in this process: the
+/// recording streamed from file to file in constant memory, no arrays through Python
+/// (what a fleet's worker runs). `input_name` names the input in messages.
+#[pyfunction]
+#[pyo3(signature = (config, input, output, *, smooth=false, lenient=false, prefix=String::new()))]
+pub fn filter_file(
+    py: Python<'_>,
+    config: PathBuf,
+    input: PathBuf,
+    output: PathBuf,
+    smooth: bool,
+    lenient: bool,
+    prefix: String,
+) -> PyResult<FiledSummary> {
+    py.detach(|| -> anyhow::Result<FiledSummary> {
+        strainwave_io::output::refuse_input_as_output(&output, [input.as_path(), config.as_path()])?;
+        let cfg = JointConfig::load(&config)?;
+        let scratch_dir = match output.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        let opts = FilterOptions {
+            input_name: input.display().to_string(),
+            smooth,
+            learn: None,
+            prefix,
+            lenient,
+            streaming_output: false,
+            scratch_dir: Some(scratch_dir),
+        };
+        let mut reader = strainwave_io::RecordingReader::open(&input)?;
+        let create = |columns: &[&str]| -> anyhow::Result<strainwave_io::RecordingWriter> {
+            Ok(strainwave_io::RecordingWriter::create(&output, columns)?)
+        };
+        let s = filter_recording(&cfg, &mut reader, create, &opts, &mut |_| {})?;
+        Ok((s.rows, s.notes, s.warnings, s.extrapolated))
+    })
+    .map_err(to_py)
+}

@@ -25,6 +25,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(recording::read_recording, m)?)?;
     m.add_function(wrap_pyfunction!(recording::write_recording, m)?)?;
     m.add_function(wrap_pyfunction!(filter::filter_columns, m)?)?;
+    m.add_function(wrap_pyfunction!(filter::filter_file, m)?)?;
     m.add_function(wrap_pyfunction!(simulate::simulate, m)?)?;
     m.add_class::<canceller::RippleCanceller>()?;
     m.add_function(wrap_pyfunction!(calibrate::calibrate_experiments, m)?)?;

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import os
-from typing import Any, Dict, List, Optional, Tuple
+from typing import Any, Dict, List, Optional, Tuple, Union
 
 import numpy as np
 import pandas as pd
@@ -23,12 +23,21 @@ class RippleCanceller:
     config's calibration are applied, as ``filter`` applies them. A sample that cannot be
     used (a NaN, an angle missing) is skipped with a flag, as ``filter --lenient`` does.
 
+    The canceller runs under the do-no-harm guard, as ``filter`` does, unless the config
+    sets ``filter.guard = false``: each order's correction is applied only once the data
+    support it (``filter_flags`` bits 8–15 are the guard's, bits 16 and up mark the orders
+    withheld), and :meth:`health` gives the summary ``filter`` prints. With ``learn`` a
+    second, cold canceller learns beside the output, as ``filter --learn FILE`` does, and
+    :meth:`save_learned` writes the file that command writes.
+
     Example::
 
         >>> c = sw.RippleCanceller.from_config("examples/joint-taghirad.toml")
         >>> rec = sw.simulate("taghirad", duration=2, seed=1)
         >>> out = c.run(rec)                 # dict of numpy arrays: torque, ripple, ...
         >>> torque_nm, flags = c.step(0.12, motor_angle=3.1, output_angle=0.031, time=2.0)
+        >>> c.health()["mean_nis"]           # 1 when the model fits the data
+        1.03...
         >>> [o[0] for o in c.learned()]      # the reference of each order
         ['relative', 'relative', 'relative', 'relative', 'output']
     """
@@ -38,21 +47,41 @@ class RippleCanceller:
 
     @classmethod
     def from_config(
-        cls, config: PathLike, learned: Optional[PathLike] = None, *, learn: bool = False
+        cls,
+        config: PathLike,
+        learned: Optional[PathLike] = None,
+        *,
+        learn: Union[bool, PathLike] = False,
     ) -> "RippleCanceller":
-        """The canceller of the joint config file ``config``.
+        """The canceller of the joint config file ``config``, as ``strainwave filter``
+        runs it (under the do-no-harm guard unless the config sets ``filter.guard =
+        false``).
 
-        ``learned``: a learned-coefficients file (as ``filter --learn`` writes) to start
-        from instead of the config's ``filter.learned``. ``learn=True``: start as
-        ``filter --learn`` does, from the commissioning tuning without priors; read what
-        it learned with :meth:`learned` or :meth:`save_learned`.
+        ``learned``: a learned-coefficients file (as ``filter --learn`` writes) to run
+        from instead of the config's ``filter.learned``. ``learn``: a cold canceller
+        (the model's commissioning tuning, no priors) learns beside the output from every
+        sample, as ``filter --learn FILE`` does; ``learn=FILE`` names the file it merges
+        into (checked now to be this joint's, its discovered orders learned too),
+        ``learn=True`` leaves the file to :meth:`save_learned`.
 
         Raises :class:`strainwave.StrainwaveError` with the command line's message for a
         bad config or learned file.
+
+        Example::
+
+            >>> c = sw.RippleCanceller.from_config("joint.toml", learn="learned.toml")
         """
+        learn_into = None
+        if isinstance(learn, (str, os.PathLike)):
+            learn, learn_into = True, os.fspath(learn)
+        elif not isinstance(learn, bool):
+            raise TypeError(f"learn: expected a bool or a path, got {type(learn).__name__}")
         return cls(
             _native.RippleCanceller.from_config(
-                os.fspath(config), None if learned is None else os.fspath(learned), learn=learn
+                os.fspath(config),
+                None if learned is None else os.fspath(learned),
+                learn=learn,
+                learn_into=learn_into,
             )
         )
 
@@ -69,8 +98,9 @@ class RippleCanceller:
         """One sample: the torque channel's reading, the angles (or the motor velocity,
         for ``filter.phase = "velocity"``), optionally the expected torque and the time
         (s; a step in time sets the sample's interval, else the config's rate is used).
-        Returns the clean torque, N·m (ripple and misalignment removed, no added delay),
-        and the step's flags (``filter_flags`` bits).
+        Returns the clean torque, N·m (ripple and misalignment removed, no added delay;
+        with the guard, the raw torque where it holds the correction back), and the
+        step's flags (``filter_flags`` bits).
 
         Example::
 
@@ -110,9 +140,10 @@ class RippleCanceller:
         return dict(zip(names_out, columns))
 
     def learned(self) -> List[Tuple[str, float, bool, float, float, float]]:
-        """The coefficients learned so far, one ``(reference, multiple, load_scaled,
-        cos_nm, sin_nm, variance_nm2)`` per order of the model: the entries of the file
-        ``filter --learn`` writes.
+        """One ``(reference, multiple, load_scaled, cos_nm, sin_nm, variance_nm2)`` per
+        order. When learning: the entries of the file :meth:`save_learned` would write
+        now (merged into the ``learn=FILE`` file as it was at the start). Otherwise: the
+        output canceller's coefficients now.
 
         Example::
 
@@ -121,17 +152,46 @@ class RippleCanceller:
         """
         return self._native.learned()
 
-    def save_learned(self, path: PathLike) -> None:
-        """Writes :meth:`learned` as a learned-coefficients file (the ``filter --learn``
-        format, for ``filter.learned`` or ``from_config(learned=...)``).
+    def save_learned(self, path: Optional[PathLike] = None, merge: bool = True) -> List[str]:
+        """Writes what the learning canceller learned, the file ``strainwave filter
+        --learn FILE`` writes: with ``merge`` and ``path`` existing, merged into it by
+        covariance (after checking it is this joint's file); written atomically (a
+        temporary file, synced, renamed). ``path`` defaults to the ``learn=FILE`` of
+        :meth:`from_config`. Returns the report lines (orders discovered in the
+        innovation, orders that learned nothing). Needs ``learn``.
 
         Example::
 
-            >>> c = sw.RippleCanceller.from_config("joint.toml", learn=True)
+            >>> c = sw.RippleCanceller.from_config("joint.toml", learn="learned.toml")
             >>> c.run(sw.read_recording("commissioning.csv"))
-            >>> c.save_learned("learned.toml")
+            >>> c.save_learned()
+            ['order analysis of the innovation: 132 candidate lines ..., 0 significant']
         """
-        self._native.save_learned(os.fspath(path))
+        return self._native.save_learned(None if path is None else os.fspath(path), merge)
+
+    def health(self) -> Optional[Dict[str, Any]]:
+        """The do-no-harm guard's summary so far, the figures ``filter`` prints after a
+        run: ``samples``, ``mean_nis`` (against ``expected_nis``, 1), the shares of the
+        samples in pass-through (``pass_through_share``) and with an order stepped back
+        (``contradicted_share``), ``applied_share`` (``(order, share)`` per order), its
+        ``warnings`` and the printed ``lines``. ``None`` with ``filter.guard = false``.
+
+        Example::
+
+            >>> c.health()["applied_share"][0]
+            ('2× relative', 0.97...)
+        """
+        return self._native.health()
+
+    @property
+    def guard(self) -> bool:
+        """Whether the do-no-harm guard runs (the config's ``filter.guard``)."""
+        return self._native.guard
+
+    @property
+    def learning(self) -> bool:
+        """Whether a cold canceller learns beside the output (``learn``)."""
+        return self._native.learning
 
     def reset(self) -> None:
         """Back to the state of a new canceller (the priors it started from kept).

@@ -23,7 +23,7 @@ from typing import Any, List, Optional, Sequence, Union
 import pandas as pd
 
 from . import _native
-from .recording import PathLike, filter_recording, read_recording, write_recording
+from .recording import PathLike, filter_recording, read_recording
 
 
 @dataclass(frozen=True)
@@ -49,15 +49,18 @@ def filter_file(
     lenient: bool = False,
     prefix: str = "",
 ) -> Union[Filtered, pd.DataFrame]:
-    """``strainwave filter --config CONFIG --in PATH --out OUT`` in this process: writes
-    ``out`` when given (returns a :class:`Filtered`), else returns the filtered frame."""
+    """``strainwave filter --config CONFIG --in PATH --out OUT`` in this process: with
+    ``out``, the recording is streamed from file to file by the extension in constant
+    memory, as the command line does (no DataFrame is made), and a :class:`Filtered`
+    returned; without it, the filtered frame is returned."""
     path = os.fspath(path)
-    df = filter_recording(read_recording(path), config, smooth=smooth, lenient=lenient, prefix=prefix)
     if out is None:
-        return df
+        return filter_recording(read_recording(path), config, smooth=smooth, lenient=lenient, prefix=prefix)
     out = os.fspath(out)
-    rows = write_recording(df, out)
-    return Filtered(path, out, rows, list(df.attrs.get("strainwave_warnings", [])))
+    rows, _notes, warnings, _extrapolated = _native.filter_file(
+        os.fspath(config), path, out, smooth=smooth, lenient=lenient, prefix=prefix
+    )
+    return Filtered(path, out, rows, list(warnings))
 
 
 def _output_path(out_dir: str, path: str, suffix: str) -> str:

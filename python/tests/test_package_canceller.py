@@ -1,7 +1,7 @@
 """`strainwave.RippleCanceller`, the streaming canceller, against the command line: a
 recording run through it (in one block, in uneven blocks, or sample by sample) gives
-`strainwave filter`'s columns bit for bit, the command run with the bare canceller
-(`guard = false`), which is what `RippleCanceller` runs."""
+`strainwave filter`'s columns bit for bit, under the do-no-harm guard (the default) and
+with `guard = false`; its health summary is the one `filter` prints."""
 
 import re
 
@@ -42,16 +42,25 @@ def absolute_learned(text, config):
     return re.sub(r'^learned = "([^"/]+)"', lambda m: f"learned = {str(config.parent / m.group(1))!r}", text, flags=re.M)
 
 
-def cli_filter(cli, config, recording, out, *extra):
-    """`strainwave filter` with the bare canceller (`guard = false`), which is what
-    `RippleCanceller` runs, as the C ABI does; the do-no-harm guard is the command's."""
-    text = absolute_learned(config.read_text(), config).replace("[filter]", "[filter]\nguard = false", 1)
-    bare = out.parent / ("bare-" + config.name)
-    bare.write_text(text)
-    res = cli("filter", "--config", bare, "--in", recording, "--out", out, "--quiet", *extra)
+def config_copy(config, folder, guard):
+    """A copy of `config` in `folder` (its learned file by full path), with `guard = false`
+    unless `guard`."""
+    text = absolute_learned(config.read_text(), config)
+    if not guard:
+        text = text.replace("[filter]", "[filter]\nguard = false", 1)
+    path = folder / (("guarded-" if guard else "bare-") + config.name)
+    path.write_text(text)
+    return path
+
+
+def cli_filter(cli, config, recording, out, *extra, guard=False):
+    """`strainwave filter` over `recording` with a copy of `config` (`guard = false`
+    unless `guard`): (the output's columns, the copy's path, the command's stderr)."""
+    copy = config_copy(config, out.parent, guard)
+    res = cli("filter", "--config", copy, "--in", recording, "--out", out, *extra)
     assert res.returncode == 0, res.stderr
     names, cols = read_csv_exact(out)
-    return dict(zip(names, cols))
+    return dict(zip(names, cols)), copy, res.stderr
 
 
 def assert_block_is_cli(got, cli_cols, what):
@@ -70,17 +79,44 @@ def velocity_config(tmp_path_factory):
     return path
 
 
+def health_lines(stderr):
+    """The health summary `filter` prints: its `health:` line and the order lines after it."""
+    lines = stderr.splitlines()
+    start = next(i for i, l in enumerate(lines) if l.startswith("health: "))
+    end = start + 1
+    while end < len(lines) and lines[end].startswith("  "):
+        end += 1
+    return lines[start:end]
+
+
+@pytest.mark.parametrize("guard", [True, False], ids=["guard", "bare"])
 @pytest.mark.parametrize("config", ["full", "seed-6th", "denoised", "velocity"])
-def test_run_is_the_cli_bit_for_bit(cli, recording, tmp_path, denoised_config, velocity_config, config):
+def test_run_is_the_cli_bit_for_bit(cli, recording, tmp_path, denoised_config, velocity_config, config, guard):
     config = {"full": CONFIG, "seed-6th": SEED_6TH, "denoised": denoised_config, "velocity": velocity_config}[config]
-    expected = cli_filter(cli, config, recording, tmp_path / "out.csv")
+    expected, copy, stderr = cli_filter(cli, config, recording, tmp_path / "out.csv", guard=guard)
     rec = sw.read_recording(recording)
-    c = sw.RippleCanceller.from_config(config)
+    c = sw.RippleCanceller.from_config(copy)
+    assert c.guard is guard and not c.learning
     got = c.run(rec)
     assert list(got) == sw.OUTPUT_COLUMNS + (["torque_denoised"] if config == denoised_config else [])
     assert all(len(v) == len(rec) for v in got.values())
     assert_block_is_cli(got, expected, "one block")
     assert c.samples == len(rec)
+    h = c.health()
+    if guard:
+        # The summary `filter` prints, line for line, and its warnings among the command's.
+        assert h["lines"] == health_lines(stderr), stderr
+        assert h["samples"] == len(rec) and h["expected_nis"] == 1.0
+        assert h["lines"][0].startswith(f"health: mean NIS {h['mean_nis']:.2f} (expected 1)")
+        assert [o for o, _ in h["applied_share"]] == [l.split(" applied ")[0].strip() for l in h["lines"][1:]]
+        assert all(0.0 <= share <= 1.0 for _, share in h["applied_share"])
+        for w in h["warnings"]:
+            assert f"warning: {w}" in stderr.splitlines(), (w, stderr)
+        # Some sample carries guard bits (bits 8 and up) or the corrections were all applied.
+        flags = got["filter_flags"].astype(np.int64)
+        assert (flags >> 8).any() or all(share == 1.0 for _, share in h["applied_share"])
+    else:
+        assert h is None and "health:" not in stderr
     # Uneven blocks, one of them empty: the state carries over.
     c.reset()
     edges = [0, 1, 2, 700, 700, 1999, len(rec)]
@@ -89,10 +125,12 @@ def test_run_is_the_cli_bit_for_bit(cli, recording, tmp_path, denoised_config, v
     assert_block_is_cli(joined, expected, "blocks after reset")
 
 
-def test_step_loop_equals_run(recording):
+@pytest.mark.parametrize("guard", [True, False], ids=["guard", "bare"])
+def test_step_loop_equals_run(recording, tmp_path, guard):
+    config = config_copy(CONFIG, tmp_path, guard)
     rec = sw.read_recording(recording).iloc[:1500]
-    whole = sw.RippleCanceller.from_config(CONFIG).run(rec)
-    c = sw.RippleCanceller.from_config(CONFIG)
+    whole = sw.RippleCanceller.from_config(config).run(rec)
+    c = sw.RippleCanceller.from_config(config)
     torque, flags = [], []
     for t, v, m, o in rec[["time", "bridge_voltage", "motor_angle", "output_angle"]].itertuples(index=False):
         q, f = c.step(v, m, o, time=t)
@@ -101,6 +139,8 @@ def test_step_loop_equals_run(recording):
     assert_bitwise_equal(np.array(torque), whole["torque"], "step torque")
     assert np.array_equal(np.array(flags, dtype=np.float64), whole["filter_flags"])
     assert c.samples == 1500
+    if guard:
+        assert c.health()["samples"] == 1500
 
 
 def test_nan_samples_are_flagged_not_errors(recording):
@@ -136,8 +176,12 @@ def test_errors_are_the_cli_messages(cli, recording, tmp_path):
     assert str(e.value).endswith(reason) and expected.endswith(reason), (str(e.value), expected)
     with pytest.raises(sw.StrainwaveError, match="nope.toml"):
         sw.RippleCanceller.from_config(CONFIG, learned=tmp_path / "nope.toml")
-    with pytest.raises(sw.StrainwaveError, match="learn=True"):
-        sw.RippleCanceller.from_config(CONFIG, learned=ROOT / "examples" / "joint-taghirad-learned.toml", learn=True)
+    with pytest.raises(sw.StrainwaveError, match="does not learn"):
+        sw.RippleCanceller.from_config(CONFIG).save_learned(tmp_path / "l.toml")
+    with pytest.raises(sw.StrainwaveError, match="no path"):
+        sw.RippleCanceller.from_config(CONFIG, learn=True).save_learned()
+    with pytest.raises(TypeError, match="learn"):
+        sw.RippleCanceller.from_config(CONFIG, learn=3)
 
 
 def test_bad_rows_are_filter_lenient(cli, recording, tmp_path):
@@ -150,7 +194,7 @@ def test_bad_rows_are_filter_lenient(cli, recording, tmp_path):
     rec.loc[400:402, "output_angle"] = np.inf
     bad = tmp_path / "bad.csv"
     sw.write_recording(rec, bad)
-    expected = cli_filter(cli, SEED_6TH, bad, tmp_path / "out.csv", "--lenient")
-    got = sw.RippleCanceller.from_config(SEED_6TH).run(sw.read_recording(bad))
+    expected, copy, _ = cli_filter(cli, SEED_6TH, bad, tmp_path / "out.csv", "--lenient", "--quiet", guard=True)
+    got = sw.RippleCanceller.from_config(copy).run(sw.read_recording(bad))
     assert_block_is_cli(got, expected, "lenient run")
     assert int(got["filter_flags"][100]) & 1 and int(got["filter_flags"][200]) & 2

@@ -40,12 +40,17 @@ const DISCOVERED_MODEL_ERROR: f64 = 0.25;
 /// Significant lines below it are reported, not added.
 pub const MIN_AMPLITUDE_OF_NOISE: f64 = 0.3;
 
+/// The header line of a learned file: the last recording learned from and its rows.
+pub fn header(input: &str, rows: u64) -> String {
+    format!("learned by strainwave, last from {input} ({rows} rows)")
+}
+
 /// One run's learning, whichever the model's order count.
-pub trait RunLearner {
+pub trait RunLearner: Send + Sync {
     /// One sample, as the output filter got it.
     fn observe(&mut self, input: &RippleInput<f64>);
     /// The merged file and one line per discovery (and per line left out).
-    fn finish(self: Box<Self>, target: Option<&LearnedFile>, path: &Path) -> Result<(LearnedFile, Vec<String>)>;
+    fn finish(&self, target: Option<&LearnedFile>, path: &Path) -> Result<(LearnedFile, Vec<String>)>;
 }
 
 /// The learning side of a run: the cold canceller, the file it merges into.
@@ -61,8 +66,19 @@ impl Session {
     /// Starts learning into `path` for `cfg`'s joint. An existing `path` of another
     /// joint is refused here, before anything runs.
     pub fn start(cfg: &JointConfig, path: &Path) -> Result<Self> {
+        Self::begin(cfg, Some(path))
+    }
+
+    /// Starts learning for `cfg`'s joint with no file to merge into yet (the Python
+    /// canceller's `learn=True`; see [`Self::merged`]).
+    pub fn start_new(cfg: &JointConfig) -> Result<Self> {
+        Self::begin(cfg, None)
+    }
+
+    fn begin(cfg: &JointConfig, into: Option<&Path>) -> Result<Self> {
         let mut notes = Vec::new();
-        let target = if path.exists() {
+        let path = into.unwrap_or(Path::new(""));
+        let target = if into.is_some() && path.exists() {
             let (file, warning) = LearnedFile::load_for(path, cfg)?;
             notes.extend(warning);
             Some(file)
@@ -80,6 +96,23 @@ impl Session {
     /// One sample.
     pub fn observe(&mut self, input: &RippleInput<f64>) {
         self.learner.observe(input);
+    }
+
+    /// The file learned so far merged into `target` (read from `path`; `None`: a new
+    /// file), and the report lines, leaving the session going. [`Self::stage`] is this
+    /// with the file the session started on.
+    pub fn merged(&self, target: Option<&LearnedFile>, path: &Path) -> Result<(LearnedFile, Vec<String>)> {
+        self.learner.finish(target, path)
+    }
+
+    /// The file as it was when the session started (`None`: none yet).
+    pub fn target(&self) -> Option<&LearnedFile> {
+        self.target.as_ref()
+    }
+
+    /// The file the session started on ([`Self::start`]), `None` for [`Self::start_new`].
+    pub fn path(&self) -> Option<&Path> {
+        (!self.path.as_os_str().is_empty()).then_some(self.path.as_path())
     }
 
     /// Merges the run into the file and stages it under a temporary name; it replaces
@@ -143,7 +176,7 @@ impl<const M: usize> RunLearner for Learner<M> {
         }
     }
 
-    fn finish(self: Box<Self>, target: Option<&LearnedFile>, path: &Path) -> Result<(LearnedFile, Vec<String>)> {
+    fn finish(&self, target: Option<&LearnedFile>, path: &Path) -> Result<(LearnedFile, Vec<String>)> {
         let file = path.display().to_string();
         let velocity = self.model.phase_source() == strainwave_core::ripple::PhaseSource::Velocity;
         let (p0, _) = self.model.initial_variance_nm2();
@@ -231,7 +264,7 @@ impl<const M: usize> RunLearner for Learner<M> {
             orders.push(discovered_entry(&self.model, d));
             lines.push(format!("discovered {what}; added to {file}"));
         }
-        Ok((LearnedFile { joint: Some(self.identity), orders }, lines))
+        Ok((LearnedFile { joint: Some(self.identity.clone()), orders }, lines))
     }
 }
 

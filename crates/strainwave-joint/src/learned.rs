@@ -3,7 +3,7 @@
 //! priors.
 //!
 //! ```toml
-//! # learned by strainwave filter, last from run.csv (30400 rows)
+//! # learned by strainwave, last from run.csv (30400 rows)
 //! [joint]                  # the joint it belongs to (crate::identity)
 //! ratio = 100.0
 //! fixed = "circular_spline"

@@ -119,15 +119,46 @@ pub const GUARD_FLAGS_SHIFT: u32 = 8;
 /// Bit of `filter_flags` from which one bit per order says it was NOT applied.
 pub const WITHHELD_ORDERS_SHIFT: u32 = 16;
 
-/// The canceller of a run: bare, or under the do-no-harm guard.
-enum Canceller<const M: usize> {
+/// The canceller of a run: bare, or under the do-no-harm guard (`filter.guard`). The
+/// Python package's streaming canceller holds one too, so both run the same steps.
+#[derive(Debug, Clone)]
+pub enum Canceller<const M: usize> {
+    /// The canceller alone (`filter.guard = false`).
     Bare(RippleState<f64, M>),
+    /// The canceller under the do-no-harm guard.
     Guarded(Box<Guard<f64, M>>),
 }
 
 impl<const M: usize> Canceller<M> {
+    /// The canceller `filter` runs for `model` (its learned priors applied): guarded when
+    /// `guard` (`filter.guard`), the guard taking the learned file as evidence when the
+    /// model runs from one (`learned_prior`).
+    pub fn new(model: &RippleModel<f64, M>, guard: bool, learned_prior: bool) -> Self {
+        if guard {
+            Canceller::Guarded(Box::new(Guard::new(model, GuardSettings { learned_prior, ..GuardSettings::default() })))
+        } else {
+            Canceller::Bare(RippleState::new(model))
+        }
+    }
+
+    /// The guard's figures so far (`None` for the bare canceller).
+    pub fn health(&self, model: &RippleModel<f64, M>) -> Option<Health> {
+        match self {
+            Canceller::Guarded(g) => Some(Health::new(model.orders(), g.stats())),
+            Canceller::Bare(_) => None,
+        }
+    }
+
+    /// The canceller's state (the guarded canceller's inner one).
+    pub fn state(&self) -> &RippleState<f64, M> {
+        match self {
+            Canceller::Bare(s) => s,
+            Canceller::Guarded(g) => g.state(),
+        }
+    }
+
     /// One sample: the output and the `filter_flags` bits.
-    fn step(
+    pub fn step(
         &mut self,
         model: &RippleModel<f64, M>,
         input: &RippleInput<f64>,
@@ -169,18 +200,12 @@ pub fn filter_recording<S: RowSource, W: RowSink>(
     }
     // Operating from learned priors when the config has them (a `--learn` run may
     // create the file the config names); learning runs beside it, cold (crate::learn).
-    let learned = match &cfg.filter.learned {
-        Some(path) if opts.learn.is_none() || path.exists() => {
-            let field = || format!("{config}: `filter.learned`");
-            let (file, warning) = LearnedFile::load_for(path, cfg).with_context(field)?;
-            notes.extend(warning);
-            Some((file.extras(path).with_context(field)?, file, path.as_path()))
-        }
-        _ => None,
-    };
+    let learned = OutputPrior::load(cfg, opts.learn.is_some())?;
+    notes.extend(learned.as_ref().and_then(|l| l.note.clone()));
     let session = opts.learn.as_deref().map(|p| crate::learn::Session::start(cfg, p)).transpose()?;
-    let extras = learned.as_ref().map(|l| l.0.clone()).unwrap_or_default();
-    let run = Run { cfg, opts, source, create, progress, learned: learned.as_ref().map(|l| (&l.1, l.2)), session };
+    let extras = learned.as_ref().map(|l| l.extras.clone()).unwrap_or_default();
+    let learned = learned.as_ref().map(|l| (&l.file, l.path.as_path()));
+    let run = Run { cfg, opts, source, create, progress, learned, session };
     let mut summary = build_model_with(cfg, learned.is_some(), &extras, run)?;
     summary.warnings.splice(0..0, cfg.warnings.iter().cloned());
     if let Some(d) = cfg.denoiser()? {
@@ -193,6 +218,35 @@ pub fn filter_recording<S: RowSource, W: RowSink>(
     notes.append(&mut summary.notes);
     summary.notes = notes;
     Ok(summary)
+}
+
+/// The learned file the output canceller runs from: the config's `filter.learned`.
+#[derive(Debug, Clone)]
+pub struct OutputPrior {
+    /// The file, checked to belong to the config's joint.
+    pub file: LearnedFile,
+    /// Its discovered orders, appended to the config's
+    /// ([`crate::canceller::build_model_with`]).
+    pub extras: Vec<strainwave_core::ripple::Order<f64>>,
+    /// Where it was read.
+    pub path: PathBuf,
+    /// A note for the run's summary (a file without a joint identity).
+    pub note: Option<String>,
+}
+
+impl OutputPrior {
+    /// The config's learned file as `filter` loads it: `None` when the config names none,
+    /// or when a learning run (`learning`) is to create the file it names.
+    pub fn load(cfg: &JointConfig, learning: bool) -> Result<Option<Self>> {
+        let Some(path) = &cfg.filter.learned else { return Ok(None) };
+        if learning && !path.exists() {
+            return Ok(None);
+        }
+        let field = || format!("{}: `filter.learned`", cfg.path.display());
+        let (file, note) = LearnedFile::load_for(path, cfg).with_context(field)?;
+        let extras = file.extras(path).with_context(field)?;
+        Ok(Some(Self { file, extras, path: path.clone(), note }))
+    }
 }
 
 /// The channels bound to the input's columns.
@@ -336,14 +390,9 @@ impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
             });
         }
         let mut w = create(&refs)?;
-        let mut canceller = if cfg.filter.guard {
-            // The output runs from the config's learned file whenever there is one (a `--learn`
-            // run learns beside it), so that file is the guard's evidence.
-            let learned_prior = learned.is_some();
-            Canceller::Guarded(Box::new(Guard::new(model, GuardSettings { learned_prior, ..GuardSettings::default() })))
-        } else {
-            Canceller::Bare(RippleState::new(model))
-        };
+        // The output runs from the config's learned file whenever there is one (a `--learn`
+        // run learns beside it), so that file is the guard's evidence.
+        let mut canceller = Canceller::new(model, cfg.filter.guard, learned.is_some());
         let mut denoiser = denoiser;
         let mut row = Vec::with_capacity(columns.len());
         let mut last_t: Option<f64> = None;
@@ -408,7 +457,7 @@ impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
         // a `--learn` that cannot be written leaves `--out` as it was.
         let rows = r.rows_read();
         let learned = match session {
-            Some(l) => Some(l.stage(&format!("learned by strainwave filter, last from {input} ({rows} rows)"))?),
+            Some(l) => Some(l.stage(&crate::learn::header(input, rows))?),
             None => None,
         };
         let rows = w.finish()?;
@@ -418,10 +467,7 @@ impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
             notes.append(&mut lines);
         }
         let span = first_t.zip(last_t).map(|(t0, t1)| t1 - t0);
-        let health = match &canceller {
-            Canceller::Guarded(g) => Some(Health::new(model.orders(), g.stats())),
-            Canceller::Bare(_) => None,
-        };
+        let health = canceller.health(model);
         let mut warnings = check.warnings(input, rows, span);
         warnings.extend(health.iter().flat_map(Health::warnings));
         Ok(FilterSummary { rows, notes, extrapolated, warnings, health })
