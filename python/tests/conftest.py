@@ -96,3 +96,32 @@ def assert_bitwise_equal(a, b, what):
     same = a.view(np.uint64) == b.view(np.uint64)
     bad = np.flatnonzero(~same & ~nan)
     assert bad.size == 0, f"{what}: {bad.size} values differ, first at row {bad[0] + 1}: {a[bad[0]]!r} != {b[bad[0]]!r}"
+
+
+def assert_lets_other_threads_run(call):
+    """Runs `call()` on a second thread while this one keeps ticking, and fails when a tick
+    waited for more than half the call: a call that holds the GIL for its whole Rust run
+    would stall this thread for about its length."""
+    import threading
+    import time
+
+    import numpy as np
+
+    span = {}
+
+    def work():
+        t0 = time.perf_counter()
+        call()
+        span["s"] = time.perf_counter() - t0
+
+    ticks = []
+    t = threading.Thread(target=work)
+    t.start()
+    while t.is_alive():
+        ticks.append(time.perf_counter())
+        sum(range(200))
+    t.join()
+    gaps = np.diff(ticks)
+    assert span["s"] > 0.05, f"the call took {span['s']:.3f} s, too short to tell"
+    assert gaps.max() < 0.5 * span["s"], f"longest stall {gaps.max():.3f} s of a {span['s']:.3f} s call"
+    assert len(ticks) > 100
