@@ -173,7 +173,8 @@ fn nan_samples_are_errors_or_with_lenient_skipped_with_a_flag() {
 
 /// Each shipped joint config runs on the preset it was written for. The full
 /// configurations (with their learned files) remove at least 20 dB of the raw error
-/// against `true_torque`; the paper's own models only have to run.
+/// against `true_torque` and come within 1.1× the config's noise floor (a stale learned
+/// file fails this); the paper's own models only have to run.
 #[test]
 fn every_shipped_joint_config_runs_on_its_preset() {
     let d = tmp("examples");
@@ -200,6 +201,8 @@ fn every_shipped_joint_config_runs_on_its_preset() {
         if let Some(floor) = floor_db {
             let db = 20.0 * (raw / filtered).log10();
             assert!(db >= floor, "{cfg} on {preset}: {db:.1} dB");
+            let noise_nm = noise_nm(&cfg_path);
+            assert!(filtered <= 1.1 * noise_nm, "{cfg} on {preset}: {:.2}× the noise floor", filtered / noise_nm);
         }
     }
 }
@@ -283,6 +286,13 @@ fn simulate_preset(d: &Path, preset: &str) -> PathBuf {
     let o = run(&["simulate", "--preset", preset, "--out", f.to_str().unwrap(), "-q"]);
     assert!(o.status.success(), "{}", stderr(&o));
     f
+}
+
+/// `filter.noise_nm` of a joint config.
+fn noise_nm(config: &Path) -> f64 {
+    let text = std::fs::read_to_string(config).unwrap();
+    let line = text.lines().find(|l| l.trim_start().starts_with("noise_nm")).expect("noise_nm");
+    line.split('=').nth(1).unwrap().split('#').next().unwrap().trim().parse().unwrap()
 }
 
 fn rms_error(path: &Path, column: &str, after_s: f64) -> f64 {
