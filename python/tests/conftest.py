@@ -125,3 +125,19 @@ def assert_lets_other_threads_run(call):
     assert span["s"] > 0.05, f"the call took {span['s']:.3f} s, too short to tell"
     assert gaps.max() < 0.5 * span["s"], f"longest stall {gaps.max():.3f} s of a {span['s']:.3f} s call"
     assert len(ticks) > 100
+
+
+def cli_error(res):
+    """The one `error: ` line of a command that failed with exit 1, without its prefix."""
+    assert res.returncode == 1, f"expected the command line to fail:\n{res.stderr}"
+    lines = [l for l in res.stderr.splitlines() if l.startswith("error: ")]
+    assert len(lines) == 1, res.stderr
+    return lines[0][len("error: "):]
+
+
+def assert_frame_is_csv(df, path):
+    """`df` has the CSV file's columns, in order, with the same numbers bit for bit."""
+    names, cols = read_csv_exact(path)
+    assert list(df.columns) == names
+    for n, c in zip(names, cols):
+        assert_bitwise_equal(df[n].to_numpy(), c, f"{path.name} column {n}")

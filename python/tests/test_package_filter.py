@@ -2,7 +2,7 @@
 recordings read, the same twin, the same filter outputs bit for bit, the same errors."""
 
 import pytest
-from conftest import ROOT, assert_bitwise_equal, read_csv_exact
+from conftest import ROOT, assert_bitwise_equal, assert_frame_is_csv, cli_error, read_csv_exact
 
 np = pytest.importorskip("numpy")
 pd = pytest.importorskip("pandas")
@@ -18,20 +18,6 @@ def recording(cli, tmp_path_factory):
     res = cli("simulate", "--preset", "taghirad", "--duration", 4, "--seed", 3, "--out", path, "--quiet")
     assert res.returncode == 0, res.stderr
     return path
-
-
-def cli_error(res):
-    assert res.returncode == 1, f"expected the command line to fail:\n{res.stderr}"
-    lines = [l for l in res.stderr.splitlines() if l.startswith("error: ")]
-    assert len(lines) == 1, res.stderr
-    return lines[0][len("error: "):]
-
-
-def assert_frame_is_csv(df, path):
-    names, cols = read_csv_exact(path)
-    assert list(df.columns) == names
-    for n, c in zip(names, cols):
-        assert_bitwise_equal(df[n].to_numpy(), c, f"{path.name} column {n}")
 
 
 def test_read_recording_gives_the_file_exactly(recording):

@@ -2,20 +2,13 @@
 printed report, the same errors."""
 
 import pytest
-from conftest import ROOT, assert_bitwise_equal, assert_lets_other_threads_run, read_csv_exact
+from conftest import ROOT, assert_bitwise_equal, assert_lets_other_threads_run, cli_error, read_csv_exact
 
 np = pytest.importorskip("numpy")
 pd = pytest.importorskip("pandas")
 sw = pytest.importorskip("strainwave", reason="pip install ./python (./scripts/test-all does)")
 
 CONFIG = ROOT / "examples" / "bench-kit.toml"
-
-
-def cli_error(res):
-    assert res.returncode == 1, f"expected the command line to fail:\n{res.stderr}"
-    lines = [l for l in res.stderr.splitlines() if l.startswith("error: ")]
-    assert len(lines) == 1, res.stderr
-    return lines[0][len("error: "):]
 
 
 @pytest.fixture(scope="module")

@@ -4,27 +4,13 @@ the same model file and summary, the same estimated columns bit for bit, the sam
 import json
 
 import pytest
-from conftest import ROOT, assert_bitwise_equal, assert_lets_other_threads_run, read_csv_exact
+from conftest import ROOT, assert_bitwise_equal, assert_frame_is_csv, assert_lets_other_threads_run, cli_error, read_csv_exact
 
 np = pytest.importorskip("numpy")
 pd = pytest.importorskip("pandas")
 sw = pytest.importorskip("strainwave", reason="pip install ./python (./scripts/test-all does)")
 
 CONFIG = ROOT / "examples" / "arm-hda.toml"
-
-
-def cli_error(res):
-    assert res.returncode == 1, f"expected the command line to fail:\n{res.stderr}"
-    lines = [l for l in res.stderr.splitlines() if l.startswith("error: ")]
-    assert len(lines) == 1, res.stderr
-    return lines[0][len("error: "):]
-
-
-def assert_frame_is_csv(df, path):
-    names, cols = read_csv_exact(path)
-    assert list(df.columns) == names
-    for n, c in zip(names, cols):
-        assert_bitwise_equal(df[n].to_numpy(), c, f"{path.name} column {n}")
 
 
 @pytest.fixture(scope="module")
