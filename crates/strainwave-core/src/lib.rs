@@ -10,6 +10,7 @@ pub mod fusion;
 pub mod gear;
 pub mod guard;
 pub mod iir;
+mod lanes;
 pub mod pmsm;
 pub mod real;
 pub mod ripple;

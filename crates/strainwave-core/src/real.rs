@@ -4,7 +4,7 @@
 //! Transcendental functions come from `libm`, so the crate stays `no_std`.
 
 use core::fmt::Debug;
-use core::ops::{Add, AddAssign, Div, DivAssign, Mul, MulAssign, Neg, Sub, SubAssign};
+use core::ops::{Add, AddAssign, BitAnd, BitOr, Div, DivAssign, Mul, MulAssign, Neg, Not, Sub, SubAssign};
 
 /// A floating-point scalar: `f32` or `f64`.
 pub trait Real:
@@ -26,6 +26,22 @@ pub trait Real:
     + Sync
     + 'static
 {
+    /// A signed integer as wide as the number: one lane of a mask (all bits set for
+    /// true, else 0), so that masks fill vector registers as the numbers do.
+    type Bits: Copy
+        + Debug
+        + Default
+        + PartialEq
+        + BitAnd<Output = Self::Bits>
+        + BitOr<Output = Self::Bits>
+        + Not<Output = Self::Bits>
+        + From<u16>
+        + Into<i64>
+        + Send
+        + Sync
+        + 'static;
+    /// Every bit of [`Self::Bits`] set.
+    const ALL_BITS: Self::Bits;
     /// 0.
     const ZERO: Self;
     /// 1.
@@ -129,9 +145,11 @@ pub trait Real:
 }
 
 macro_rules! impl_real {
-    ($t:ty, $sin:path, $cos:path, $tan:path, $atan:path, $atan2:path, $exp:path, $ln:path,
+    ($t:ty, $bits:ty, $sin:path, $cos:path, $tan:path, $atan:path, $atan2:path, $exp:path, $ln:path,
      $sqrt:path, $floor:path, $round:path, $pow:path, $fma:path) => {
         impl Real for $t {
+            type Bits = $bits;
+            const ALL_BITS: $bits = -1;
             #[cfg(feature = "std")]
             #[inline(always)]
             fn fused_mul_add(self, a: Self, b: Self) -> Self {
@@ -215,6 +233,7 @@ macro_rules! impl_real {
 
 impl_real!(
     f32,
+    i32,
     libm::sinf,
     libm::cosf,
     libm::tanf,
@@ -230,6 +249,7 @@ impl_real!(
 );
 impl_real!(
     f64,
+    i64,
     libm::sin,
     libm::cos,
     libm::tan,

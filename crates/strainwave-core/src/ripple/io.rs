@@ -123,6 +123,10 @@ impl StepFlags {
     pub const fn empty() -> Self {
         Self(0)
     }
+    /// The flags of raw `bits`.
+    pub(crate) const fn from_bits(bits: u16) -> Self {
+        Self(bits)
+    }
     /// Raw bits.
     pub const fn bits(self) -> u16 {
         self.0
@@ -138,11 +142,6 @@ impl StepFlags {
     /// Sets the flags of `other`.
     pub fn insert(&mut self, other: Self) {
         self.0 |= other.0;
-    }
-    /// Sets the flags of `other` if `on` (without a branch).
-    #[inline(always)]
-    pub(crate) fn set(&mut self, other: Self, on: bool) {
-        self.0 |= other.0 * u16::from(on);
     }
 }
 

@@ -1,11 +1,10 @@
-//! The one step of the canceller, written once for `J` joints that share a model (one
-//! joint is `J = 1`). Each oscillator is kept in its rotating frame `x_i = Φ(ψ_i) z_i`
-//! (`docs/physics.md`, section 4): with the update row `h = [cos ψ_1, sin ψ_1, …, 1]`,
-//! `P(k|k−1) = P + Q`, `g = P hᵀ`, `S = R + h g`, `ẑ += g e / S`, `P −= g gᵀ / S`, and
-//! `Φ` never multiplies `P`. Every per-joint decision (skip, first sample, gap, jump,
-//! order held or off, load step) is a select, so a bank's passes over its joints can
-//! vectorize. The CPU-specific build is chosen in one place, `run`: on x86-64 with AVX2
-//! and FMA (std builds) the same step compiled with its multiply–adds fused.
+//! The one step of the canceller, written once over lanes (one per joint, see
+//! [`Lanes`](crate::lanes)) for `J` joints that share a model (one joint is `J = 1`).
+//! Each oscillator is kept in its rotating frame `x_i = Φ(ψ_i) z_i` (`docs/physics.md`,
+//! section 4): with the update row `h = [cos ψ_1, sin ψ_1, …, 1]`, `P(k|k−1) = P + Q`,
+//! `g = P hᵀ`, `S = R + h g`, `ẑ += g e / S`, `P −= g gᵀ / S`; `Φ` never multiplies `P`.
+//! Per-joint decisions are masks and selects, the common sample a branch. The build
+//! for the CPU is chosen in one place, `run`.
 
 // Lane loops index several arrays by the same joint index (structure of arrays), and
 // `!(x <= limit)` is deliberate: NaN must count as out of range.
@@ -16,6 +15,7 @@ use super::filter::{RotatingGaussian, StepTrace};
 use super::io::{OrderStatus, StepFlags};
 use super::model::{Limits, Order, PhaseSource, RippleModel};
 use super::trig::{phasor_power_with, sin_cos_with, wrap_angle as wrap, Doubling};
+use crate::lanes::{Lanes as L, Mask};
 use crate::Real;
 
 /// Weight of the newest increment in the running mean that decides holding (1/16).
@@ -149,9 +149,8 @@ fn run_fma<T: Real, const M: usize, const J: usize, const TRACE: bool>(
     advance::<T, M, J, true, TRACE>(model, bank, input, out, trace);
 }
 
-/// Every joint's step in passes over the joints, each a loop without a branch of its
-/// own so that a bank's loops can vectorize: decisions and time update, the orders' phasors
-/// (order by order), prediction and update; then the reset of joints gone bad.
+/// Every joint's step: the decisions, the orders' phasors, the time update, the
+/// prediction and the measurement update; then the reset of joints gone bad.
 #[inline(always)]
 fn advance<T: Real, const M: usize, const J: usize, const F: bool, const TRACE: bool>(
     model: &RippleModel<T, M>,
@@ -167,210 +166,218 @@ fn advance<T: Real, const M: usize, const J: usize, const F: bool, const TRACE: 
     }
 }
 
-/// What the first pass decided (`[order][joint]`, `[joint]`): order kept (else reset),
-/// increment (rad), process noise (N·m²); measurement used, gap, samples of noise.
+/// What the decisions found: per order and joint, kept (else reset), coupled (else its
+/// covariances are dropped), status, increment (rad), process noise (N·m²); the sample's
+/// decisions; the flags so far ([`StepFlags`] bits); every order active and staying so.
 #[derive(Clone, Copy)]
-struct Decided<T, const M: usize, const J: usize> {
-    keep: [[bool; J]; M],
-    inc: [[T; J]; M],
-    q: [[T; J]; M],
-    meas_ok: [bool; J],
-    gap: [bool; J],
-    n_noise: [T; J],
+struct Decided<T: Real, const M: usize, const J: usize> {
+    keep: [Mask<T, J>; M],
+    couple: [Mask<T, J>; M],
+    off: [Mask<T, J>; M],
+    active: [Mask<T, J>; M],
+    inc: [L<T, J>; M],
+    q: [L<T, J>; M],
+    sample: Sample<T, J>,
+    flags: Mask<T, J>,
+    common: bool,
 }
 
-/// The passes of [`advance`] for a model with (`BIAS`) or without the bias state.
+/// The step of [`advance`] for a model with (`BIAS`) or without the bias state. The
+/// common sample, where every order of every joint keeps its state and stays coupled,
+/// takes the time update with those decisions as constants: a branch, same numbers.
 #[inline(always)]
 fn passes<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool, const TRACE: bool>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
     out: &mut BankOutput<T, J>,
-    mut trace: Option<&mut StepTrace<T, M>>,
+    trace: Option<&mut StepTrace<T, M>>,
 ) {
-    let (no, zero) = ([[false; J]; M], [[T::ZERO; J]; M]);
-    let mut d = Decided { keep: no, inc: zero, q: zero, meas_ok: no[0], gap: no[0], n_noise: zero[0] };
     bank.steps = bank.steps.map(|s| s.wrapping_add(1));
-    for l in 0..J {
-        decide::<T, M, J, F, BIAS>(model, bank, input, l, &mut d, out);
+    let d = decide::<T, M, J, F>(model, bank, input);
+    phasors::<T, M, J, F>(model, bank, input, &d.inc);
+    if d.common {
+        time_update::<T, M, J, F, BIAS, true>(model, bank, &d);
+    } else {
+        time_update::<T, M, J, F, BIAS, false>(model, bank, &d);
     }
-    if J > 1 {
-        phasors::<T, M, J, F>(model, bank, input, &d.inc);
-    }
-    let mut bad = [false; J];
-    for l in 0..J {
-        let tr = if TRACE && l == 0 { trace.as_deref_mut() } else { None };
-        bad[l] = update::<T, M, J, F, BIAS, TRACE>(model, bank, input, l, &d, out, tr);
-    }
-    for l in (0..J).filter(|&l| bad[l]) {
-        bank.reset_lane(model, l);
-        out.flags[l].insert(StepFlags::COVARIANCE_RESET);
-        if BIAS {
-            out.torque_state_nm[l] = input.expected_torque_nm[l] + bank.b[l];
+    let bad = update::<T, M, J, F, BIAS, TRACE>(model, bank, input, &d, out, trace);
+    if bad.any() {
+        for l in (0..J).filter(|&l| bad.lane(l)) {
+            bank.reset_lane(model, l);
+            out.flags[l].insert(StepFlags::COVARIANCE_RESET);
+            if BIAS {
+                out.torque_state_nm[l] = input.expected_torque_nm[l] + bank.b[l];
+            }
         }
     }
 }
 
-/// Joint `l`'s decisions (valid input, increments `Δθ = wrap_π(θ(k) − θ(k−1))` or
-/// `(ω(k−1) + ω(k))/2 · dt`, jumps, gaps, order status), phases and time update.
+/// Per joint: the sample skipped; counted (neither skipped nor the first); after a
+/// time gap; its measurement used; samples pending before it (skipped), their number
+/// with this one and of process noise; time since the last one; covariance inflation.
+#[derive(Clone, Copy)]
+struct Sample<T: Real, const J: usize> {
+    skip: Mask<T, J>,
+    counted: Mask<T, J>,
+    gap: Mask<T, J>,
+    meas_ok: Mask<T, J>,
+    pending: L<T, J>,
+    n_samples: L<T, J>,
+    n_noise: L<T, J>,
+    total_dt: L<T, J>,
+    inflation: L<T, J>,
+}
+
+/// The decisions of every joint (valid input, increments, jumps, gaps, order status)
+/// and its phases.
 #[allow(clippy::too_many_lines)]
 #[inline(always)]
-fn decide<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool>(
+fn decide<T: Real, const M: usize, const J: usize, const F: bool>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
-    l: usize,
-    dec: &mut Decided<T, M, J>,
-    out: &mut BankOutput<T, J>,
-) {
+) -> Decided<T, M, J> {
     let (plan, lim, orders) = (&model.plan, &model.limits, &model.orders);
-    let angle_input = model.phase_source == PhaseSource::Angle;
     let dt = input.dt_s.unwrap_or(plan.dt_s);
-    let dt_ok = finite(dt) & (dt > T::ZERO);
-    let q_bias = model.bias_q_nm2.unwrap_or(T::ZERO);
-    let refs = [input.references.relative[l], input.references.output[l], input.references.motor[l]];
-    let y = input.torque_nm[l] - input.expected_torque_nm[l];
+    let dt_ok = L([dt]).finite().lane(0) & (dt > T::ZERO);
+    let r = &input.references;
+    let refs = [L(r.relative), L(r.output), L(r.motor)];
+    let y = L(input.torque_nm) - L(input.expected_torque_nm);
 
     // The sample: skipped (a used reference or `dt` not finite: the state stays as it
     // was, the next increment spans the gap), first, or after a time gap.
-    let skip = !(0..3).fold(dt_ok, |ok, r| ok & (!plan.uses[r] | finite(refs[r])));
-    let pending = bank.pending_samples[l];
-    let n_samples = pending + T::ONE;
-    let total_dt = bank.pending_dt[l] + dt;
-    let first = !bank.has_last[l];
-    let gap = !skip & !first & !(total_dt <= plan.max_gap_s);
-    let meas_ok = !skip & finite(y);
+    // (`x · 0` is 0 exactly for finite `x`: one test for every used reference.)
+    let mut probe = L::splat(T::ZERO);
+    for r in 0..3 {
+        if plan.uses[r] {
+            probe = probe + refs[r] * T::ZERO;
+        }
+    }
+    let skip = !probe.equals(T::ZERO) | Mask::splat(!dt_ok);
+    let pending = L(bank.pending_samples);
+    let total_dt = L(bank.pending_dt) + dt;
+    let first = !Mask::of(|l| bank.has_last[l]);
+    let gap = !skip & !first & !total_dt.at_most(plan.max_gap_s);
+    let meas_ok = !skip & y.finite();
     // The initial state is the prior of the first sample: no noise before it.
     let counted = !skip & !first;
-    let n_noise = if counted { n_samples } else { T::ZERO };
-    let infl = if counted { lim.covariance_inflation } else { T::ZERO };
-    (dec.meas_ok[l], dec.gap[l], dec.n_noise[l]) = (meas_ok, gap, n_noise);
+    let zero = L::splat(T::ZERO);
+    let n_samples = pending + T::ONE;
+    let n_noise = counted.select(n_samples, zero);
+    let inflation = counted.select(L::splat(lim.covariance_inflation), zero);
+    let sample = Sample { skip, counted, gap, meas_ok, pending, n_samples, n_noise, total_dt, inflation };
 
-    // Each reference: its increment, whether it jumped, its phase. A bank works out
-    // the unused ones too (a branch would stop its loop vectorizing) and keeps nothing
-    // of them.
-    let (mut delta, mut jump, mut mean) = ([T::ZERO; 3], [false; 3], [T::ZERO; 3]);
-    for r in 0..3 {
-        let used = plan.uses[r];
-        if J == 1 && !used {
-            continue;
-        }
-        let (v, last) = (refs[r], bank.last[r][l]);
-        let d = if angle_input { wrap(v - last) } else { (v + last) * T::HALF * total_dt };
-        // A glitch: an increment too large, or too different from the last one.
-        let expected_d = bank.last_delta[r][l] * n_samples;
-        let changed = bank.delta_known[l] & !((d - expected_d).abs() <= lim.max_step_change_rad);
-        let jumped = used & counted & (!(d.abs() <= lim.max_angle_step_rad) | changed);
-        let accept = used & counted & !jumped;
-        let per_sample = if pending == T::ZERO { d } else { d / n_samples };
-        // Mean increment over ~16 samples: encoder jitter at standstill averages out of
-        // it, so it alone decides whether an order is held.
-        let m = bank.mean_delta[r][l];
-        mean[r] = if accept { madd::<T, F>(m, per_sample - m, T::from_f64(HOLD_AVERAGE)) } else { m };
-        bank.mean_delta[r][l] = mean[r];
-        bank.last_delta[r][l] = if accept { per_sample } else { bank.last_delta[r][l] };
-        jump[r] = jumped;
-        delta[r] = if counted { d } else { T::ZERO };
-        // The phase: the angle itself, or the accumulated increments.
-        let psi = bank.psi[r][l];
-        let next = wrap(if angle_input { v } else { psi + delta[r] });
-        let keep_psi = !used | skip | (!angle_input & jumped);
-        bank.psi[r][l] = if keep_psi { psi } else { next };
-        bank.last[r][l] = if skip | !used { last } else { v };
-    }
-    let any_jump = jump[0] | jump[1] | jump[2];
-    bank.has_last[l] |= !skip;
-    // After a jump or a gap the next increment sets a new baseline.
-    bank.delta_known[l] = if skip { bank.delta_known[l] } else { !first & !gap & !any_jump };
-    bank.pending_samples[l] = if skip { n_samples } else { T::ZERO };
-    let pending_dt = bank.pending_dt[l] + if dt_ok { dt } else { plan.dt_s };
-    bank.pending_dt[l] = if skip { pending_dt } else { T::ZERO };
-    let mut flags = StepFlags::empty();
-    flags.set(StepFlags::ANGLE_SKIPPED, skip);
-    flags.set(StepFlags::MEASUREMENT_SKIPPED, !skip & !meas_ok);
-    flags.set(StepFlags::GAP_RESET, gap);
-    flags.set(StepFlags::JUMP_RESET, !gap & any_jump);
-
-    // Each order: its status (active, held or off), what the time update does with it
-    // (keep its state or restart from its prior, keep its covariances with the others)
-    // and its process noise `q_i = q_s + q_rad |a_i|`.
-    let mut couple = [true; M];
-    for i in 0..M {
-        // The order's reference by selects, not by index: the per-reference values
-        // then stay in registers.
-        let r = plan.reference[i];
-        let reset = gap | pick(&jump, r);
-        let a = if reset { T::ZERO } else { orders[i].multiple * pick(&delta, r) };
-        let abs_a = a.abs();
-        let mean_a = (orders[i].multiple * pick(&mean, r)).abs();
-        let prev = bank.status[i][l];
-        let was_off = prev == OrderStatus::Off;
-        let off = !reset & ((was_off & !(abs_a < plan.on_below_rad)) | (!was_off & (abs_a > plan.off_above_rad)));
-        let held = reset | (!off & (mean_a < plan.hold_below_rad));
-        let status = if skip {
-            prev
-        } else if off {
-            OrderStatus::Off
-        } else if held {
-            OrderStatus::Held
+    // Each reference some order uses (written out: its values stay in registers).
+    let unused = (zero, Mask::splat(false), zero);
+    let each = |r: usize, bank: &mut RippleBank<T, M, J>| {
+        if plan.uses[r] {
+            reference::<T, M, J, F>(model, bank, r, refs[r], &sample)
         } else {
-            OrderStatus::Active
-        };
-        bank.status[i][l] = status;
-        let (off, active) = (status == OrderStatus::Off, status == OrderStatus::Active);
-        let zeroed = !skip & (reset | off);
-        dec.keep[i][l] = !zeroed;
-        couple[i] = skip | active;
-        dec.inc[i][l] = if zeroed { T::ZERO } else { a };
-        let q_i = madd::<T, F>(orders[i].q_per_sample_nm2 * n_noise, orders[i].q_per_rad_nm2, abs_a);
-        dec.q[i][l] = if off | skip { T::ZERO } else { q_i };
-        flags.set(StepFlags::ORDER_OFF, off);
-        flags.set(StepFlags::ORDER_HELD, status == OrderStatus::Held);
+            unused
+        }
+    };
+    let per_ref = [each(0, bank), each(1, bank), each(2, bank)];
+    let (delta, jump, mean) = (per_ref.map(|p| p.0), per_ref.map(|p| p.1), per_ref.map(|p| p.2));
+    let any_jump = jump[0] | jump[1] | jump[2];
+    // After a jump or a gap the next increment sets a new baseline.
+    let baseline = !first & !gap & !any_jump;
+    for l in 0..J {
+        bank.has_last[l] |= !skip.lane(l);
+        bank.delta_known[l] = if skip.lane(l) { bank.delta_known[l] } else { baseline.lane(l) };
     }
-    out.flags[l] = flags;
-    if J == 1 {
-        // One joint: its phasors now, so that their chain starts before the time update.
-        phasors::<T, M, J, F>(model, bank, input, &dec.inc);
-    }
+    bank.pending_samples = skip.select(sample.n_samples, zero).0;
+    let pending_dt = L(bank.pending_dt) + if dt_ok { dt } else { plan.dt_s };
+    bank.pending_dt = skip.select(pending_dt, zero).0;
 
-    // Time update: inflation `ρ (P_00 + P_11)/2 · I₂` (rotation invariant, like Q) and
-    // process noise on the diagonal blocks; a reset order restarts from its prior and
-    // forgets its covariances, an order not active is decoupled from the others.
-    let grow = infl * T::HALF;
+    // Each order: its increment `a_i = n_i Δθ` (0 after a reset), process noise
+    // `q_i = q_s + q_rad |a_i|`, and status. In the common sample every order was
+    // active and stays so (its line within the limits): nothing else to decide.
+    let (mut a, mut mean_a, mut reset) = ([zero; M], [zero; M], [Mask::splat(false); M]);
+    let mut q = [zero; M];
+    let mut stays = !skip & !gap & !any_jump;
     for i in 0..M {
-        let (keep, q) = (dec.keep[i][l], dec.q[i][l]);
-        let d = &mut bank.p[i][i];
-        let (v0, v1) = (d[0][0][l], d[1][1][l]);
-        let trace = v0 + v1;
-        let fresh = plan.p0_nm2[i] + q;
-        d[0][0][l] = if keep { madd::<T, F>(v0, grow, trace) + q } else { fresh };
-        d[1][1][l] = if keep { madd::<T, F>(v1, grow, trace) + q } else { fresh };
-        let off = if keep { d[0][1][l] } else { T::ZERO };
-        d[0][1][l] = off;
-        d[1][0][l] = off;
-        for r in 0..2 {
-            bank.z[i][r][l] = if keep { bank.z[i][r][l] } else { orders[i].prior_nm[r] };
-            if BIAS {
-                bank.pb[i][r][l] = if couple[i] { bank.pb[i][r][l] } else { T::ZERO };
+        let r = plan.reference[i];
+        reset[i] = gap | pick(&jump, r);
+        a[i] = reset[i].select(zero, pick(&delta, r) * orders[i].multiple);
+        mean_a[i] = (pick(&mean, r) * orders[i].multiple).abs();
+        q[i] = (n_noise * orders[i].q_per_sample_nm2).madd::<F>(orders[i].q_per_rad_nm2, a[i].abs());
+        let within = !L::splat(plan.off_above_rad).less(a[i].abs()) & !mean_a[i].less(plan.hold_below_rad);
+        stays = stays & within & Mask::of(|l| bank.status[i][l] == OrderStatus::Active);
+    }
+    let (all, none, common) = ([Mask::splat(true); M], [Mask::splat(false); M], stays.all());
+    let mut dec = Decided { keep: all, couple: all, off: none, active: all, inc: a, q, sample, flags: none[0], common };
+    let (mut any_off, mut any_held) = (Mask::splat(false), Mask::splat(false));
+    if !common {
+        for i in 0..M {
+            let (reset, abs_a) = (reset[i], a[i].abs());
+            let prev = bank.status[i];
+            let was_off = Mask::of(|l| prev[l] == OrderStatus::Off);
+            let was_held = Mask::of(|l| prev[l] == OrderStatus::Held);
+            let off_now = !reset
+                & ((was_off & !abs_a.less(plan.on_below_rad)) | (!was_off & L::splat(plan.off_above_rad).less(abs_a)));
+            let held_now = !off_now & (reset | mean_a[i].less(plan.hold_below_rad));
+            let off = skip.select_mask(was_off, off_now);
+            let held = skip.select_mask(was_held, held_now);
+            for l in 0..J {
+                let held = if held.lane(l) { OrderStatus::Held } else { OrderStatus::Active };
+                bank.status[i][l] = if off.lane(l) { OrderStatus::Off } else { held };
             }
-        }
-        for j in 0..M {
-            // Constant bounds (no filter): every index is known, no bounds check is left.
-            let both = couple[i] & couple[j];
-            for r in 0..2 {
-                for c in 0..2 {
-                    let v = bank.p[i][j][r][c][l];
-                    bank.p[i][j][r][c][l] = if (j <= i) | both { v } else { T::ZERO };
-                }
-            }
+            // The time update keeps the order's state (else restarts it from its
+            // prior) and its covariances with the others (if active, or skipped).
+            let zeroed = !skip & (reset | off);
+            dec.keep[i] = !zeroed;
+            dec.off[i] = off;
+            dec.active[i] = !off & !held;
+            dec.couple[i] = skip | dec.active[i];
+            dec.inc[i] = zeroed.select(zero, a[i]);
+            dec.q[i] = (off | skip).select(zero, q[i]);
+            (any_off, any_held) = (any_off | off, any_held | held);
         }
     }
-    if BIAS {
-        // A time gap brings the bias variance back up to its initial value.
-        let v = bank.pbb[l];
-        let v = if gap & (v < model.p0_bias_nm2) { model.p0_bias_nm2 } else { v };
-        bank.pbb[l] = madd::<T, F>(v, v, infl) + q_bias * n_noise;
-    }
+    dec.flags = skip.bits(StepFlags::ANGLE_SKIPPED.bits())
+        | (!skip & !meas_ok).bits(StepFlags::MEASUREMENT_SKIPPED.bits())
+        | gap.bits(StepFlags::GAP_RESET.bits())
+        | (!gap & any_jump).bits(StepFlags::JUMP_RESET.bits())
+        | any_off.bits(StepFlags::ORDER_OFF.bits())
+        | any_held.bits(StepFlags::ORDER_HELD.bits());
+    dec
+}
+
+/// Reference `r` at `v`: its increment `Δθ = wrap_π(θ(k) − θ(k−1))` or `(ω(k−1) + ω(k))/2
+/// · dt`, jump, and running mean of the increment per sample; its phase and last values.
+#[inline(always)]
+fn reference<T: Real, const M: usize, const J: usize, const F: bool>(
+    model: &RippleModel<T, M>,
+    bank: &mut RippleBank<T, M, J>,
+    r: usize,
+    v: L<T, J>,
+    sample: &Sample<T, J>,
+) -> (L<T, J>, Mask<T, J>, L<T, J>) {
+    let lim = &model.limits;
+    let Sample { skip, counted, pending, n_samples, total_dt, .. } = *sample;
+    let angle_input = model.phase_source == PhaseSource::Angle;
+    let last = L(bank.last[r]);
+    let d = if angle_input { wrap(v - last) } else { (v + last) * T::HALF * total_dt };
+    // A glitch: an increment too large, or too different from the last one.
+    let last_delta = L(bank.last_delta[r]);
+    let changed = !(d - last_delta * n_samples).abs().at_most(lim.max_step_change_rad);
+    let jump = counted & (!d.abs().at_most(lim.max_angle_step_rad) | (Mask::of(|l| bank.delta_known[l]) & changed));
+    let accept = counted & !jump;
+    let per_sample = if pending.equals(T::ZERO).all() { d } else { pending.equals(T::ZERO).select(d, d / n_samples) };
+    // Mean increment over ~16 samples: encoder jitter at standstill averages out of
+    // it, so it alone decides whether an order is held.
+    let m = L(bank.mean_delta[r]);
+    let mean = accept.update(m, m.madd::<F>(per_sample - m, T::from_f64(HOLD_AVERAGE)));
+    bank.mean_delta[r] = mean.0;
+    bank.last_delta[r] = accept.update(last_delta, per_sample).0;
+    let delta = counted.select(d, L::splat(T::ZERO));
+    // The phase: the angle itself, or the accumulated increments.
+    let psi = L(bank.psi[r]);
+    let (next, keep_psi) = if angle_input { (v, skip) } else { (psi + delta, skip | jump) };
+    bank.psi[r] = (!keep_psi).update(psi, wrap(next)).0;
+    bank.last[r] = (!skip).update(last, v).0;
+    (delta, jump, mean)
 }
 
 /// Each order's phasor (times `|T_exp + b̂(k|k−1)|` if load-scaled): its reference's to
@@ -380,289 +387,302 @@ fn phasors<T: Real, const M: usize, const J: usize, const F: bool>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
-    inc: &[[T; J]; M],
+    inc: &[L<T, J>; M],
 ) {
     let plan = &model.plan;
-    let mut base = [[[T::ZERO; J]; 2]; 3];
+    let mut base = [(L::splat(T::ONE), L::splat(T::ZERO)); 3];
     for r in 0..3 {
-        if plan.uses[r] {
-            for l in 0..J {
-                let p = sin_cos_with::<T, F>(bank.psi[r][l]);
-                (base[r][0][l], base[r][1][l]) = (p.c, p.s);
-            }
+        if !plan.uses[r] {
+            continue;
         }
+        base[r] = each_lane(L(bank.psi[r]), L(bank.psi[r]), |psi, _| sin_cos_with::<T, F>(psi));
     }
     for i in 0..M {
-        let [c, s] = base[plan.reference[i]];
-        let ph = match plan.power[i] {
-            1 => [c, s],
-            2 => each_lane(&c, &s, |_, b| b.doubled::<F>()),
-            4 => each_lane(&c, &s, |_, b| b.doubled::<F>().doubled::<F>()),
+        let (c, s) = pick(&base, plan.reference[i]);
+        let (mut c, mut s) = match plan.power[i] {
+            1 => (c, s),
+            2 => each_lane(c, s, |c, s| Doubling::new(c, s).doubled::<F>()),
+            4 => each_lane(c, s, |c, s| Doubling::new(c, s).doubled::<F>().doubled::<F>()),
             0 => {
                 // A fractional multiple: its own accumulated phase.
-                for l in 0..J {
-                    bank.order_psi[i][l] = wrap(bank.order_psi[i][l] + inc[i][l]);
-                }
-                let psi = bank.order_psi[i];
-                each_lane(&c, &s, |l, _| sin_cos_with::<T, F>(psi[l]))
+                let psi = wrap(L(bank.order_psi[i]) + inc[i]);
+                bank.order_psi[i] = psi.0;
+                each_lane(psi, psi, |psi, _| sin_cos_with::<T, F>(psi))
             }
-            n => each_lane(&c, &s, |_, b| {
-                let (c, s) = phasor_power_with::<T, F>(b.c, b.s, n);
+            n => each_lane(c, s, |c, s| {
+                let (c, s) = phasor_power_with::<T, F>(c, s, n);
                 Doubling::new(c, s)
             }),
         };
-        for l in 0..J {
-            let load = (input.expected_torque_nm[l] + bank.b[l]).abs();
-            let load = if finite(load) { load } else { T::ZERO };
-            let scale = if model.orders[i].load_scaled { load } else { T::ONE };
-            bank.phasor[i][0][l] = ph[0][l] * scale;
-            bank.phasor[i][1][l] = ph[1][l] * scale;
+        if model.orders[i].load_scaled {
+            let load = (L(input.expected_torque_nm) + L(bank.b)).abs();
+            let load = load.finite().select(load, L::splat(T::ZERO));
+            (c, s) = (c * load, s * load);
         }
+        (bank.phasor[i][0], bank.phasor[i][1]) = (c.0, s.0);
     }
 }
 
-/// Joint `l`'s prediction (the output) and measurement update; whether it went bad.
+/// Time update: inflation `ρ (P_00 + P_11)/2 · I₂` (rotation invariant, like Q) and
+/// process noise on the diagonal blocks; a reset order restarts from its prior and
+/// forgets its covariances, an order not active is decoupled from the others.
+/// `COMMON`: every order of every joint is kept and coupled (nothing to select).
+#[inline(always)]
+fn time_update<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool, const COMMON: bool>(
+    model: &RippleModel<T, M>,
+    bank: &mut RippleBank<T, M, J>,
+    d: &Decided<T, M, J>,
+) {
+    let (plan, orders) = (&model.plan, &model.orders);
+    let grow = d.sample.inflation * T::HALF;
+    let zero = L::splat(T::ZERO);
+    for i in 0..M {
+        let (keep, q) = (d.keep[i], d.q[i]);
+        let blk = &mut bank.p[i][i];
+        let (v0, v1) = (L(blk[0][0]), L(blk[1][1]));
+        let trace = v0 + v1;
+        let (v0, v1) = (v0.madd::<F>(grow, trace) + q, v1.madd::<F>(grow, trace) + q);
+        if COMMON {
+            (blk[0][0], blk[1][1]) = (v0.0, v1.0);
+            continue;
+        }
+        let fresh = q + plan.p0_nm2[i];
+        (blk[0][0], blk[1][1]) = (keep.select(v0, fresh).0, keep.select(v1, fresh).0);
+        let off = (!keep).update(L(blk[0][1]), zero).0;
+        (blk[0][1], blk[1][0]) = (off, off);
+        for r in 0..2 {
+            bank.z[i][r] = (!keep).update(L(bank.z[i][r]), L::splat(orders[i].prior_nm[r])).0;
+            if BIAS {
+                bank.pb[i][r] = (!d.couple[i]).update(L(bank.pb[i][r]), zero).0;
+            }
+        }
+        for j in i + 1..M {
+            let both = d.couple[i] & d.couple[j];
+            for v in bank.p[i][j].iter_mut().flatten() {
+                *v = (!both).update(L(*v), zero).0;
+            }
+        }
+    }
+    if BIAS {
+        // A time gap brings the bias variance back up to its initial value.
+        let v = L(bank.pbb);
+        let v = (d.sample.gap & v.less(model.p0_bias_nm2)).select(L::splat(model.p0_bias_nm2), v);
+        let q_bias = model.bias_q_nm2.unwrap_or(T::ZERO);
+        bank.pbb = (v.madd::<F>(v, d.sample.inflation) + d.sample.n_noise * q_bias).0;
+    }
+}
+
+/// The prediction (the output) and measurement update of every joint; where the state
+/// went bad.
 #[allow(clippy::too_many_lines)]
 #[inline(always)]
 fn update<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool, const TRACE: bool>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
-    l: usize,
-    dec: &Decided<T, M, J>,
+    d: &Decided<T, M, J>,
     out: &mut BankOutput<T, J>,
     trace: Option<&mut StepTrace<T, M>>,
-) -> bool {
+) -> Mask<T, J> {
     let (lim, orders) = (&model.limits, &model.orders);
-    let (torque, expected) = (input.torque_nm[l], input.expected_torque_nm[l]);
+    let (torque, expected) = (L(input.torque_nm), L(input.expected_torque_nm));
     let y = torque - expected;
-    let meas_ok = dec.meas_ok[l];
+    let zero = L::splat(T::ZERO);
     // Prediction ŷ(k) = h ẑ(k|k−1) (every order not off) and the update row h (the
     // orders updated; the bias entry is 1 when the measurement is used).
-    let (mut ripple, mut mis) = (T::ZERO, T::ZERO);
-    let (mut any_ripple, mut any_mis) = (false, false);
-    let mut h = [[T::ZERO; 2]; M];
+    let (mut ripple, mut mis) = (zero, zero);
+    let mut h = [[zero; 2]; M];
     for i in 0..M {
-        let (c, s) = (bank.phasor[i][0][l], bank.phasor[i][1][l]);
-        let v = madd::<T, F>(c * bank.z[i][0][l], s, bank.z[i][1][l]);
-        let status = bank.status[i][l];
-        let v = if status != OrderStatus::Off { v } else { T::ZERO };
+        let (c, s) = (L(bank.phasor[i][0]), L(bank.phasor[i][1]));
+        let v = d.off[i].select(zero, (c * L(bank.z[i][0])).madd::<F>(s, L(bank.z[i][1])));
         if orders[i].reference.is_ripple() {
-            ripple = sum_from(!any_ripple, ripple, v);
-            any_ripple = true;
+            ripple = ripple + v;
         } else {
-            mis = sum_from(!any_mis, mis, v);
-            any_mis = true;
+            mis = mis + v;
         }
-        h[i] = if meas_ok & (status == OrderStatus::Active) { [c, s] } else { [T::ZERO; 2] };
+        let row = d.sample.meas_ok & d.active[i];
+        h[i] = [row.select(c, zero), row.select(s, zero)];
     }
 
     // Gains g = P hᵀ from the upper blocks of the symmetric P, and the bias entry.
-    let mut g = [[T::ZERO; 2]; M];
+    let mut g = [[zero; 2]; M];
     for i in 0..M {
-        if BIAS {
-            g[i] = if meas_ok { [bank.pb[i][0][l], bank.pb[i][1][l]] } else { [T::ZERO; 2] };
-        }
+        let mut acc = if BIAS { Some([0, 1].map(|r| d.sample.meas_ok.select(L(bank.pb[i][r]), zero))) } else { None };
         for j in 0..M {
-            let (t0, t1) = block_times::<T, M, J, F>(bank, i, j, l, h[j]);
-            let first = !BIAS && j == 0;
-            g[i] = [sum_from(first, g[i][0], t0), sum_from(first, g[i][1], t1)];
+            let t = block_times::<T, M, J, F>(bank, i, j, h[j]);
+            acc = Some(acc.map_or(t, |a| [a[0] + t[0], a[1] + t[1]]));
         }
+        g[i] = acc.unwrap_or([zero; 2]);
     }
-    let mut gb = T::ZERO;
+    let mut gb = zero;
     if BIAS {
-        gb = if meas_ok { bank.pbb[l] } else { T::ZERO };
+        gb = d.sample.meas_ok.select(L(bank.pbb), zero);
         for j in 0..M {
-            gb += madd::<T, F>(bank.pb[j][0][l] * h[j][0], bank.pb[j][1][l], h[j][1]);
+            gb = gb + (L(bank.pb[j][0]) * h[j][0]).madd::<F>(L(bank.pb[j][1]), h[j][1]);
         }
     }
 
     // Innovation `e = y − ŷ`, its variance `S = R + h g`, and the load-step decision:
     // an innovation beyond the NIS limit is a jump of the bias, not of the oscillators.
     // The update is then the exact limit Var(b) → ∞ (gain 0 here, completed below).
-    let mut s = if BIAS { gb } else { T::ZERO };
+    let mut s = if BIAS { Some(gb) } else { None };
     for i in 0..M {
-        s = sum_from(!BIAS && i == 0, s, madd::<T, F>(h[i][0] * g[i][0], h[i][1], g[i][1]));
+        let t = (h[i][0] * g[i][0]).madd::<F>(h[i][1], g[i][1]);
+        s = Some(s.map_or(t, |acc| acc + t));
     }
-    let s_var = model.r_nm2 + s;
-    let e = y - (ripple + mis + bank.b[l]);
-    let e_used = if meas_ok { e } else { T::ZERO };
-    let load_step = BIAS & (lim.load_step_nis > T::ZERO) & (e_used * e_used > lim.load_step_nis * s_var);
-    let inv = if load_step { T::ZERO } else { T::ONE / s_var };
-    out.flags[l].set(StepFlags::LOAD_STEP, load_step);
-    let mut trace = trace;
-    if let Some(tr) = trace.as_deref_mut().filter(|_| TRACE) {
-        let row_b = if BIAS && meas_ok { T::ONE } else { T::ZERO };
-        let q_b = model.bias_q_nm2.unwrap_or(T::ZERO) * dec.n_noise[l];
-        record(tr, bank, l, dec, (h, g), [q_b, row_b, gb, s_var, e_used, y], [BIAS, load_step]);
+    let s_var = s.map_or(L::splat(model.r_nm2), |s| s + model.r_nm2);
+    let e = y - (ripple + mis + L(bank.b));
+    let e_used = d.sample.meas_ok.select(e, zero);
+    let load_step =
+        Mask::splat(BIAS && lim.load_step_nis > T::ZERO) & (s_var * lim.load_step_nis).less(e_used * e_used);
+    let inv = load_step.select(zero, s_var.map(|s| T::ONE / s));
+    let flags = d.flags | load_step.bits(StepFlags::LOAD_STEP.bits());
+    out.flags = flags.low_bits().map(StepFlags::from_bits);
+    let mut trace = trace.filter(|_| TRACE);
+    if let Some(tr) = trace.as_deref_mut() {
+        let row_b = if BIAS && d.sample.meas_ok.lane(0) { T::ONE } else { T::ZERO };
+        let q_b = model.bias_q_nm2.unwrap_or(T::ZERO) * d.sample.n_noise.0[0];
+        let lane0 = |v: [[L<T, J>; 2]; M]| v.map(|p| p.map(|x| x.0[0]));
+        let scalars = [q_b, row_b, gb.0[0], s_var.0[0], e_used.0[0], y.0[0]];
+        record(tr, bank, d, (lane0(h), lane0(g)), scalars, [BIAS, load_step.lane(0)]);
+    }
+    update_state::<T, M, J, F, BIAS>(model, bank, (&h, &g, gb), (e_used, inv, load_step));
+    if let Some(tr) = trace {
+        tr.posterior = gaussian(bank, 0);
     }
 
-    // Measurement update `ẑ += g e / S`, `P −= g gᵀ / S` (upper blocks; each product
-    // `g_i g_j` times `1/S`, so that it waits on the division for one multiply–add).
-    // Variances never fall below their exact lower bound `P_ii R / S`.
-    let floor = model.r_nm2 * inv;
+    // Outputs, and where the covariance went bad.
+    let clean = torque - ripple - mis;
+    out.torque_nm = clean.0;
+    out.ripple_nm = ripple.0;
+    out.misalignment_nm = mis.0;
+    out.torque_state_nm = if BIAS { (expected + L(bank.b)).0 } else { clean.0 };
+    out.innovation_nm = e.0;
+    out.innovation_variance_nm2 = s_var.0;
+    out.nis = (e * e / s_var).0;
+    !healthy(BIAS, bank, s_var)
+}
+
+/// Measurement update `ẑ += g e / S`, `P −= g gᵀ / S` (upper blocks; each product
+/// `g_i g_j` times `1/S`, so that it waits on the division for one multiply–add), with
+/// the update row `h`, gains `g` and `gb` (bias), the innovation used, `1/S` (0 on a
+/// load step) and the load steps. Variances never fall below their exact lower bound
+/// `P_ii R / S`.
+#[inline(always)]
+#[allow(clippy::type_complexity)]
+fn update_state<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool>(
+    model: &RippleModel<T, M>,
+    bank: &mut RippleBank<T, M, J>,
+    (h, g, gb): (&[[L<T, J>; 2]; M], &[[L<T, J>; 2]; M], L<T, J>),
+    (e_used, inv, load_step): (L<T, J>, L<T, J>, Mask<T, J>),
+) {
+    let floor = inv * model.r_nm2;
     for i in 0..M {
         let [g0, g1] = g[i];
         let (k0, k1) = (g0 * inv, g1 * inv);
-        bank.z[i][0][l] = madd::<T, F>(bank.z[i][0][l], k0, e_used);
-        bank.z[i][1][l] = madd::<T, F>(bank.z[i][1][l], k1, e_used);
-        let d = &mut bank.p[i][i];
-        let (v0, v1) = (d[0][0][l], d[1][1][l]);
-        d[0][0][l] = madd::<T, F>(v0, -(g0 * g0), inv).max(v0 * floor);
-        d[1][1][l] = madd::<T, F>(v1, -(g1 * g1), inv).max(v1 * floor);
-        let off = madd::<T, F>(d[0][1][l], -(g0 * g1), inv);
-        d[0][1][l] = off;
-        d[1][0][l] = off;
-        for j in (0..M).filter(|&j| j > i) {
+        bank.z[i][0] = L(bank.z[i][0]).madd::<F>(k0, e_used).0;
+        bank.z[i][1] = L(bank.z[i][1]).madd::<F>(k1, e_used).0;
+        let blk = &mut bank.p[i][i];
+        let (v0, v1) = (L(blk[0][0]), L(blk[1][1]));
+        blk[0][0] = v0.madd::<F>(-(g0 * g0), inv).max(v0 * floor).0;
+        blk[1][1] = v1.madd::<F>(-(g1 * g1), inv).max(v1 * floor).0;
+        let off = L(blk[0][1]).madd::<F>(-(g0 * g1), inv).0;
+        (blk[0][1], blk[1][0]) = (off, off);
+        for j in i + 1..M {
             let [gj0, gj1] = g[j];
             let b = &mut bank.p[i][j];
-            b[0][0][l] = madd::<T, F>(b[0][0][l], -(g0 * gj0), inv);
-            b[0][1][l] = madd::<T, F>(b[0][1][l], -(g0 * gj1), inv);
-            b[1][0][l] = madd::<T, F>(b[1][0][l], -(g1 * gj0), inv);
-            b[1][1][l] = madd::<T, F>(b[1][1][l], -(g1 * gj1), inv);
+            for (r, gr) in [g0, g1].into_iter().enumerate() {
+                b[r][0] = L(b[r][0]).madd::<F>(-(gr * gj0), inv).0;
+                b[r][1] = L(b[r][1]).madd::<F>(-(gr * gj1), inv).0;
+            }
         }
         if BIAS {
-            bank.pb[i][0][l] = madd::<T, F>(bank.pb[i][0][l], -k0, gb);
-            bank.pb[i][1][l] = madd::<T, F>(bank.pb[i][1][l], -k1, gb);
+            bank.pb[i][0] = L(bank.pb[i][0]).madd::<F>(-k0, gb).0;
+            bank.pb[i][1] = L(bank.pb[i][1]).madd::<F>(-k1, gb).0;
         }
     }
     if BIAS {
         let kb = gb * inv;
-        bank.b[l] = madd::<T, F>(bank.b[l], kb, e_used);
-        let v = bank.pbb[l];
-        bank.pbb[l] = madd::<T, F>(v, -kb, gb).max(v * model.r_nm2 * inv);
+        let b = L(bank.b).madd::<F>(kb, e_used);
+        let v = L(bank.pbb);
+        let pbb = v.madd::<F>(-kb, gb).max(v * model.r_nm2 * inv);
         // The load-step limit: the bias takes the whole innovation, the oscillators
         // learn nothing, and `Var(b) = R + h P_zz hᵀ`, `Cov(z, b) = −P_zz hᵀ` (no
         // cancellation, PSD by construction); `P_zz hᵀ = g − Cov(z, b)` as h's bias
         // entry is 1.
-        let mut s_z = T::ZERO;
+        let mut s_z = L::splat(T::ZERO);
         for i in 0..M {
             for r in 0..2 {
-                let pzh = g[i][r] - bank.pb[i][r][l];
-                s_z += h[i][r] * pzh;
-                bank.pb[i][r][l] = if load_step { -pzh } else { bank.pb[i][r][l] };
+                let pb = L(bank.pb[i][r]);
+                let pzh = g[i][r] - pb;
+                s_z = s_z + h[i][r] * pzh;
+                bank.pb[i][r] = load_step.select(-pzh, pb).0;
             }
         }
-        bank.pbb[l] = if load_step { model.r_nm2 + s_z } else { bank.pbb[l] };
-        bank.b[l] = if load_step { bank.b[l] + e_used } else { bank.b[l] };
+        bank.pbb = load_step.select(s_z + model.r_nm2, pbb).0;
+        bank.b = load_step.select(b + e_used, b).0;
     }
-    if let Some(tr) = trace.filter(|_| TRACE) {
-        tr.posterior = gaussian(bank, l);
-    }
-
-    // Outputs, and whether the covariance went bad.
-    let clean = torque - ripple - mis;
-    out.torque_nm[l] = clean;
-    out.ripple_nm[l] = ripple;
-    out.misalignment_nm[l] = mis;
-    out.torque_state_nm[l] = if BIAS { expected + bank.b[l] } else { clean };
-    out.innovation_nm[l] = e;
-    out.innovation_variance_nm2[l] = s_var;
-    out.nis[l] = e * e / s_var;
-    !healthy(BIAS, bank, l, s_var)
 }
 
-/// Whether joint `l`'s state is usable after an update with innovation variance
-/// `s_var`: one sum catches any NaN/∞, one minimum any negative variance.
+/// Where the joints' state is usable after an update with innovation variance `s_var`:
+/// one sum catches any NaN/∞, one minimum any negative variance.
 #[inline(always)]
 pub(super) fn healthy<T: Real, const M: usize, const J: usize>(
     bias: bool,
     bank: &RippleBank<T, M, J>,
-    l: usize,
-    s_var: T,
-) -> bool {
+    s_var: L<T, J>,
+) -> Mask<T, J> {
     // The two entries of each pair apart, then together: two independent chains.
-    let mut sum = [T::ZERO; 2];
-    let mut least = [s_var; 2];
+    let (mut sum, mut least) = ([None; 2], [s_var; 2]);
     for i in 0..M {
         let d = &bank.p[i][i];
         for r in 0..2 {
-            sum[r] = sum_from(i == 0, sum[r], d[r][r][l] + bank.z[i][r][l]);
-            least[r] = least[r].min(d[r][r][l]);
+            let t = L(d[r][r]) + L(bank.z[i][r]);
+            sum[r] = Some(sum[r].map_or(t, |acc| acc + t));
+            least[r] = least[r].min(L(d[r][r]));
         }
     }
-    let mut total = (sum[0] + sum[1]) + (s_var + bank.b[l]);
-    let mut low = least[0].min(least[1]);
-    if bias {
-        total += bank.pbb[l];
-        low = low.min(bank.pbb[l]);
-    }
-    finite(total) & (low >= T::ZERO) & (s_var > T::ZERO)
+    let zero = L::splat(T::ZERO);
+    let total = (sum[0].unwrap_or(zero) + sum[1].unwrap_or(zero)) + (s_var + L(bank.b));
+    let (total, low) = if bias {
+        (total + L(bank.pbb), least[0].min(least[1]).min(L(bank.pbb)))
+    } else {
+        (total, least[0].min(least[1]))
+    };
+    total.finite() & zero.at_most(low) & zero.less(s_var)
 }
 
-/// `f(l, (cos, sin))` of each lane `l` of the phasors `(c, s)`, as `[cos, sin]` lanes.
+/// The phasor `f(a, b)` of each lane of `a` and `b`, as cosine and sine lanes.
 #[inline(always)]
-fn each_lane<T: Real, const J: usize>(
-    c: &[T; J],
-    s: &[T; J],
-    f: impl Fn(usize, Doubling<T>) -> Doubling<T>,
-) -> [[T; J]; 2] {
-    let mut ph = [[T::ZERO; J]; 2];
+fn each_lane<T: Real, const J: usize>(a: L<T, J>, b: L<T, J>, f: impl Fn(T, T) -> Doubling<T>) -> (L<T, J>, L<T, J>) {
+    let (mut co, mut si) = (a, b);
     for l in 0..J {
-        let p = f(l, Doubling::new(c[l], s[l]));
-        (ph[0][l], ph[1][l]) = (p.c, p.s);
+        let p = f(a.0[l], b.0[l]);
+        (co.0[l], si.0[l]) = (p.c, p.s);
     }
-    ph
+    (co, si)
 }
 
-/// `P_ij h_j` for joint `l` (two entries of `g_i`), from the upper blocks of the
-/// symmetric P.
+/// `P_ij h_j` (two entries of `g_i`), from the upper blocks of the symmetric P.
 #[inline(always)]
 fn block_times<T: Real, const M: usize, const J: usize, const F: bool>(
     bank: &RippleBank<T, M, J>,
     i: usize,
     j: usize,
-    l: usize,
-    [h0, h1]: [T; 2],
-) -> (T, T) {
-    if j >= i {
-        let b = &bank.p[i][j];
-        (madd::<T, F>(b[0][0][l] * h0, b[0][1][l], h1), madd::<T, F>(b[1][0][l] * h0, b[1][1][l], h1))
-    } else {
-        let b = &bank.p[j][i];
-        (madd::<T, F>(b[0][0][l] * h0, b[1][0][l], h1), madd::<T, F>(b[0][1][l] * h0, b[1][1][l], h1))
-    }
-}
-
-/// `c + a b`: rounded once (fused) in the build `F = true` (compiled for FMA), else
-/// rounded twice exactly as written. `c − a b` is `madd(c, −a, b)`, bit for bit.
-#[inline(always)]
-pub(super) fn madd<T: Real, const F: bool>(c: T, a: T, b: T) -> T {
-    if F {
-        c.fused_mul_add(a, b)
-    } else {
-        c + a * b
-    }
-}
-
-/// `acc + t`, or `t` itself for a sum's first term: sums start from their first term,
-/// not from 0 (one addition fewer, and `0 + (−0)` would turn −0 into +0).
-#[inline(always)]
-fn sum_from<T: Real>(first: bool, acc: T, t: T) -> T {
-    if first {
-        t
-    } else {
-        acc + t
-    }
-}
-
-/// Whether `x` is neither infinite nor NaN: `x − x` is 0 exactly then (two
-/// instructions instead of a classification).
-#[inline(always)]
-#[allow(clippy::eq_op)]
-fn finite<T: Real>(x: T) -> bool {
-    x - x == T::ZERO
+    [h0, h1]: [L<T, J>; 2],
+) -> [L<T, J>; 2] {
+    let (b, t) = if j >= i { (&bank.p[i][j], false) } else { (&bank.p[j][i], true) };
+    let at = |r: usize, c: usize| L(if t { b[c][r] } else { b[r][c] });
+    [(at(0, 0) * h0).madd::<F>(at(0, 1), h1), (at(1, 0) * h0).madd::<F>(at(1, 1), h1)]
 }
 
 /// `a[r]` by selects (`r < 3`).
 #[inline(always)]
 fn pick<V: Copy>(a: &[V; 3], r: usize) -> V {
-    if r == 0 {
-        a[0]
-    } else if r == 1 {
-        a[1]
-    } else {
-        a[2]
+    match r {
+        0 => a[0],
+        1 => a[1],
+        _ => a[2],
     }
 }
 
@@ -683,14 +703,13 @@ fn gaussian<T: Real, const M: usize, const J: usize>(bank: &RippleBank<T, M, J>,
     g
 }
 
-/// Joint `l`'s quantities of this step into `tr`, before the measurement update: what
+/// Joint 0's quantities of this step into `tr`, before the measurement update: what
 /// `dec` decided, the update row and gains `(h, g)`; `scalars`: bias noise, update row
 /// and gain entries, `S`, the innovation used, `y`.
 #[inline(never)]
 fn record<T: Real, const M: usize, const J: usize>(
     tr: &mut StepTrace<T, M>,
     bank: &RippleBank<T, M, J>,
-    l: usize,
     dec: &Decided<T, M, J>,
     (h, g): ([[T; 2]; M], [[T; 2]; M]),
     [q_b, row_b, g_b, s_var, e_used, y]: [T; 6],
@@ -698,14 +717,14 @@ fn record<T: Real, const M: usize, const J: usize>(
 ) {
     for i in 0..M {
         (tr.increment_rad[i], tr.q_nm2[i], tr.kept[i], tr.predicted[i]) =
-            (dec.inc[i][l], dec.q[i][l], dec.keep[i][l], bank.status[i][l] != OrderStatus::Off);
-        tr.phasor[i] = [bank.phasor[i][0][l], bank.phasor[i][1][l]];
+            (dec.inc[i].0[0], dec.q[i].0[0], dec.keep[i].lane(0), !dec.off[i].lane(0));
+        tr.phasor[i] = [bank.phasor[i][0][0], bank.phasor[i][1][0]];
     }
     (tr.update_row, tr.gain_numerator) = (h, g);
-    tr.prior = gaussian(bank, l);
+    tr.prior = gaussian(bank, 0);
     (tr.q_bias_nm2, tr.update_row_bias, tr.gain_numerator_bias) = (q_b, row_b, g_b);
     (tr.innovation_variance_nm2, tr.innovation_used_nm, tr.measurement_nm) = (s_var, e_used, y);
-    tr.bias_reinflated = bias & dec.gap[l];
+    tr.bias_reinflated = bias & dec.sample.gap.lane(0);
     tr.load_step = load_step;
 }
 
@@ -881,7 +900,8 @@ pub(super) mod tests {
     fn health_check_catches_each_bad_entry() {
         let model = RippleModel::<f64, 3>::product(1000.0, 0.05).unwrap();
         let fresh = RippleBank::<f64, 3, 2>::new(&model);
-        assert!(healthy(true, &fresh, 0, 1.0) && healthy(true, &fresh, 1, 1.0));
+        let one = L::splat(1.0);
+        assert_eq!(healthy(true, &fresh, one), Mask::splat(true));
         let corruptions: [fn(&mut RippleBank<f64, 3, 2>); 8] = [
             |b| b.p[2][2][1][1][0] = f64::NAN,
             |b| b.p[1][1][0][0][0] = f64::INFINITY,
@@ -895,15 +915,14 @@ pub(super) mod tests {
         for (k, corrupt) in corruptions.iter().enumerate() {
             let mut bank = fresh;
             corrupt(&mut bank);
-            assert!(!healthy(true, &bank, 0, 1.0), "corruption {k} passed");
-            assert!(healthy(true, &bank, 1, 1.0), "corruption {k} reached joint 1");
+            assert_eq!(healthy(true, &bank, one), Mask::of(|l| l == 1), "corruption {k}");
         }
         for s_var in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-            assert!(!healthy(true, &fresh, 0, s_var), "S = {s_var}");
+            assert_eq!(healthy(true, &fresh, L([s_var, 1.0])), Mask::of(|l| l == 1), "S = {s_var}");
         }
         // Without the bias state its entries are not read.
         let mut bank = fresh;
         bank.pbb[0] = -1.0;
-        assert!(healthy(false, &bank, 0, 1.0));
+        assert_eq!(healthy(false, &bank, one), Mask::splat(true));
     }
 }

@@ -15,7 +15,7 @@
 //! of a reference angle come from its phasor by doubling ([`Doubling::doubled`], which
 //! carries the phasor's exact double along: one multiply–add per doubling).
 
-use super::kernel::madd;
+use crate::lanes::{madd, Lanes};
 use crate::Real;
 
 /// Whether the scalar is single precision (decides the series length; constant-folded).
@@ -174,32 +174,27 @@ pub(super) fn phasor_power_with<T: Real, const F: bool>(c: T, s: T, n: u8) -> (T
     acc
 }
 
-/// `wrap_angle` for `|x| ≤ 3π` as selects (vectorizes); larger `|x|` are fixed up after.
+/// `wrap_angle` for `|x| ≤ 3π`, by selects; larger `|x|` are fixed up after.
 #[inline(always)]
-fn wrap_near<T: Real>(x: T) -> T {
-    let up = if x < -T::PI { x + T::TAU } else { x };
-    if x > T::PI {
-        x - T::TAU
-    } else {
-        up
-    }
+fn wrap_near<T: Real, const J: usize>(x: Lanes<T, J>) -> Lanes<T, J> {
+    let up = x.less(-T::PI).select(x + T::TAU, x);
+    Lanes::splat(T::PI).less(x).select(x - T::TAU, up)
 }
 
-/// Wraps an angle into `[−π, π]`: by selects within `±3π` (wrapped encoder angles and
-/// their differences), else by the nearest whole number of turns. No branch, so the
-/// loop over a bank's joints vectorizes. Non-finite inputs come back non-finite.
+/// Wraps angles into `[−π, π]`: by selects within `±3π` (wrapped encoder angles and
+/// their differences), else by the nearest whole number of turns. No branch within the
+/// lanes, so a bank vectorizes. Non-finite inputs come back non-finite.
 #[inline(always)]
-pub(super) fn wrap_angle<T: Real>(x: T) -> T {
+pub(super) fn wrap_angle<T: Real, const J: usize>(x: Lanes<T, J>) -> Lanes<T, J> {
+    let near = x.abs().at_most(T::from_f64(3.0) * T::PI);
+    if near.all() {
+        return wrap_near(x);
+    }
     // Round to the nearest whole number of turns by adding and removing 1.5 / ε, which
     // leaves no fraction (exact below 2⁵¹ turns in f64, 2²² in f32).
     let big = T::from_f64(1.5) / T::EPSILON;
     let turns = x * T::from_f64(1.0 / core::f64::consts::TAU);
-    let far = x - T::TAU * ((turns + big) - big);
-    if x.abs() <= T::from_f64(3.0) * T::PI {
-        wrap_near(x)
-    } else {
-        far
-    }
+    near.select(wrap_near(x), x - ((turns + big) - big) * T::TAU)
 }
 
 #[cfg(test)]
@@ -289,7 +284,7 @@ mod tests {
             for k in -3..=3 {
                 let x = v + T::from_f64(f64::from(k)) * ulp(v).max(T::EPSILON);
                 if x.abs() <= bound {
-                    let w = wrap_near(x);
+                    let w = wrap_near(Lanes([x])).0[0];
                     assert!(w.abs() <= T::PI, "{x:?} wraps to {w:?}");
                 }
             }
@@ -316,10 +311,11 @@ mod tests {
     #[test]
     fn wrap_angle_covers_near_and_far() {
         for &x in &[0.0_f64, 3.5, -3.5, 6.2, -9.0, 1e6, -1e6, 100.0] {
-            let w = wrap_angle(x);
+            let w = wrap_angle(Lanes([x])).0[0];
             assert!(w.abs() <= core::f64::consts::PI + 1e-12, "{x} → {w}");
             assert!(((x - w) / core::f64::consts::TAU - ((x - w) / core::f64::consts::TAU).round()).abs() < 1e-9);
         }
-        assert!(wrap_angle(f64::NAN).is_nan() && !wrap_angle(f64::INFINITY).is_finite());
+        let wrap = |x: f64| wrap_angle(Lanes([x])).0[0];
+        assert!(wrap(f64::NAN).is_nan() && !wrap(f64::INFINITY).is_finite());
     }
 }
