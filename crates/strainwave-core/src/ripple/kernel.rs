@@ -1,5 +1,5 @@
-//! The one step of the canceller, written once over lanes (one per joint, see
-//! [`Lanes`](crate::lanes)) for `J` joints that share a model (one joint is `J = 1`).
+//! The one step of the canceller, written once over lanes (one number per joint, see
+//! `lanes.rs`) for `J` joints that share a model (one joint is `J = 1`).
 //! Each oscillator is kept in its rotating frame `x_i = Φ(ψ_i) z_i` (`docs/physics.md`,
 //! section 4): with the update row `h = [cos ψ_1, sin ψ_1, …, 1]`, `P(k|k−1) = P + Q`,
 //! `g = P hᵀ`, `S = R + h g`, `ẑ += g e / S`, `P −= g gᵀ / S`; `Φ` never multiplies `P`.
