@@ -9,7 +9,9 @@
 //! - `examples/ros2_control` compiles with `c++ -std=c++17` and runs.
 //!
 //! Skipped with a message when a compiler is missing. The library and the command line
-//! are built by a nested `cargo build` (a no-op when they are current).
+//! are built by a nested `cargo build --workspace`: the same units as `cargo test
+//! --workspace` builds, so a no-op under it. (Selecting only the FFI crate and the command
+//! line would resolve other features and rebuild both.)
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -39,12 +41,12 @@ fn profile_dir() -> PathBuf {
     exe.parent().and_then(Path::parent).unwrap().to_path_buf()
 }
 
-/// Builds the static library and the command line; their paths.
+/// Builds the static library and the command line (with the whole workspace); their paths.
 fn build() -> (PathBuf, PathBuf) {
     let dir = profile_dir();
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let mut cmd = Command::new(cargo);
-    cmd.current_dir(workspace()).args(["build", "--quiet", "-p", "strainwave-ffi", "-p", "strainwave-cli"]);
+    cmd.current_dir(workspace()).args(["build", "--quiet", "--workspace"]);
     if dir.file_name().is_some_and(|n| n == "release") {
         cmd.arg("--release");
     }
