@@ -1,6 +1,7 @@
 """Shared by the comparison tests: the project's Rust examples and `strainwave` binary through
 cargo, and exact comparisons of recordings."""
 
+import functools
 import json
 import os
 import shutil
@@ -12,15 +13,48 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def run_cargo_example(package, example, *args):
-    """Runs `cargo run -p PACKAGE --example EXAMPLE -- ARGS` from the repository root
-    (CARGO_TARGET_DIR honoured); skips without cargo, fails with cargo's stderr."""
+@functools.lru_cache(maxsize=None)
+def cargo_executables():
+    """{(kind, name): path} of the workspace's binaries and examples, from `cargo test
+    --workspace --no-run` (CARGO_TARGET_DIR honoured): the units `cargo test --workspace`
+    builds, so after it (as in ./scripts/test-all) nothing is rebuilt. (`cargo build` or
+    `cargo run -p ...` would resolve other features and rebuild much of the workspace.)
+    Skips without cargo, fails with cargo's stderr."""
     if shutil.which("cargo") is None:
         pytest.skip("cargo not found")
-    cmd = ["cargo", "run", "--quiet", "-p", package, "--example", example, "--", *map(str, args)]
+    res = subprocess.run(
+        ["cargo", "test", "--quiet", "--workspace", "--no-run", "--message-format", "json"],
+        cwd=ROOT, capture_output=True, text=True, timeout=3600,
+    )
+    if res.returncode != 0:
+        pytest.fail(f"cargo test --workspace --no-run failed:\n{res.stderr}")
+    found = {}
+    for line in res.stdout.splitlines():
+        msg = json.loads(line)
+        kind = msg.get("target", {}).get("kind", [None])[0]
+        if msg.get("reason") == "compiler-artifact" and msg.get("executable") and kind in ("bin", "example"):
+            # A bin is listed twice (its test harness in deps/, then itself): keep the
+            # one outside deps/.
+            if kind == "example" or Path(msg["executable"]).parent.name != "deps":
+                found[(kind, msg["target"]["name"])] = msg["executable"]
+    return found
+
+
+def cargo_executable(kind, name):
+    """The path of binary or example `name` (see `cargo_executables`)."""
+    exe = cargo_executables().get((kind, name))
+    if exe is None:
+        pytest.fail(f"cargo test --workspace --no-run built no {kind} `{name}`")
+    return exe
+
+
+def run_cargo_example(package, example, *args):
+    """Runs the workspace's example EXAMPLE (of PACKAGE) with ARGS from the repository
+    root; fails with its stderr."""
+    cmd = [cargo_executable("example", example), *map(str, args)]
     res = subprocess.run(cmd, cwd=ROOT, env=os.environ.copy(), capture_output=True, text=True, timeout=1800)
     if res.returncode != 0:
-        pytest.fail(f"cargo run --example {example} failed:\n{res.stderr}")
+        pytest.fail(f"example {example} of {package} failed:\n{res.stderr}")
     return res
 
 
@@ -40,7 +74,7 @@ def spectra_golden(tmp_path_factory):
 
 @pytest.fixture(scope="session")
 def cli():
-    """The `strainwave` binary (`cargo build -p strainwave-cli`, CARGO_TARGET_DIR honoured):
+    """The `strainwave` binary (see `cargo_executables`):
     a function running it with ARGS, returning the completed process (never raises).
     STRAINWAVE_BIN names an already built binary to use instead."""
 
@@ -52,22 +86,7 @@ def cli():
 
     if os.environ.get("STRAINWAVE_BIN"):
         return runner(os.environ["STRAINWAVE_BIN"])
-    if shutil.which("cargo") is None:
-        pytest.skip("cargo not found")
-    res = subprocess.run(
-        ["cargo", "build", "--quiet", "-p", "strainwave-cli", "--message-format", "json"],
-        cwd=ROOT, capture_output=True, text=True, timeout=1800,
-    )
-    if res.returncode != 0:
-        pytest.fail(f"cargo build -p strainwave-cli failed:\n{res.stderr}")
-    exe = None
-    for line in res.stdout.splitlines():
-        msg = json.loads(line)
-        if msg.get("reason") == "compiler-artifact" and msg.get("executable") and msg["target"]["name"] == "strainwave":
-            exe = msg["executable"]
-    if exe is None:
-        pytest.fail("cargo build -p strainwave-cli named no `strainwave` executable")
-    return runner(exe)
+    return runner(cargo_executable("bin", "strainwave"))
 
 
 def read_csv_exact(path):

@@ -16,18 +16,15 @@ read back with the `mcap` reader; bad bags give one-line errors.
 
 import csv
 import math
-import os
-import shutil
 import subprocess
-from pathlib import Path
 
 import pytest
+from conftest import cargo_executable
 
 np = pytest.importorskip("numpy", reason="pip install numpy")
 rosbag2 = pytest.importorskip("rosbags.rosbag2", reason="pip install rosbags")
 typesys = pytest.importorskip("rosbags.typesys", reason="pip install rosbags")
 
-ROOT = Path(__file__).resolve().parents[2]
 
 INTERFACE_VALUE = "string[] interface_names\nfloat64[] values\n"
 DYNAMIC_JOINT_STATE = "std_msgs/Header header\nstring[] joint_names\ncontrol_msgs/InterfaceValue[] interface_values\n"
@@ -47,24 +44,9 @@ def truth(name, t):
     return math.sin(2 * math.pi * (3 + k) * t + j) * (10 + k) + 0.1 * j
 
 
-def strainwave():
-    """The built binary (CARGO_TARGET_DIR honoured), built once with cargo."""
-    if shutil.which("cargo") is None:
-        pytest.skip("cargo not found")
-    res = subprocess.run(
-        ["cargo", "build", "-q", "-p", "strainwave-cli"], cwd=ROOT, capture_output=True, text=True, timeout=3600
-    )
-    if res.returncode != 0:
-        pytest.fail(f"cargo build failed:\n{res.stderr}")
-    target = Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target"))
-    if not target.is_absolute():
-        target = ROOT / target
-    return target / "debug" / "strainwave"
-
-
 @pytest.fixture(scope="module")
 def binary():
-    return strainwave()
+    return cargo_executable("bin", "strainwave")
 
 
 def run(binary, *args, ok=True):

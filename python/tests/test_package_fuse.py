@@ -69,6 +69,10 @@ def test_fuse_errors_are_the_cli_errors(cli, bench, tmp_path):
         sw.fuse(bench, config=CONFIG, method="hoka")
 
 
-def test_fuse_lets_other_threads_run(bench):
-    frame = sw.read_recording(bench)
+def test_fuse_lets_other_threads_run(cli, tmp_path):
+    # 3 s of the bench (60,000 rows), so that one call lasts long enough to tell.
+    path = tmp_path / "kit-3s.csv"
+    res = cli("simulate", "--preset", "kit-bench", "--duration", 3, "--seed", 1, "--out", path, "--quiet")
+    assert res.returncode == 0, res.stderr
+    frame = sw.read_recording(path)
     assert_lets_other_threads_run(lambda: sw.fuse(frame, config=CONFIG, method="corrected"))

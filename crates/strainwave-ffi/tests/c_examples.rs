@@ -9,9 +9,10 @@
 //! - `examples/ros2_control` compiles with `c++ -std=c++17` and runs.
 //!
 //! Skipped with a message when a compiler is missing. The library and the command line
-//! are built by a nested `cargo build --workspace`: the same units as `cargo test
-//! --workspace` builds, so a no-op under it. (Selecting only the FFI crate and the command
-//! line would resolve other features and rebuild both.)
+//! come from a nested `cargo test --workspace --no-run`: the very units `cargo test
+//! --workspace` builds, so a no-op under it. (`cargo build` would resolve the features
+//! without the dev-dependencies, and selecting only some crates other features again:
+//! either rebuilds much of the workspace.)
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -35,23 +36,33 @@ fn run(cmd: &mut Command) -> String {
     String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
-/// `target/<profile>`, holding this test's binary in `deps/`.
-fn profile_dir() -> PathBuf {
-    let exe = std::env::current_exe().unwrap();
-    exe.parent().and_then(Path::parent).unwrap().to_path_buf()
-}
-
-/// Builds the static library and the command line (with the whole workspace); their paths.
+/// Builds the static library and the command line with the workspace's tests; their
+/// paths, as cargo reports them.
 fn build() -> (PathBuf, PathBuf) {
-    let dir = profile_dir();
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let mut cmd = Command::new(cargo);
-    cmd.current_dir(workspace()).args(["build", "--quiet", "--workspace"]);
-    if dir.file_name().is_some_and(|n| n == "release") {
+    cmd.current_dir(workspace()).args(["test", "--quiet", "--workspace", "--no-run", "--message-format", "json"]);
+    // The profile of this test's own build (`target/<profile>/deps/<this test>`).
+    let exe = std::env::current_exe().unwrap();
+    if exe.ancestors().nth(2).and_then(Path::file_name).is_some_and(|n| n == "release") {
         cmd.arg("--release");
     }
-    run(&mut cmd);
-    (dir.join("libstrainwave_ffi.a"), dir.join("strainwave"))
+    let (mut lib, mut cli) = (None, None);
+    for line in run(&mut cmd).lines() {
+        let Ok(msg) = serde_json::from_str::<serde_json::Value>(line) else { continue };
+        let target = &msg["target"];
+        if msg["reason"] != "compiler-artifact" {
+            continue;
+        }
+        if target["name"] == "strainwave" && target["kind"][0] == "bin" {
+            cli = msg["executable"].as_str().map(PathBuf::from);
+        }
+        if target["name"] == "strainwave_ffi" && msg["profile"]["test"] == false {
+            let files = msg["filenames"].as_array().into_iter().flatten().filter_map(|f| f.as_str());
+            lib = files.map(PathBuf::from).find(|f| f.extension().is_some_and(|e| e == "a")).or(lib);
+        }
+    }
+    (lib.expect("cargo built no libstrainwave_ffi.a"), cli.expect("cargo built no strainwave binary"))
 }
 
 /// Columns of a CSV file (no quoting) by name.
