@@ -36,6 +36,10 @@ pub(crate) struct Plan<T: Real, const M: usize> {
     pub(crate) hold_below_rad: T,
     /// Whether some order uses each reference.
     pub(crate) uses: [bool; 3],
+    /// The largest and smallest multiple of the orders on each reference (1 if none):
+    /// every order's line is within the limits when these two are.
+    pub(crate) widest: [T; 3],
+    pub(crate) narrowest: [T; 3],
     /// The reference index of each order.
     pub(crate) reference: [usize; M],
     /// Whole multiple `n ≤ 16` of each order, or 0 (fractional or larger: own phase).
@@ -55,12 +59,17 @@ impl<T: Real, const M: usize> Plan<T, M> {
             on_below_rad: off_above_rad * T::from_f64(0.9),
             hold_below_rad: lim.hold_below_hz * T::TAU / sample_rate_hz,
             uses: [false; 3],
+            widest: [T::ONE; 3],
+            narrowest: [T::ONE; 3],
             reference: [0; M],
             power: [0; M],
             p0_nm2: [p0_oscillator_nm2; M],
         };
         for (i, o) in orders.iter().enumerate() {
             let r = o.reference.index();
+            let first = !plan.uses[r];
+            plan.widest[r] = if first { o.multiple } else { plan.widest[r].max(o.multiple) };
+            plan.narrowest[r] = if first { o.multiple } else { plan.narrowest[r].min(o.multiple) };
             plan.uses[r] = true;
             plan.reference[i] = r;
             let n = o.multiple.to_f64();
@@ -166,25 +175,32 @@ fn advance<T: Real, const M: usize, const J: usize, const F: bool, const TRACE: 
     }
 }
 
-/// What the decisions found: per order and joint, kept (else reset), coupled (else its
-/// covariances are dropped), status, increment (rad), process noise (N·m²); the sample's
-/// decisions; the flags so far ([`StepFlags`] bits); every order active and staying so.
+/// What every sample's decisions give the rest of the step: per order and joint, the
+/// increment (rad, 0 when the order restarts) and process noise (N·m²); the sample's
+/// decisions.
+#[derive(Clone, Copy)]
+struct Noted<T: Real, const M: usize, const J: usize> {
+    inc: [L<T, J>; M],
+    q: [L<T, J>; M],
+    sample: Sample<T, J>,
+}
+
+/// The decisions of a sample that is not common: per order and joint, kept (else
+/// reset), coupled (else its covariances are dropped), off, active; the flags so far
+/// ([`StepFlags`] bits).
 #[derive(Clone, Copy)]
 struct Decided<T: Real, const M: usize, const J: usize> {
     keep: [Mask<T, J>; M],
     couple: [Mask<T, J>; M],
     off: [Mask<T, J>; M],
     active: [Mask<T, J>; M],
-    inc: [L<T, J>; M],
-    q: [L<T, J>; M],
-    sample: Sample<T, J>,
     flags: Mask<T, J>,
-    common: bool,
 }
 
 /// The step of [`advance`] for a model with (`BIAS`) or without the bias state. The
-/// common sample, where every order of every joint keeps its state and stays coupled,
-/// takes the time update with those decisions as constants: a branch, same numbers.
+/// common sample (every joint's measurement used, no sample pending, every order active
+/// and staying so) takes the rest of the step with those decisions as constants: a
+/// branch, same numbers.
 #[inline(always)]
 fn passes<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool, const TRACE: bool>(
     model: &RippleModel<T, M>,
@@ -194,14 +210,40 @@ fn passes<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bo
     trace: Option<&mut StepTrace<T, M>>,
 ) {
     bank.steps = bank.steps.map(|s| s.wrapping_add(1));
-    let d = decide::<T, M, J, F>(model, bank, input);
-    phasors::<T, M, J, F>(model, bank, input, &d.inc);
-    if d.common {
-        time_update::<T, M, J, F, BIAS, true>(model, bank, &d);
+    let seen = observe::<T, M, J, F>(model, bank, input);
+    if seen.common {
+        let noted = Noted { inc: seen.inc, q: seen.q, sample: seen.sample };
+        rest::<T, M, J, F, BIAS, TRACE, true>(model, bank, input, noted, None, out, trace);
     } else {
-        time_update::<T, M, J, F, BIAS, false>(model, bank, &d);
+        let (noted, d) = decide(model, bank, &seen);
+        rest::<T, M, J, F, BIAS, TRACE, false>(model, bank, input, noted, Some(&d), out, trace);
     }
-    let bad = update::<T, M, J, F, BIAS, TRACE>(model, bank, input, &d, out, trace);
+}
+
+/// The phasors, the time update, the prediction and the measurement update; then the
+/// reset of joints gone bad. `COMMON`: the decisions are those of the common sample
+/// (`d` is `None`); else `d` holds them.
+#[inline(always)]
+fn rest<
+    T: Real,
+    const M: usize,
+    const J: usize,
+    const F: bool,
+    const BIAS: bool,
+    const TRACE: bool,
+    const COMMON: bool,
+>(
+    model: &RippleModel<T, M>,
+    bank: &mut RippleBank<T, M, J>,
+    input: &BankInput<T, J>,
+    noted: Noted<T, M, J>,
+    d: Option<&Decided<T, M, J>>,
+    out: &mut BankOutput<T, J>,
+    trace: Option<&mut StepTrace<T, M>>,
+) {
+    phasors::<T, M, J, F>(model, bank, input, noted.inc);
+    time_update::<T, M, J, F, BIAS, COMMON>(model, bank, noted.q, &noted.sample, d);
+    let bad = update::<T, M, J, F, BIAS, TRACE, COMMON>(model, bank, input, &noted, d, out, trace);
     if bad.any() {
         for l in (0..J).filter(|&l| bad.lane(l)) {
             bank.reset_lane(model, l);
@@ -229,21 +271,40 @@ struct Sample<T: Real, const J: usize> {
     inflation: L<T, J>,
 }
 
-/// The decisions of every joint (valid input, increments, jumps, gaps, order status)
-/// and its phases.
-#[allow(clippy::too_many_lines)]
+/// What a sample shows before its orders are decided: the sample's decisions, each
+/// order's increment `a_i` (rad, 0 after a reset), each reference's mean increment per
+/// sample (rad), each order's reset and process noise `q_i` (N·m²), the references'
+/// jumps, and whether it is common.
+#[derive(Clone, Copy)]
+struct Observed<T: Real, const M: usize, const J: usize> {
+    sample: Sample<T, J>,
+    inc: [L<T, J>; M],
+    mean: [L<T, J>; 3],
+    reset: [Mask<T, J>; M],
+    q: [L<T, J>; M],
+    any_jump: Mask<T, J>,
+    common: bool,
+}
+
+/// The sample's decisions (valid input, increments, jumps, gaps) for every joint, its
+/// references' phases and last values, and each order's increment and process noise.
 #[inline(always)]
-fn decide<T: Real, const M: usize, const J: usize, const F: bool>(
+fn observe<T: Real, const M: usize, const J: usize, const F: bool>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
-) -> Decided<T, M, J> {
+) -> Observed<T, M, J> {
     let (plan, lim, orders) = (&model.plan, &model.limits, &model.orders);
     let dt = input.dt_s.unwrap_or(plan.dt_s);
     let dt_ok = L([dt]).finite().lane(0) & (dt > T::ZERO);
     let r = &input.references;
     let refs = [L(r.relative), L(r.output), L(r.motor)];
     let y = L(input.torque_nm) - L(input.expected_torque_nm);
+    if !tests::general_only() {
+        if let Some(seen) = common::<T, M, J, F>(model, bank, refs, y, dt, dt_ok) {
+            return seen;
+        }
+    }
 
     // The sample: skipped (a used reference or `dt` not finite: the state stays as it
     // was, the next increment spans the gap), first, or after a time gap.
@@ -290,12 +351,13 @@ fn decide<T: Real, const M: usize, const J: usize, const F: bool>(
     let pending_dt = L(bank.pending_dt) + if dt_ok { dt } else { plan.dt_s };
     bank.pending_dt = skip.select(pending_dt, zero).0;
 
-    // Each order: its increment `a_i = n_i Δθ` (0 after a reset), process noise
-    // `q_i = q_s + q_rad |a_i|`, and status. In the common sample every order was
-    // active and stays so (its line within the limits): nothing else to decide.
+    // Each order: its increment `a_i = n_i Δθ` (0 after a reset) and process noise
+    // `q_i = q_s + q_rad |a_i|`. In the common sample every joint's measurement is
+    // used, no sample is pending, and every order was active and stays so (its line
+    // within the limits): nothing else to decide.
     let (mut a, mut mean_a, mut reset) = ([zero; M], [zero; M], [Mask::splat(false); M]);
     let mut q = [zero; M];
-    let mut stays = !skip & !gap & !any_jump;
+    let mut stays = meas_ok & pending.equals(T::ZERO) & !gap & !any_jump;
     for i in 0..M {
         let r = plan.reference[i];
         reset[i] = gap | pick(&jump, r);
@@ -305,35 +367,50 @@ fn decide<T: Real, const M: usize, const J: usize, const F: bool>(
         let within = !L::splat(plan.off_above_rad).less(a[i].abs()) & !mean_a[i].less(plan.hold_below_rad);
         stays = stays & within & Mask::of(|l| bank.status[i][l] == OrderStatus::Active);
     }
-    let (all, none, common) = ([Mask::splat(true); M], [Mask::splat(false); M], stays.all());
-    let mut dec = Decided { keep: all, couple: all, off: none, active: all, inc: a, q, sample, flags: none[0], common };
-    let (mut any_off, mut any_held) = (Mask::splat(false), Mask::splat(false));
-    if !common {
-        for i in 0..M {
-            let (reset, abs_a) = (reset[i], a[i].abs());
-            let prev = bank.status[i];
-            let was_off = Mask::of(|l| prev[l] == OrderStatus::Off);
-            let was_held = Mask::of(|l| prev[l] == OrderStatus::Held);
-            let off_now = !reset
-                & ((was_off & !abs_a.less(plan.on_below_rad)) | (!was_off & L::splat(plan.off_above_rad).less(abs_a)));
-            let held_now = !off_now & (reset | mean_a[i].less(plan.hold_below_rad));
-            let off = skip.select_mask(was_off, off_now);
-            let held = skip.select_mask(was_held, held_now);
-            for l in 0..J {
-                let held = if held.lane(l) { OrderStatus::Held } else { OrderStatus::Active };
-                bank.status[i][l] = if off.lane(l) { OrderStatus::Off } else { held };
-            }
-            // The time update keeps the order's state (else restarts it from its
-            // prior) and its covariances with the others (if active, or skipped).
-            let zeroed = !skip & (reset | off);
-            dec.keep[i] = !zeroed;
-            dec.off[i] = off;
-            dec.active[i] = !off & !held;
-            dec.couple[i] = skip | dec.active[i];
-            dec.inc[i] = zeroed.select(zero, a[i]);
-            dec.q[i] = (off | skip).select(zero, q[i]);
-            (any_off, any_held) = (any_off | off, any_held | held);
+    Observed { sample, inc: a, mean, reset, q, any_jump, common: stays.all() }
+}
+
+/// Each order's status, and what the time update does with it, for a sample that is not
+/// common.
+#[inline(always)]
+fn decide<T: Real, const M: usize, const J: usize>(
+    model: &RippleModel<T, M>,
+    bank: &mut RippleBank<T, M, J>,
+    seen: &Observed<T, M, J>,
+) -> (Noted<T, M, J>, Decided<T, M, J>) {
+    let plan = &model.plan;
+    let Observed { sample, inc: a, mean, reset, q, any_jump, .. } = *seen;
+    let Sample { skip, gap, meas_ok, .. } = sample;
+    let zero = L::splat(T::ZERO);
+    let none = Mask::splat(false);
+    let mut noted = Noted { inc: a, q, sample };
+    let mut dec = Decided { keep: [none; M], couple: [none; M], off: [none; M], active: [none; M], flags: none };
+    let (mut any_off, mut any_held) = (none, none);
+    for i in 0..M {
+        let (reset, abs_a) = (reset[i], a[i].abs());
+        let prev = bank.status[i];
+        let was_off = Mask::of(|l| prev[l] == OrderStatus::Off);
+        let was_held = Mask::of(|l| prev[l] == OrderStatus::Held);
+        let off_now = !reset
+            & ((was_off & !abs_a.less(plan.on_below_rad)) | (!was_off & L::splat(plan.off_above_rad).less(abs_a)));
+        let mean_a = (mean[plan.reference[i]] * model.orders[i].multiple).abs();
+        let held_now = !off_now & (reset | mean_a.less(plan.hold_below_rad));
+        let off = skip.select_mask(was_off, off_now);
+        let held = skip.select_mask(was_held, held_now);
+        for l in 0..J {
+            let held = if held.lane(l) { OrderStatus::Held } else { OrderStatus::Active };
+            bank.status[i][l] = if off.lane(l) { OrderStatus::Off } else { held };
         }
+        // The time update keeps the order's state (else restarts it from its prior)
+        // and its covariances with the others (if active, or skipped).
+        let zeroed = !skip & (reset | off);
+        dec.keep[i] = !zeroed;
+        dec.off[i] = off;
+        dec.active[i] = !off & !held;
+        dec.couple[i] = skip | dec.active[i];
+        noted.inc[i] = zeroed.select(zero, a[i]);
+        noted.q[i] = (off | skip).select(zero, q[i]);
+        (any_off, any_held) = (any_off | off, any_held | held);
     }
     dec.flags = skip.bits(StepFlags::ANGLE_SKIPPED.bits())
         | (!skip & !meas_ok).bits(StepFlags::MEASUREMENT_SKIPPED.bits())
@@ -341,7 +418,124 @@ fn decide<T: Real, const M: usize, const J: usize, const F: bool>(
         | (!gap & any_jump).bits(StepFlags::JUMP_RESET.bits())
         | any_off.bits(StepFlags::ORDER_OFF.bits())
         | any_held.bits(StepFlags::ORDER_HELD.bits());
-    dec
+    (noted, dec)
+}
+
+/// The common sample, tested before anything is written: for every joint the
+/// measurement and the references are usable, it follows a sample taken (none pending)
+/// within the gap limit, no reference jumps, and every order was active and stays so.
+/// Then the references' state is written and every order's increment and process noise
+/// returned (as the general decisions would give them, bit for bit); else nothing.
+#[inline(always)]
+fn common<T: Real, const M: usize, const J: usize, const F: bool>(
+    model: &RippleModel<T, M>,
+    bank: &mut RippleBank<T, M, J>,
+    refs: [L<T, J>; 3],
+    y: L<T, J>,
+    dt: T,
+    dt_ok: bool,
+) -> Option<Observed<T, M, J>> {
+    let (plan, lim, orders) = (&model.plan, &model.limits, &model.orders);
+    if !(dt_ok && dt <= plan.max_gap_s) {
+        return None;
+    }
+    let zero = L::splat(T::ZERO);
+    // A non-finite reference gives a NaN increment, which fails the step limit.
+    let ok = y.finite() & L(bank.pending_samples).equals(T::ZERO) & Mask::of(|l| bank.has_last[l]);
+    // Each reference (written out, so its values stay in registers).
+    let settled = |r: usize, ok: Mask<T, J>| settled::<T, M, J, F>(model, bank, r, refs[r], dt, ok);
+    let (ok, d0, m0) = settled(0, ok);
+    let (ok, d1, m1) = settled(1, ok);
+    let (mut ok, d2, m2) = settled(2, ok);
+    let (delta, mean) = ([d0, d1, d2], [m0, m1, m2]);
+    for i in 0..M {
+        ok = ok & Mask::of(|l| bank.status[i][l] == OrderStatus::Active);
+    }
+    if !ok.all() {
+        return None;
+    }
+    let angle_input = model.phase_source == PhaseSource::Angle;
+    for r in 0..3 {
+        if plan.uses[r] {
+            let next = if angle_input { refs[r] } else { L(bank.psi[r]) + delta[r] };
+            bank.psi[r] = wrap(next).0;
+            (bank.last[r], bank.last_delta[r], bank.mean_delta[r]) = (refs[r].0, delta[r].0, mean[r].0);
+        }
+    }
+    bank.delta_known = [true; J];
+    let one = L::splat(T::ONE);
+    let (mut inc, mut q) = ([zero; M], [zero; M]);
+    for i in 0..M {
+        inc[i] = pick(&delta, plan.reference[i]) * orders[i].multiple;
+        q[i] = (one * orders[i].q_per_sample_nm2).madd::<F>(orders[i].q_per_rad_nm2, inc[i].abs());
+    }
+    let (yes, no) = (Mask::splat(true), Mask::splat(false));
+    let inflation = L::splat(lim.covariance_inflation);
+    let sample = Sample {
+        skip: no,
+        counted: yes,
+        gap: no,
+        meas_ok: yes,
+        pending: zero,
+        n_samples: one,
+        n_noise: one,
+        total_dt: L::splat(dt),
+        inflation,
+    };
+    tests::count_common();
+    Some(Observed { sample, inc, mean: [zero; 3], reset: [no; M], q, any_jump: no, common: true })
+}
+
+/// Where the common sample's reference `r` at `v` (increment over `dt`) is settled: it
+/// does not jump, and each order's line `|n Δθ|` is within the limits (the widest's below
+/// the switch-off, the narrowest's mean above the hold); `ok` and that, the increment and
+/// the mean increment (0 for a reference no order uses).
+#[inline(always)]
+fn settled<T: Real, const M: usize, const J: usize, const F: bool>(
+    model: &RippleModel<T, M>,
+    bank: &RippleBank<T, M, J>,
+    r: usize,
+    v: L<T, J>,
+    dt: T,
+    ok: Mask<T, J>,
+) -> (Mask<T, J>, L<T, J>, L<T, J>) {
+    let (plan, lim) = (&model.plan, &model.limits);
+    if !plan.uses[r] {
+        return (ok, L::splat(T::ZERO), L::splat(T::ZERO));
+    }
+    let d = increment(model, v, L(bank.last[r]), L::splat(dt));
+    let m = mean_increment::<T, J, F>(L(bank.mean_delta[r]), d);
+    let steady =
+        !Mask::of(|l| bank.delta_known[l]) | (d - L(bank.last_delta[r])).abs().at_most(lim.max_step_change_rad);
+    let fine = d.abs().at_most(lim.max_angle_step_rad)
+        & steady
+        & (d.abs() * plan.widest[r]).at_most(plan.off_above_rad)
+        & !(m.abs() * plan.narrowest[r]).less(plan.hold_below_rad);
+    (ok & fine, d, m)
+}
+
+/// A reference's increment from `last` to `v`: `wrap_π(θ(k) − θ(k−1))` of angles, or
+/// `(ω(k−1) + ω(k))/2 · dt` of rates over `dt`.
+#[inline(always)]
+fn increment<T: Real, const M: usize, const J: usize>(
+    model: &RippleModel<T, M>,
+    v: L<T, J>,
+    last: L<T, J>,
+    dt: L<T, J>,
+) -> L<T, J> {
+    if model.phase_source == PhaseSource::Angle {
+        wrap(v - last)
+    } else {
+        (v + last) * T::HALF * dt
+    }
+}
+
+/// The running mean `m` of the increment per sample after increment `d`: over ~16
+/// samples, so that encoder jitter at standstill averages out of it and it alone
+/// decides whether an order is held.
+#[inline(always)]
+fn mean_increment<T: Real, const J: usize, const F: bool>(m: L<T, J>, d: L<T, J>) -> L<T, J> {
+    m.madd::<F>(d - m, T::from_f64(HOLD_AVERAGE))
 }
 
 /// Reference `r` at `v`: its increment `Δθ = wrap_π(θ(k) − θ(k−1))` or `(ω(k−1) + ω(k))/2
@@ -358,17 +552,15 @@ fn reference<T: Real, const M: usize, const J: usize, const F: bool>(
     let Sample { skip, counted, pending, n_samples, total_dt, .. } = *sample;
     let angle_input = model.phase_source == PhaseSource::Angle;
     let last = L(bank.last[r]);
-    let d = if angle_input { wrap(v - last) } else { (v + last) * T::HALF * total_dt };
+    let d = increment(model, v, last, total_dt);
     // A glitch: an increment too large, or too different from the last one.
     let last_delta = L(bank.last_delta[r]);
     let changed = !(d - last_delta * n_samples).abs().at_most(lim.max_step_change_rad);
     let jump = counted & (!d.abs().at_most(lim.max_angle_step_rad) | (Mask::of(|l| bank.delta_known[l]) & changed));
     let accept = counted & !jump;
     let per_sample = if pending.equals(T::ZERO).all() { d } else { pending.equals(T::ZERO).select(d, d / n_samples) };
-    // Mean increment over ~16 samples: encoder jitter at standstill averages out of
-    // it, so it alone decides whether an order is held.
     let m = L(bank.mean_delta[r]);
-    let mean = accept.update(m, m.madd::<F>(per_sample - m, T::from_f64(HOLD_AVERAGE)));
+    let mean = accept.update(m, mean_increment::<T, J, F>(m, per_sample));
     bank.mean_delta[r] = mean.0;
     bank.last_delta[r] = accept.update(last_delta, per_sample).0;
     let delta = counted.select(d, L::splat(T::ZERO));
@@ -387,7 +579,7 @@ fn phasors<T: Real, const M: usize, const J: usize, const F: bool>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
-    inc: &[L<T, J>; M],
+    inc: [L<T, J>; M],
 ) {
     let plan = &model.plan;
     let mut base = [(L::splat(T::ONE), L::splat(T::ZERO)); 3];
@@ -431,21 +623,24 @@ fn phasors<T: Real, const M: usize, const J: usize, const F: bool>(
 fn time_update<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool, const COMMON: bool>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
-    d: &Decided<T, M, J>,
+    q: [L<T, J>; M],
+    sample: &Sample<T, J>,
+    d: Option<&Decided<T, M, J>>,
 ) {
     let (plan, orders) = (&model.plan, &model.orders);
-    let grow = d.sample.inflation * T::HALF;
+    let grow = if COMMON { L::splat(model.limits.covariance_inflation * T::HALF) } else { sample.inflation * T::HALF };
     let zero = L::splat(T::ZERO);
     for i in 0..M {
-        let (keep, q) = (d.keep[i], d.q[i]);
+        let q = q[i];
         let blk = &mut bank.p[i][i];
         let (v0, v1) = (L(blk[0][0]), L(blk[1][1]));
         let trace = v0 + v1;
         let (v0, v1) = (v0.madd::<F>(grow, trace) + q, v1.madd::<F>(grow, trace) + q);
-        if COMMON {
+        let Some(d) = d.filter(|_| !COMMON) else {
             (blk[0][0], blk[1][1]) = (v0.0, v1.0);
             continue;
-        }
+        };
+        let keep = d.keep[i];
         let fresh = q + plan.p0_nm2[i];
         (blk[0][0], blk[1][1]) = (keep.select(v0, fresh).0, keep.select(v1, fresh).0);
         let off = (!keep).update(L(blk[0][1]), zero).0;
@@ -466,9 +661,10 @@ fn time_update<T: Real, const M: usize, const J: usize, const F: bool, const BIA
     if BIAS {
         // A time gap brings the bias variance back up to its initial value.
         let v = L(bank.pbb);
-        let v = (d.sample.gap & v.less(model.p0_bias_nm2)).select(L::splat(model.p0_bias_nm2), v);
+        let v =
+            if COMMON { v } else { (sample.gap & v.less(model.p0_bias_nm2)).select(L::splat(model.p0_bias_nm2), v) };
         let q_bias = model.bias_q_nm2.unwrap_or(T::ZERO);
-        bank.pbb = (v.madd::<F>(v, d.sample.inflation) + d.sample.n_noise * q_bias).0;
+        bank.pbb = (v.madd::<F>(v, sample.inflation) + sample.n_noise * q_bias).0;
     }
 }
 
@@ -476,38 +672,54 @@ fn time_update<T: Real, const M: usize, const J: usize, const F: bool, const BIA
 /// went bad.
 #[allow(clippy::too_many_lines)]
 #[inline(always)]
-fn update<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool, const TRACE: bool>(
+fn update<
+    T: Real,
+    const M: usize,
+    const J: usize,
+    const F: bool,
+    const BIAS: bool,
+    const TRACE: bool,
+    const COMMON: bool,
+>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
-    d: &Decided<T, M, J>,
+    noted: &Noted<T, M, J>,
+    d: Option<&Decided<T, M, J>>,
     out: &mut BankOutput<T, J>,
     trace: Option<&mut StepTrace<T, M>>,
 ) -> Mask<T, J> {
+    let sample = &noted.sample;
     let (lim, orders) = (&model.limits, &model.orders);
     let (torque, expected) = (L(input.torque_nm), L(input.expected_torque_nm));
     let y = torque - expected;
     let zero = L::splat(T::ZERO);
+    // In the common sample every measurement is used and every order active.
+    let d = d.filter(|_| !COMMON);
+    let meas_ok = if d.is_some() { sample.meas_ok } else { Mask::splat(true) };
     // Prediction ŷ(k) = h ẑ(k|k−1) (every order not off) and the update row h (the
     // orders updated; the bias entry is 1 when the measurement is used).
     let (mut ripple, mut mis) = (zero, zero);
     let mut h = [[zero; 2]; M];
     for i in 0..M {
         let (c, s) = (L(bank.phasor[i][0]), L(bank.phasor[i][1]));
-        let v = d.off[i].select(zero, (c * L(bank.z[i][0])).madd::<F>(s, L(bank.z[i][1])));
+        let v = (c * L(bank.z[i][0])).madd::<F>(s, L(bank.z[i][1]));
+        let v = d.map_or(v, |d| d.off[i].select(zero, v));
         if orders[i].reference.is_ripple() {
             ripple = ripple + v;
         } else {
             mis = mis + v;
         }
-        let row = d.sample.meas_ok & d.active[i];
-        h[i] = [row.select(c, zero), row.select(s, zero)];
+        h[i] = d.map_or([c, s], |d| {
+            let row = meas_ok & d.active[i];
+            [row.select(c, zero), row.select(s, zero)]
+        });
     }
 
     // Gains g = P hᵀ from the upper blocks of the symmetric P, and the bias entry.
     let mut g = [[zero; 2]; M];
     for i in 0..M {
-        let mut acc = if BIAS { Some([0, 1].map(|r| d.sample.meas_ok.select(L(bank.pb[i][r]), zero))) } else { None };
+        let mut acc = if BIAS { Some([0, 1].map(|r| meas_ok.select(L(bank.pb[i][r]), zero))) } else { None };
         for j in 0..M {
             let t = block_times::<T, M, J, F>(bank, i, j, h[j]);
             acc = Some(acc.map_or(t, |a| [a[0] + t[0], a[1] + t[1]]));
@@ -516,7 +728,7 @@ fn update<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bo
     }
     let mut gb = zero;
     if BIAS {
-        gb = d.sample.meas_ok.select(L(bank.pbb), zero);
+        gb = meas_ok.select(L(bank.pbb), zero);
         for j in 0..M {
             gb = gb + (L(bank.pb[j][0]) * h[j][0]).madd::<F>(L(bank.pb[j][1]), h[j][1]);
         }
@@ -532,19 +744,19 @@ fn update<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bo
     }
     let s_var = s.map_or(L::splat(model.r_nm2), |s| s + model.r_nm2);
     let e = y - (ripple + mis + L(bank.b));
-    let e_used = d.sample.meas_ok.select(e, zero);
+    let e_used = meas_ok.select(e, zero);
     let load_step =
         Mask::splat(BIAS && lim.load_step_nis > T::ZERO) & (s_var * lim.load_step_nis).less(e_used * e_used);
     let inv = load_step.select(zero, s_var.map(|s| T::ONE / s));
-    let flags = d.flags | load_step.bits(StepFlags::LOAD_STEP.bits());
+    let flags = d.map_or(Mask::splat(false), |d| d.flags) | load_step.bits(StepFlags::LOAD_STEP.bits());
     out.flags = flags.low_bits().map(StepFlags::from_bits);
     let mut trace = trace.filter(|_| TRACE);
     if let Some(tr) = trace.as_deref_mut() {
-        let row_b = if BIAS && d.sample.meas_ok.lane(0) { T::ONE } else { T::ZERO };
-        let q_b = model.bias_q_nm2.unwrap_or(T::ZERO) * d.sample.n_noise.0[0];
+        let row_b = if BIAS && meas_ok.lane(0) { T::ONE } else { T::ZERO };
+        let q_b = model.bias_q_nm2.unwrap_or(T::ZERO) * sample.n_noise.0[0];
         let lane0 = |v: [[L<T, J>; 2]; M]| v.map(|p| p.map(|x| x.0[0]));
         let scalars = [q_b, row_b, gb.0[0], s_var.0[0], e_used.0[0], y.0[0]];
-        record(tr, bank, d, (lane0(h), lane0(g)), scalars, [BIAS, load_step.lane(0)]);
+        record(tr, bank, noted, d, (lane0(h), lane0(g)), scalars, [BIAS, load_step.lane(0)]);
     }
     update_state::<T, M, J, F, BIAS>(model, bank, (&h, &g, gb), (e_used, inv, load_step));
     if let Some(tr) = trace {
@@ -710,28 +922,93 @@ fn gaussian<T: Real, const M: usize, const J: usize>(bank: &RippleBank<T, M, J>,
 fn record<T: Real, const M: usize, const J: usize>(
     tr: &mut StepTrace<T, M>,
     bank: &RippleBank<T, M, J>,
-    dec: &Decided<T, M, J>,
+    noted: &Noted<T, M, J>,
+    dec: Option<&Decided<T, M, J>>,
     (h, g): ([[T; 2]; M], [[T; 2]; M]),
     [q_b, row_b, g_b, s_var, e_used, y]: [T; 6],
     [bias, load_step]: [bool; 2],
 ) {
     for i in 0..M {
-        (tr.increment_rad[i], tr.q_nm2[i], tr.kept[i], tr.predicted[i]) =
-            (dec.inc[i].0[0], dec.q[i].0[0], dec.keep[i].lane(0), !dec.off[i].lane(0));
+        (tr.increment_rad[i], tr.q_nm2[i]) = (noted.inc[i].0[0], noted.q[i].0[0]);
+        tr.kept[i] = dec.is_none_or(|d| d.keep[i].lane(0));
+        tr.predicted[i] = dec.is_none_or(|d| !d.off[i].lane(0));
         tr.phasor[i] = [bank.phasor[i][0][0], bank.phasor[i][1][0]];
     }
     (tr.update_row, tr.gain_numerator) = (h, g);
     tr.prior = gaussian(bank, 0);
     (tr.q_bias_nm2, tr.update_row_bias, tr.gain_numerator_bias) = (q_b, row_b, g_b);
     (tr.innovation_variance_nm2, tr.innovation_used_nm, tr.measurement_nm) = (s_var, e_used, y);
-    tr.bias_reinflated = bias & dec.sample.gap.lane(0);
+    tr.bias_reinflated = bias & noted.sample.gap.lane(0);
     tr.load_step = load_step;
+}
+
+/// Outside tests: the step as it is.
+#[cfg(not(test))]
+mod tests {
+    #[inline(always)]
+    pub(super) fn general_only() -> bool {
+        false
+    }
+
+    #[inline(always)]
+    pub(super) fn count_common() {}
 }
 
 #[cfg(test)]
 pub(super) mod tests {
     use super::super::{step, step_traced, Order, PhaseSource, Reference, ReferenceValues, RippleInput, RippleState};
     use super::*;
+    use std::cell::Cell;
+
+    std::thread_local! {
+        /// Whether this thread's steps skip the common sample's test (to compare with it).
+        static GENERAL_ONLY: Cell<bool> = const { Cell::new(false) };
+        /// How many common samples this thread's steps took.
+        static COMMON_SAMPLES: Cell<usize> = const { Cell::new(0) };
+    }
+
+    pub(super) fn general_only() -> bool {
+        GENERAL_ONLY.get()
+    }
+
+    pub(super) fn count_common() {
+        COMMON_SAMPLES.set(COMMON_SAMPLES.get() + 1);
+    }
+
+    /// The common sample's shortcut gives what the general decisions give, bit for bit
+    /// (outputs and the whole state), over the awkward sequence; both are exercised.
+    fn shortcut_is_the_general_step<T: Real, const M: usize, const J: usize>(model: RippleModel<T, M>) -> usize {
+        let (mut fast, mut general) = (RippleBank::<T, M, J>::new(&model), RippleBank::<T, M, J>::new(&model));
+        let n = 6000;
+        COMMON_SAMPLES.set(0);
+        for k in 0..n {
+            let input = sample::<T, M, J>(&model, k, 4000);
+            let (mut a, mut b) = (BankOutput::default(), BankOutput::default());
+            step_many(&model, &mut fast, &input, &mut a);
+            GENERAL_ONLY.set(true);
+            step_many(&model, &mut general, &input, &mut b);
+            GENERAL_ONLY.set(false);
+            assert_eq!(format!("{a:?}"), format!("{b:?}"), "k {k}");
+            assert_eq!(format!("{fast:?}"), format!("{general:?}"), "k {k}");
+        }
+        let common = COMMON_SAMPLES.get();
+        assert!(common > n / 2 && common < n, "{common} common samples of {n}");
+        common
+    }
+
+    #[test]
+    fn common_sample_shortcut_is_the_general_step_bit_for_bit() {
+        let (seed6, motor, full, velocity) = models_f64();
+        shortcut_is_the_general_step::<f64, 3, 1>(seed6);
+        shortcut_is_the_general_step::<f64, 3, 2>(motor);
+        shortcut_is_the_general_step::<f64, 5, 4>(full);
+        shortcut_is_the_general_step::<f64, 2, 3>(velocity);
+        // Two lines of one reference held at different speeds (the default hold limit).
+        let ripple = [Order::new(Reference::Relative, 2.0).unwrap(), Order::new(Reference::Relative, 4.0).unwrap()];
+        shortcut_is_the_general_step::<f64, 2, 2>(RippleModel::new(ripple, 0.5, 1000.0).unwrap());
+        shortcut_is_the_general_step::<f32, 3, 8>(RippleModel::product(1000.0, 0.05).unwrap());
+        shortcut_is_the_general_step::<f32, 3, 1>(RippleModel::product(1000.0, 0.05).unwrap());
+    }
 
     /// Sample `k` for `J` joints with the awkward cases: NaN torque, angle jumps, a gap,
     /// load steps, two speeds, angles unwrapped from sample `unwrapped_after` on.
@@ -746,9 +1023,22 @@ pub(super) mod tests {
         seed ^= seed >> 7;
         seed ^= seed << 17;
         let noise = (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
-        let w = if k < 3000 { 0.08 } else { 0.3 };
+        // Relative angle per sample: slow, faster, 4× lines above the Nyquist guard (2×
+        // not), then slowing down smoothly to near standstill (2× lines held, 4× not).
+        let ramp = |from: f64, to: f64, i: usize, start: usize, len: usize| {
+            from + (to - from) * (i - start) as f64 / len as f64
+        };
+        let speed = |i: usize| match i {
+            0..3000 => 0.08,
+            4600..4900 => 0.8,
+            5000..5200 => ramp(0.3, 1.2e-4, i, 5000, 200),
+            5200..5500 => 1.2e-4,
+            5500..5600 => ramp(1.2e-4, 0.3, i, 5500, 100),
+            3000.. => 0.3,
+        };
+        let (w, phase) = (speed(k), (0..k).map(speed).sum::<f64>());
         let theta = |j: usize| {
-            let t = w * k as f64 + 0.3 * j as f64 + if k % 997 == 500 { 2.0 } else { 0.0 };
+            let t = phase + 0.3 * j as f64 + if k % 997 == 500 { 2.0 } else { 0.0 };
             if model.phase_source() == PhaseSource::Velocity {
                 w * 1000.0
             } else if k >= unwrapped_after {
