@@ -241,9 +241,10 @@ fn rest<
     out: &mut BankOutput<T, J>,
     trace: Option<&mut StepTrace<T, M>>,
 ) {
-    phasors::<T, M, J, F>(model, bank, input, noted.inc);
-    time_update::<T, M, J, F, BIAS, COMMON>(model, bank, noted.q, &noted.sample, d);
-    let bad = update::<T, M, J, F, BIAS, TRACE, COMMON>(model, bank, input, &noted, d, out, trace);
+    order_phases(model, bank, &noted.inc);
+    let phasor = phasors::<T, M, J, F>(model, bank, input);
+    let prior = time_update::<T, M, J, F, BIAS, COMMON>(model, bank, noted.q, &noted.sample, d);
+    let bad = update::<T, M, J, F, BIAS, TRACE, COMMON>(model, bank, input, (&noted, d), (&phasor, &prior), out, trace);
     if bad.any() {
         for l in (0..J).filter(|&l| bad.lane(l)) {
             bank.reset_lane(model, l);
@@ -572,16 +573,34 @@ fn reference<T: Real, const M: usize, const J: usize, const F: bool>(
     (delta, jump, mean)
 }
 
+/// Each order with a fractional multiple keeps its own phase, advanced by its increment
+/// `a_i` (rad): `ψ_i ← wrap_π(ψ_i + a_i)`.
+#[inline(always)]
+fn order_phases<T: Real, const M: usize, const J: usize>(
+    model: &RippleModel<T, M>,
+    bank: &mut RippleBank<T, M, J>,
+    inc: &[L<T, J>; M],
+) {
+    for i in 0..M {
+        if model.plan.power[i] == 0 {
+            bank.order_psi[i] = wrap(L(bank.order_psi[i]) + inc[i]).0;
+        }
+    }
+}
+
 /// Each order's phasor (times `|T_exp + b̂(k|k−1)|` if load-scaled): its reference's to
-/// a whole power, or of its own phase (`inc`: increments) for a fractional multiple.
+/// a whole power, or of its own phase for a fractional multiple. Kept in the state and
+/// returned (the update takes them from here, not reloaded from the state).
 #[inline(always)]
 fn phasors<T: Real, const M: usize, const J: usize, const F: bool>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
-    inc: [L<T, J>; M],
-) {
+) -> [[L<T, J>; 2]; M] {
     let plan = &model.plan;
+    let mut phasor = [[L::splat(T::ZERO); 2]; M];
+    let load = (L(input.expected_torque_nm) + L(bank.b)).abs();
+    let load = load.finite().select(load, L::splat(T::ZERO));
     let mut base = [(L::splat(T::ONE), L::splat(T::ZERO)); 3];
     for r in 0..3 {
         if !plan.uses[r] {
@@ -595,30 +614,27 @@ fn phasors<T: Real, const M: usize, const J: usize, const F: bool>(
             1 => (c, s),
             2 => each_lane(c, s, |c, s| Doubling::new(c, s).doubled::<F>()),
             4 => each_lane(c, s, |c, s| Doubling::new(c, s).doubled::<F>().doubled::<F>()),
-            0 => {
-                // A fractional multiple: its own accumulated phase.
-                let psi = wrap(L(bank.order_psi[i]) + inc[i]);
-                bank.order_psi[i] = psi.0;
-                each_lane(psi, psi, |psi, _| sin_cos_with::<T, F>(psi))
-            }
+            0 => each_lane(L(bank.order_psi[i]), L(bank.order_psi[i]), |psi, _| sin_cos_with::<T, F>(psi)),
             n => each_lane(c, s, |c, s| {
                 let (c, s) = phasor_power_with::<T, F>(c, s, n);
                 Doubling::new(c, s)
             }),
         };
         if model.orders[i].load_scaled {
-            let load = (L(input.expected_torque_nm) + L(bank.b)).abs();
-            let load = load.finite().select(load, L::splat(T::ZERO));
             (c, s) = (c * load, s * load);
         }
         (bank.phasor[i][0], bank.phasor[i][1]) = (c.0, s.0);
+        phasor[i] = [c, s];
     }
+    phasor
 }
 
 /// Time update: inflation `ρ (P_00 + P_11)/2 · I₂` (rotation invariant, like Q) and
 /// process noise on the diagonal blocks; a reset order restarts from its prior and
 /// forgets its covariances, an order not active is decoupled from the others.
-/// `COMMON`: every order of every joint is kept and coupled (nothing to select).
+/// `COMMON`: every order of every joint is kept and coupled (nothing to select); the
+/// predicted variances are then left for the update to write (their store and reload,
+/// at other widths, would lengthen the step's dependency chain). Returns them.
 #[inline(always)]
 fn time_update<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool, const COMMON: bool>(
     model: &RippleModel<T, M>,
@@ -626,8 +642,9 @@ fn time_update<T: Real, const M: usize, const J: usize, const F: bool, const BIA
     q: [L<T, J>; M],
     sample: &Sample<T, J>,
     d: Option<&Decided<T, M, J>>,
-) {
+) -> Predicted<T, M, J> {
     let (plan, orders) = (&model.plan, &model.orders);
+    let mut prior = Predicted { diag: [[L::splat(T::ZERO); 2]; M], pbb: L(bank.pbb) };
     let grow = if COMMON { L::splat(model.limits.covariance_inflation * T::HALF) } else { sample.inflation * T::HALF };
     let zero = L::splat(T::ZERO);
     for i in 0..M {
@@ -637,12 +654,13 @@ fn time_update<T: Real, const M: usize, const J: usize, const F: bool, const BIA
         let trace = v0 + v1;
         let (v0, v1) = (v0.madd::<F>(grow, trace) + q, v1.madd::<F>(grow, trace) + q);
         let Some(d) = d.filter(|_| !COMMON) else {
-            (blk[0][0], blk[1][1]) = (v0.0, v1.0);
+            prior.diag[i] = [v0, v1];
             continue;
         };
         let keep = d.keep[i];
         let fresh = q + plan.p0_nm2[i];
-        (blk[0][0], blk[1][1]) = (keep.select(v0, fresh).0, keep.select(v1, fresh).0);
+        prior.diag[i] = [keep.select(v0, fresh), keep.select(v1, fresh)];
+        (blk[0][0], blk[1][1]) = (prior.diag[i][0].0, prior.diag[i][1].0);
         let off = (!keep).update(L(blk[0][1]), zero).0;
         (blk[0][1], blk[1][0]) = (off, off);
         for r in 0..2 {
@@ -664,8 +682,19 @@ fn time_update<T: Real, const M: usize, const J: usize, const F: bool, const BIA
         let v =
             if COMMON { v } else { (sample.gap & v.less(model.p0_bias_nm2)).select(L::splat(model.p0_bias_nm2), v) };
         let q_bias = model.bias_q_nm2.unwrap_or(T::ZERO);
-        bank.pbb = (v.madd::<F>(v, sample.inflation) + sample.n_noise * q_bias).0;
+        prior.pbb = v.madd::<F>(v, sample.inflation) + sample.n_noise * q_bias;
+        if !COMMON {
+            bank.pbb = prior.pbb.0;
+        }
     }
+    prior
+}
+
+/// The predicted variances of a step: each order's diagonal `[P_00, P_11]` and `Var(b)`.
+#[derive(Clone, Copy)]
+struct Predicted<T: Real, const M: usize, const J: usize> {
+    diag: [[L<T, J>; 2]; M],
+    pbb: L<T, J>,
 }
 
 /// The prediction (the output) and measurement update of every joint; where the state
@@ -684,8 +713,8 @@ fn update<
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
     input: &BankInput<T, J>,
-    noted: &Noted<T, M, J>,
-    d: Option<&Decided<T, M, J>>,
+    (noted, d): (&Noted<T, M, J>, Option<&Decided<T, M, J>>),
+    (phasor, prior): (&[[L<T, J>; 2]; M], &Predicted<T, M, J>),
     out: &mut BankOutput<T, J>,
     trace: Option<&mut StepTrace<T, M>>,
 ) -> Mask<T, J> {
@@ -702,7 +731,7 @@ fn update<
     let (mut ripple, mut mis) = (zero, zero);
     let mut h = [[zero; 2]; M];
     for i in 0..M {
-        let (c, s) = (L(bank.phasor[i][0]), L(bank.phasor[i][1]));
+        let [c, s] = phasor[i];
         let v = (c * L(bank.z[i][0])).madd::<F>(s, L(bank.z[i][1]));
         let v = d.map_or(v, |d| d.off[i].select(zero, v));
         if orders[i].reference.is_ripple() {
@@ -721,14 +750,14 @@ fn update<
     for i in 0..M {
         let mut acc = if BIAS { Some([0, 1].map(|r| meas_ok.select(L(bank.pb[i][r]), zero))) } else { None };
         for j in 0..M {
-            let t = block_times::<T, M, J, F>(bank, i, j, h[j]);
+            let t = block_times::<T, M, J, F>(bank, prior, i, j, h[j]);
             acc = Some(acc.map_or(t, |a| [a[0] + t[0], a[1] + t[1]]));
         }
         g[i] = acc.unwrap_or([zero; 2]);
     }
     let mut gb = zero;
     if BIAS {
-        gb = meas_ok.select(L(bank.pbb), zero);
+        gb = meas_ok.select(prior.pbb, zero);
         for j in 0..M {
             gb = gb + (L(bank.pb[j][0]) * h[j][0]).madd::<F>(L(bank.pb[j][1]), h[j][1]);
         }
@@ -756,9 +785,14 @@ fn update<
         let q_b = model.bias_q_nm2.unwrap_or(T::ZERO) * sample.n_noise.0[0];
         let lane0 = |v: [[L<T, J>; 2]; M]| v.map(|p| p.map(|x| x.0[0]));
         let scalars = [q_b, row_b, gb.0[0], s_var.0[0], e_used.0[0], y.0[0]];
+        // The trace shows the predicted state.
+        for i in 0..M {
+            (bank.p[i][i][0][0], bank.p[i][i][1][1]) = (prior.diag[i][0].0, prior.diag[i][1].0);
+        }
+        bank.pbb = prior.pbb.0;
         record(tr, bank, noted, d, (lane0(h), lane0(g)), scalars, [BIAS, load_step.lane(0)]);
     }
-    update_state::<T, M, J, F, BIAS>(model, bank, (&h, &g, gb), (e_used, inv, load_step));
+    update_state::<T, M, J, F, BIAS>(model, bank, prior, (&h, &g, gb), (e_used, inv, load_step));
     if let Some(tr) = trace {
         tr.posterior = gaussian(bank, 0);
     }
@@ -785,6 +819,7 @@ fn update<
 fn update_state<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
+    prior: &Predicted<T, M, J>,
     (h, g, gb): (&[[L<T, J>; 2]; M], &[[L<T, J>; 2]; M], L<T, J>),
     (e_used, inv, load_step): (L<T, J>, L<T, J>, Mask<T, J>),
 ) {
@@ -795,7 +830,7 @@ fn update_state<T: Real, const M: usize, const J: usize, const F: bool, const BI
         bank.z[i][0] = L(bank.z[i][0]).madd::<F>(k0, e_used).0;
         bank.z[i][1] = L(bank.z[i][1]).madd::<F>(k1, e_used).0;
         let blk = &mut bank.p[i][i];
-        let (v0, v1) = (L(blk[0][0]), L(blk[1][1]));
+        let [v0, v1] = prior.diag[i];
         blk[0][0] = v0.madd::<F>(-(g0 * g0), inv).max(v0 * floor).0;
         blk[1][1] = v1.madd::<F>(-(g1 * g1), inv).max(v1 * floor).0;
         let off = L(blk[0][1]).madd::<F>(-(g0 * g1), inv).0;
@@ -816,7 +851,7 @@ fn update_state<T: Real, const M: usize, const J: usize, const F: bool, const BI
     if BIAS {
         let kb = gb * inv;
         let b = L(bank.b).madd::<F>(kb, e_used);
-        let v = L(bank.pbb);
+        let v = prior.pbb;
         let pbb = v.madd::<F>(-kb, gb).max(v * model.r_nm2 * inv);
         // The load-step limit: the bias takes the whole innovation, the oscillators
         // learn nothing, and `Var(b) = R + h P_zz hᵀ`, `Cov(z, b) = −P_zz hᵀ` (no
@@ -875,15 +910,23 @@ fn each_lane<T: Real, const J: usize>(a: L<T, J>, b: L<T, J>, f: impl Fn(T, T) -
     (co, si)
 }
 
-/// `P_ij h_j` (two entries of `g_i`), from the upper blocks of the symmetric P.
+/// `P_ij h_j` (two entries of `g_i`), from the upper blocks of the symmetric P, the
+/// diagonal's variances from `prior`.
 #[inline(always)]
 fn block_times<T: Real, const M: usize, const J: usize, const F: bool>(
     bank: &RippleBank<T, M, J>,
+    prior: &Predicted<T, M, J>,
     i: usize,
     j: usize,
     [h0, h1]: [L<T, J>; 2],
 ) -> [L<T, J>; 2] {
     let (b, t) = if j >= i { (&bank.p[i][j], false) } else { (&bank.p[j][i], true) };
+    if i == j {
+        // The variances come from `prior`, the covariance from one entry (a load of both
+        // entries, stored apart, would wait for both stores to retire).
+        let ([v0, v1], off) = (prior.diag[i], L(b[0][1]));
+        return [(v0 * h0).madd::<F>(off, h1), (off * h0).madd::<F>(v1, h1)];
+    }
     let at = |r: usize, c: usize| L(if t { b[c][r] } else { b[r][c] });
     [(at(0, 0) * h0).madd::<F>(at(0, 1), h1), (at(1, 0) * h0).madd::<F>(at(1, 1), h1)]
 }
