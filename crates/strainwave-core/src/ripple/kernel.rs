@@ -198,9 +198,8 @@ struct Decided<T: Real, const M: usize, const J: usize> {
 }
 
 /// The step of [`advance`] for a model with (`BIAS`) or without the bias state. The
-/// common sample (every joint's measurement used, no sample pending, every order active
-/// and staying so) takes the rest of the step with those decisions as constants: a
-/// branch, same numbers.
+/// common sample takes the rest of the step with its decisions as constants: a branch,
+/// same numbers.
 #[inline(always)]
 fn passes<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bool, const TRACE: bool>(
     model: &RippleModel<T, M>,
@@ -210,12 +209,17 @@ fn passes<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bo
     trace: Option<&mut StepTrace<T, M>>,
 ) {
     bank.steps = bank.steps.map(|s| s.wrapping_add(1));
-    let seen = observe::<T, M, J, F>(model, bank, input);
-    if seen.common {
-        let noted = Noted { inc: seen.inc, q: seen.q, sample: seen.sample };
+    let dt = input.dt_s.unwrap_or(model.plan.dt_s);
+    let dt_ok = L([dt]).finite().lane(0) & (dt > T::ZERO);
+    let r = &input.references;
+    let refs = [L(r.relative), L(r.output), L(r.motor)];
+    let y = L(input.torque_nm) - L(input.expected_torque_nm);
+    if is_common::<T, M, J, F>(model, bank, refs, y, dt, dt_ok) {
+        tests::count_common();
+        let (noted, _) = decide::<T, M, J, F, true>(model, bank, refs, y, dt, dt_ok);
         rest::<T, M, J, F, BIAS, TRACE, true>(model, bank, input, noted, None, out, trace);
     } else {
-        let (noted, d) = decide(model, bank, &seen);
+        let (noted, d) = decide::<T, M, J, F, false>(model, bank, refs, y, dt, dt_ok);
         rest::<T, M, J, F, BIAS, TRACE, false>(model, bank, input, noted, Some(&d), out, trace);
     }
 }
@@ -272,41 +276,20 @@ struct Sample<T: Real, const J: usize> {
     inflation: L<T, J>,
 }
 
-/// What a sample shows before its orders are decided: the sample's decisions, each
-/// order's increment `a_i` (rad, 0 after a reset), each reference's mean increment per
-/// sample (rad), each order's reset and process noise `q_i` (N·m²), the references'
-/// jumps, and whether it is common.
-#[derive(Clone, Copy)]
-struct Observed<T: Real, const M: usize, const J: usize> {
-    sample: Sample<T, J>,
-    inc: [L<T, J>; M],
-    mean: [L<T, J>; 3],
-    reset: [Mask<T, J>; M],
-    q: [L<T, J>; M],
-    any_jump: Mask<T, J>,
-    common: bool,
-}
-
-/// The sample's decisions (valid input, increments, jumps, gaps) for every joint, its
-/// references' phases and last values, and each order's increment and process noise.
+/// The decisions of a sample for every joint: valid input, gaps, jumps, each order's
+/// increment, process noise and status, and what the time update does with it; the
+/// references' phases and last values. `COMMON`: the sample is common (see
+/// [`is_common`]), so that its decisions are constants.
 #[inline(always)]
-fn observe<T: Real, const M: usize, const J: usize, const F: bool>(
+fn decide<T: Real, const M: usize, const J: usize, const F: bool, const COMMON: bool>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
-    input: &BankInput<T, J>,
-) -> Observed<T, M, J> {
+    refs: [L<T, J>; 3],
+    y: L<T, J>,
+    dt: T,
+    dt_ok: bool,
+) -> (Noted<T, M, J>, Decided<T, M, J>) {
     let (plan, lim, orders) = (&model.plan, &model.limits, &model.orders);
-    let dt = input.dt_s.unwrap_or(plan.dt_s);
-    let dt_ok = L([dt]).finite().lane(0) & (dt > T::ZERO);
-    let r = &input.references;
-    let refs = [L(r.relative), L(r.output), L(r.motor)];
-    let y = L(input.torque_nm) - L(input.expected_torque_nm);
-    if !tests::general_only() {
-        if let Some(seen) = common::<T, M, J, F>(model, bank, refs, y, dt, dt_ok) {
-            return seen;
-        }
-    }
-
     // The sample: skipped (a used reference or `dt` not finite: the state stays as it
     // was, the next increment spans the gap), first, or after a time gap.
     // (`x · 0` is 0 exactly for finite `x`: one test for every used reference.)
@@ -316,15 +299,15 @@ fn observe<T: Real, const M: usize, const J: usize, const F: bool>(
             probe = probe + refs[r] * T::ZERO;
         }
     }
-    let skip = !probe.equals(T::ZERO) | Mask::splat(!dt_ok);
-    let pending = L(bank.pending_samples);
-    let total_dt = L(bank.pending_dt) + dt;
-    let first = !Mask::of(|l| bank.has_last[l]);
-    let gap = !skip & !first & !total_dt.at_most(plan.max_gap_s);
-    let meas_ok = !skip & y.finite();
+    let (none, zero) = (Mask::splat(false), L::splat(T::ZERO));
+    let skip = if COMMON { none } else { !probe.equals(T::ZERO) | Mask::splat(!dt_ok) };
+    let pending = if COMMON { zero } else { L(bank.pending_samples) };
+    let total_dt = if COMMON { L::splat(dt) } else { L(bank.pending_dt) + dt };
+    let first = if COMMON { none } else { !Mask::of(|l| bank.has_last[l]) };
+    let gap = if COMMON { none } else { !skip & !first & !total_dt.at_most(plan.max_gap_s) };
+    let meas_ok = if COMMON { !none } else { !skip & y.finite() };
     // The initial state is the prior of the first sample: no noise before it.
     let counted = !skip & !first;
-    let zero = L::splat(T::ZERO);
     let n_samples = pending + T::ONE;
     let n_noise = counted.select(n_samples, zero);
     let inflation = counted.select(L::splat(lim.covariance_inflation), zero);
@@ -334,7 +317,7 @@ fn observe<T: Real, const M: usize, const J: usize, const F: bool>(
     let unused = (zero, Mask::splat(false), zero);
     let each = |r: usize, bank: &mut RippleBank<T, M, J>| {
         if plan.uses[r] {
-            reference::<T, M, J, F>(model, bank, r, refs[r], &sample)
+            reference::<T, M, J, F, COMMON>(model, bank, r, refs[r], &sample)
         } else {
             unused
         }
@@ -352,49 +335,27 @@ fn observe<T: Real, const M: usize, const J: usize, const F: bool>(
     let pending_dt = L(bank.pending_dt) + if dt_ok { dt } else { plan.dt_s };
     bank.pending_dt = skip.select(pending_dt, zero).0;
 
-    // Each order: its increment `a_i = n_i Δθ` (0 after a reset) and process noise
-    // `q_i = q_s + q_rad |a_i|`. In the common sample every joint's measurement is
-    // used, no sample is pending, and every order was active and stays so (its line
-    // within the limits): nothing else to decide.
-    let (mut a, mut mean_a, mut reset) = ([zero; M], [zero; M], [Mask::splat(false); M]);
-    let mut q = [zero; M];
-    let mut stays = meas_ok & pending.equals(T::ZERO) & !gap & !any_jump;
-    for i in 0..M {
-        let r = plan.reference[i];
-        reset[i] = gap | pick(&jump, r);
-        a[i] = reset[i].select(zero, pick(&delta, r) * orders[i].multiple);
-        mean_a[i] = (pick(&mean, r) * orders[i].multiple).abs();
-        q[i] = (n_noise * orders[i].q_per_sample_nm2).madd::<F>(orders[i].q_per_rad_nm2, a[i].abs());
-        let within = !L::splat(plan.off_above_rad).less(a[i].abs()) & !mean_a[i].less(plan.hold_below_rad);
-        stays = stays & within & Mask::of(|l| bank.status[i][l] == OrderStatus::Active);
-    }
-    Observed { sample, inc: a, mean, reset, q, any_jump, common: stays.all() }
-}
-
-/// Each order's status, and what the time update does with it, for a sample that is not
-/// common.
-#[inline(always)]
-fn decide<T: Real, const M: usize, const J: usize>(
-    model: &RippleModel<T, M>,
-    bank: &mut RippleBank<T, M, J>,
-    seen: &Observed<T, M, J>,
-) -> (Noted<T, M, J>, Decided<T, M, J>) {
-    let plan = &model.plan;
-    let Observed { sample, inc: a, mean, reset, q, any_jump, .. } = *seen;
-    let Sample { skip, gap, meas_ok, .. } = sample;
-    let zero = L::splat(T::ZERO);
-    let none = Mask::splat(false);
-    let mut noted = Noted { inc: a, q, sample };
+    // Each order: its increment `a_i = n_i Δθ` (0 after a reset), process noise
+    // `q_i = q_s + q_rad |a_i|` and status.
+    let mut noted = Noted { inc: [zero; M], q: [zero; M], sample };
     let mut dec = Decided { keep: [none; M], couple: [none; M], off: [none; M], active: [none; M], flags: none };
     let (mut any_off, mut any_held) = (none, none);
     for i in 0..M {
-        let (reset, abs_a) = (reset[i], a[i].abs());
+        let r = plan.reference[i];
+        let reset = gap | pick(&jump, r);
+        let a = reset.select(zero, pick(&delta, r) * orders[i].multiple);
+        let q = (n_noise * orders[i].q_per_sample_nm2).madd::<F>(orders[i].q_per_rad_nm2, a.abs());
+        (noted.inc[i], noted.q[i]) = (a, q);
+        if COMMON {
+            continue;
+        }
+        let abs_a = a.abs();
         let prev = bank.status[i];
         let was_off = Mask::of(|l| prev[l] == OrderStatus::Off);
         let was_held = Mask::of(|l| prev[l] == OrderStatus::Held);
         let off_now = !reset
             & ((was_off & !abs_a.less(plan.on_below_rad)) | (!was_off & L::splat(plan.off_above_rad).less(abs_a)));
-        let mean_a = (mean[plan.reference[i]] * model.orders[i].multiple).abs();
+        let mean_a = (pick(&mean, r) * orders[i].multiple).abs();
         let held_now = !off_now & (reset | mean_a.less(plan.hold_below_rad));
         let off = skip.select_mask(was_off, off_now);
         let held = skip.select_mask(was_held, held_now);
@@ -409,8 +370,8 @@ fn decide<T: Real, const M: usize, const J: usize>(
         dec.off[i] = off;
         dec.active[i] = !off & !held;
         dec.couple[i] = skip | dec.active[i];
-        noted.inc[i] = zeroed.select(zero, a[i]);
-        noted.q[i] = (off | skip).select(zero, q[i]);
+        noted.inc[i] = zeroed.select(zero, a);
+        noted.q[i] = (off | skip).select(zero, q);
         (any_off, any_held) = (any_off | off, any_held | held);
     }
     dec.flags = skip.bits(StepFlags::ANGLE_SKIPPED.bits())
@@ -422,75 +383,36 @@ fn decide<T: Real, const M: usize, const J: usize>(
     (noted, dec)
 }
 
-/// The common sample, tested before anything is written: for every joint the
-/// measurement and the references are usable, it follows a sample taken (none pending)
-/// within the gap limit, no reference jumps, and every order was active and stays so.
-/// Then the references' state is written and every order's increment and process noise
-/// returned (as the general decisions would give them, bit for bit); else nothing.
+/// Whether the sample is common for every joint: the measurement and the references
+/// are usable, it follows a sample taken (none pending) within the gap limit, no
+/// reference jumps, and every order was active and stays so. Tested before anything is
+/// written, with [`decide`]'s numbers.
 #[inline(always)]
-fn common<T: Real, const M: usize, const J: usize, const F: bool>(
+fn is_common<T: Real, const M: usize, const J: usize, const F: bool>(
     model: &RippleModel<T, M>,
-    bank: &mut RippleBank<T, M, J>,
+    bank: &RippleBank<T, M, J>,
     refs: [L<T, J>; 3],
     y: L<T, J>,
     dt: T,
     dt_ok: bool,
-) -> Option<Observed<T, M, J>> {
-    let (plan, lim, orders) = (&model.plan, &model.limits, &model.orders);
-    if !(dt_ok && dt <= plan.max_gap_s) {
-        return None;
+) -> bool {
+    if !(dt_ok && dt <= model.plan.max_gap_s) || tests::general_only() {
+        return false;
     }
-    let zero = L::splat(T::ZERO);
-    // A non-finite reference gives a NaN increment, which fails the step limit.
+    // A non-finite reference gives a NaN increment, which fails the step limit. Each
+    // reference is written out, so that its values stay in registers.
     let ok = y.finite() & L(bank.pending_samples).equals(T::ZERO) & Mask::of(|l| bank.has_last[l]);
-    // Each reference (written out, so its values stay in registers).
     let settled = |r: usize, ok: Mask<T, J>| settled::<T, M, J, F>(model, bank, r, refs[r], dt, ok);
-    let (ok, d0, m0) = settled(0, ok);
-    let (ok, d1, m1) = settled(1, ok);
-    let (mut ok, d2, m2) = settled(2, ok);
-    let (delta, mean) = ([d0, d1, d2], [m0, m1, m2]);
+    let mut ok = settled(2, settled(1, settled(0, ok)));
     for i in 0..M {
         ok = ok & Mask::of(|l| bank.status[i][l] == OrderStatus::Active);
     }
-    if !ok.all() {
-        return None;
-    }
-    let angle_input = model.phase_source == PhaseSource::Angle;
-    for r in 0..3 {
-        if plan.uses[r] {
-            let next = if angle_input { refs[r] } else { L(bank.psi[r]) + delta[r] };
-            bank.psi[r] = wrap(next).0;
-            (bank.last[r], bank.last_delta[r], bank.mean_delta[r]) = (refs[r].0, delta[r].0, mean[r].0);
-        }
-    }
-    bank.delta_known = [true; J];
-    let one = L::splat(T::ONE);
-    let (mut inc, mut q) = ([zero; M], [zero; M]);
-    for i in 0..M {
-        inc[i] = pick(&delta, plan.reference[i]) * orders[i].multiple;
-        q[i] = (one * orders[i].q_per_sample_nm2).madd::<F>(orders[i].q_per_rad_nm2, inc[i].abs());
-    }
-    let (yes, no) = (Mask::splat(true), Mask::splat(false));
-    let inflation = L::splat(lim.covariance_inflation);
-    let sample = Sample {
-        skip: no,
-        counted: yes,
-        gap: no,
-        meas_ok: yes,
-        pending: zero,
-        n_samples: one,
-        n_noise: one,
-        total_dt: L::splat(dt),
-        inflation,
-    };
-    tests::count_common();
-    Some(Observed { sample, inc, mean: [zero; 3], reset: [no; M], q, any_jump: no, common: true })
+    ok.all()
 }
 
 /// Where the common sample's reference `r` at `v` (increment over `dt`) is settled: it
 /// does not jump, and each order's line `|n Δθ|` is within the limits (the widest's below
-/// the switch-off, the narrowest's mean above the hold); `ok` and that, the increment and
-/// the mean increment (0 for a reference no order uses).
+/// the switch-off, the narrowest's mean above the hold), and `ok`.
 #[inline(always)]
 fn settled<T: Real, const M: usize, const J: usize, const F: bool>(
     model: &RippleModel<T, M>,
@@ -499,10 +421,10 @@ fn settled<T: Real, const M: usize, const J: usize, const F: bool>(
     v: L<T, J>,
     dt: T,
     ok: Mask<T, J>,
-) -> (Mask<T, J>, L<T, J>, L<T, J>) {
+) -> Mask<T, J> {
     let (plan, lim) = (&model.plan, &model.limits);
     if !plan.uses[r] {
-        return (ok, L::splat(T::ZERO), L::splat(T::ZERO));
+        return ok;
     }
     let d = increment(model, v, L(bank.last[r]), L::splat(dt));
     let m = mean_increment::<T, J, F>(L(bank.mean_delta[r]), d);
@@ -512,7 +434,7 @@ fn settled<T: Real, const M: usize, const J: usize, const F: bool>(
         & steady
         & (d.abs() * plan.widest[r]).at_most(plan.off_above_rad)
         & !(m.abs() * plan.narrowest[r]).less(plan.hold_below_rad);
-    (ok & fine, d, m)
+    ok & fine
 }
 
 /// A reference's increment from `last` to `v`: `wrap_π(θ(k) − θ(k−1))` of angles, or
@@ -542,7 +464,7 @@ fn mean_increment<T: Real, const J: usize, const F: bool>(m: L<T, J>, d: L<T, J>
 /// Reference `r` at `v`: its increment `Δθ = wrap_π(θ(k) − θ(k−1))` or `(ω(k−1) + ω(k))/2
 /// · dt`, jump, and running mean of the increment per sample; its phase and last values.
 #[inline(always)]
-fn reference<T: Real, const M: usize, const J: usize, const F: bool>(
+fn reference<T: Real, const M: usize, const J: usize, const F: bool, const COMMON: bool>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
     r: usize,
@@ -558,19 +480,22 @@ fn reference<T: Real, const M: usize, const J: usize, const F: bool>(
     let last_delta = L(bank.last_delta[r]);
     let changed = !(d - last_delta * n_samples).abs().at_most(lim.max_step_change_rad);
     let jump = counted & (!d.abs().at_most(lim.max_angle_step_rad) | (Mask::of(|l| bank.delta_known[l]) & changed));
+    let jump = if COMMON { Mask::splat(false) } else { jump };
     let accept = counted & !jump;
     let per_sample = if pending.equals(T::ZERO).all() { d } else { pending.equals(T::ZERO).select(d, d / n_samples) };
+    // State written where the mask holds (in the common sample it always does).
+    let write = |mask: Mask<T, J>, old: L<T, J>, new: L<T, J>| if COMMON { new.0 } else { mask.update(old, new).0 };
     let m = L(bank.mean_delta[r]);
-    let mean = accept.update(m, mean_increment::<T, J, F>(m, per_sample));
-    bank.mean_delta[r] = mean.0;
-    bank.last_delta[r] = accept.update(last_delta, per_sample).0;
+    let mean = mean_increment::<T, J, F>(m, per_sample);
+    bank.mean_delta[r] = write(accept, m, mean);
+    bank.last_delta[r] = write(accept, last_delta, per_sample);
     let delta = counted.select(d, L::splat(T::ZERO));
     // The phase: the angle itself, or the accumulated increments.
     let psi = L(bank.psi[r]);
     let (next, keep_psi) = if angle_input { (v, skip) } else { (psi + delta, skip | jump) };
-    bank.psi[r] = (!keep_psi).update(psi, wrap(next)).0;
-    bank.last[r] = (!skip).update(last, v).0;
-    (delta, jump, mean)
+    bank.psi[r] = write(!keep_psi, psi, wrap(next));
+    bank.last[r] = write(!skip, last, v);
+    (delta, jump, L(bank.mean_delta[r]))
 }
 
 /// Each order with a fractional multiple keeps its own phase, advanced by its increment
