@@ -35,7 +35,7 @@ import numpy as np
 import strainwave as sw
 
 ROOT = Path(__file__).resolve().parents[2]
-CONFIG = ROOT / "examples" / "joint-taghirad-seed-6th.toml"
+CONFIG = ROOT / "examples" / "joint-taghirad-6th-order.toml"
 FLEET_CONFIG = ROOT / "examples" / "joint-taghirad.toml"
 
 

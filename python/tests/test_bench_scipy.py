@@ -32,7 +32,7 @@ def table_i_coefficients(t):
 
 
 @pytest.mark.parametrize("name", ["g_ts", "g_acc", "g_acc_full"])
-def test_model_coefficients_follow_the_seed(models, name):
+def test_model_coefficients_follow_the_paper(models, name):
     b, a = table_i_coefficients(models["table_i"])[name]
     np.testing.assert_allclose(models[name]["b"], b, rtol=RTOL, atol=0)
     np.testing.assert_allclose(models[name]["a"], a, rtol=RTOL, atol=0)

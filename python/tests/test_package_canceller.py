@@ -13,7 +13,7 @@ pd = pytest.importorskip("pandas")
 sw = pytest.importorskip("strainwave", reason="pip install ./python (./scripts/test-all does)")
 
 CONFIG = ROOT / "examples" / "joint-taghirad.toml"
-SEED_6TH = ROOT / "examples" / "joint-taghirad-seed-6th.toml"
+TAGHIRAD_6TH = ROOT / "examples" / "joint-taghirad-6th-order.toml"
 
 
 @pytest.fixture(scope="module")
@@ -72,7 +72,7 @@ def assert_block_is_cli(got, cli_cols, what):
 @pytest.fixture(scope="module")
 def velocity_config(tmp_path_factory):
     """The Taghirad 6th-order model with its phase from the tachometer (`filter.phase = "velocity"`)."""
-    text = SEED_6TH.read_text()
+    text = TAGHIRAD_6TH.read_text()
     assert 'phase = "angle"' in text
     path = tmp_path_factory.mktemp("cfg") / "joint-velocity.toml"
     path.write_text(text.replace('phase = "angle"', 'phase = "velocity"'))
@@ -90,9 +90,9 @@ def health_lines(stderr):
 
 
 @pytest.mark.parametrize("guard", [True, False], ids=["guard", "bare"])
-@pytest.mark.parametrize("config", ["full", "seed-6th", "denoised", "velocity"])
+@pytest.mark.parametrize("config", ["full", "taghirad-6th", "denoised", "velocity"])
 def test_run_is_the_cli_bit_for_bit(cli, recording, tmp_path, denoised_config, velocity_config, config, guard):
-    config = {"full": CONFIG, "seed-6th": SEED_6TH, "denoised": denoised_config, "velocity": velocity_config}[config]
+    config = {"full": CONFIG, "taghirad-6th": TAGHIRAD_6TH, "denoised": denoised_config, "velocity": velocity_config}[config]
     expected, copy, stderr = cli_filter(cli, config, recording, tmp_path / "out.csv", guard=guard)
     rec = sw.read_recording(recording)
     c = sw.RippleCanceller.from_config(copy)
@@ -146,7 +146,7 @@ def test_step_loop_equals_run(recording, tmp_path, guard):
 def test_nan_samples_are_flagged_not_errors(recording):
     rec = sw.read_recording(recording).iloc[:200].copy()
     rec.loc[100, "bridge_voltage"] = np.nan
-    out = sw.RippleCanceller.from_config(SEED_6TH).run(rec)
+    out = sw.RippleCanceller.from_config(TAGHIRAD_6TH).run(rec)
     skipped = 1  # StepFlags::MEASUREMENT_SKIPPED
     assert int(out["filter_flags"][100]) & skipped
     assert not any(int(f) & skipped for f in np.delete(out["filter_flags"], 100))
@@ -194,7 +194,7 @@ def test_bad_rows_are_filter_lenient(cli, recording, tmp_path):
     rec.loc[400:402, "output_angle"] = np.inf
     bad = tmp_path / "bad.csv"
     sw.write_recording(rec, bad)
-    expected, copy, _ = cli_filter(cli, SEED_6TH, bad, tmp_path / "out.csv", "--lenient", "--quiet", guard=True)
+    expected, copy, _ = cli_filter(cli, TAGHIRAD_6TH, bad, tmp_path / "out.csv", "--lenient", "--quiet", guard=True)
     got = sw.RippleCanceller.from_config(copy).run(sw.read_recording(bad))
     assert_block_is_cli(got, expected, "lenient run")
     assert int(got["filter_flags"][100]) & 1 and int(got["filter_flags"][200]) & 2

@@ -14,7 +14,7 @@ tomllib = pytest.importorskip("tomllib", reason="Python 3.11 or later (tomllib)"
 sw = pytest.importorskip("strainwave", reason="pip install ./python (./scripts/test-all does)")
 
 CONFIG = ROOT / "examples" / "joint-taghirad.toml"
-SEED_6TH = ROOT / "examples" / "joint-taghirad-seed-6th.toml"
+TAGHIRAD_6TH = ROOT / "examples" / "joint-taghirad-6th-order.toml"
 
 
 @pytest.fixture(scope="module")
@@ -108,7 +108,7 @@ def test_learn_true_saves_anywhere_and_reset_starts_over(cli, runs, tmp_path):
 
 def test_a_file_of_another_joint_is_refused_as_filter_refuses_it(cli, runs, tmp_path):
     other = tmp_path / "other.toml"
-    cli_learn(cli, SEED_6TH, runs[0], other, tmp_path / "out.csv")
+    cli_learn(cli, TAGHIRAD_6TH, runs[0], other, tmp_path / "out.csv")
     before = other.read_bytes()
     res = cli("filter", "--config", CONFIG, "--in", runs[0], "--out", tmp_path / "x.csv", "--learn", other)
     assert res.returncode == 1

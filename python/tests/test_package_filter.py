@@ -46,7 +46,7 @@ def test_simulate_is_the_cli_twin(cli, tmp_path):
 
 
 @pytest.mark.parametrize("smooth", [False, True], ids=["stream", "smooth"])
-@pytest.mark.parametrize("config", ["joint-taghirad.toml", "joint-taghirad-seed-6th.toml"])
+@pytest.mark.parametrize("config", ["joint-taghirad.toml", "joint-taghirad-6th-order.toml"])
 def test_filter_recording_is_the_cli_bit_for_bit(cli, recording, tmp_path, smooth, config):
     config = ROOT / "examples" / config
     out = tmp_path / "out.csv"

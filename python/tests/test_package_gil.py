@@ -9,7 +9,7 @@ pd = pytest.importorskip("pandas")
 sw = pytest.importorskip("strainwave", reason="pip install ./python (./scripts/test-all does)")
 
 
-CONFIG = ROOT / "examples" / "joint-taghirad-seed-6th.toml"
+CONFIG = ROOT / "examples" / "joint-taghirad-6th-order.toml"
 
 
 @pytest.fixture(scope="module")

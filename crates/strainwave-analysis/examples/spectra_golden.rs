@@ -5,7 +5,7 @@
 //! complex responses, the complementary filters' and the online corrected fusion's
 //! coefficients) into the directory given.
 //!
-//! `cargo run -p strainwave-analysis --example spectra_golden -- /tmp/golden`
+//! `cargo run -p strainwave-analysis --example spectra_golden -- target/golden`
 
 use std::fmt::Write as _;
 use std::path::PathBuf;

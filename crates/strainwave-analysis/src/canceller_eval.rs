@@ -1,5 +1,5 @@
 //! Accuracy of ripple/misalignment cancellers against a simulator's truth, side by side
-//! with the simple alternatives (issue: the real-time canceller; docs/physics.md §4).
+//! with the simple alternatives (docs/physics.md §4).
 //!
 //! Figures, per method, over a run:
 //! - **ripple + misalignment remaining**, dB below raw: `20 log10(rms(P) / rms(P_left))`
@@ -59,9 +59,9 @@ pub enum Method {
     /// Notch (Q = 2) at this frequency, Hz.
     Notch(f64),
     /// Taghirad and Bélanger (1999)'s 4th-order model (2×, 4× on the tachometer, Q = 1e-3 I, R = 1).
-    Seed4th,
+    Taghirad4th,
     /// Taghirad and Bélanger (1999)'s 6th-order model (plus 1× output).
-    Seed6th,
+    Taghirad6th,
     /// The full configuration (2×, 4× relative angle, the same scaled by load, 1×
     /// output, bias state) starting from what [`commission`] learned.
     Full,
@@ -85,8 +85,8 @@ impl Method {
             Method::Raw => "raw measurement".into(),
             Method::LowPass(f) => format!("2nd-order low-pass {f:.1} Hz"),
             Method::Notch(f) => format!("notch at the 2× line {f:.1} Hz"),
-            Method::Seed4th => "Taghirad 4th-order (2×, 4× tacho)".into(),
-            Method::Seed6th => "Taghirad 6th-order (+1× output)".into(),
+            Method::Taghirad4th => "Taghirad 4th-order (2×, 4× tacho)".into(),
+            Method::Taghirad6th => "Taghirad 6th-order (+1× output)".into(),
             Method::Full => "strainwave full (commissioned)".into(),
             Method::FullCold => "strainwave full, no commissioning".into(),
             Method::Smoothed => "strainwave full, smoothed (offline)".into(),
@@ -147,7 +147,7 @@ fn run_kalman<const M: usize>(
     let mut out = Vec::with_capacity(y.len());
     for (k, &yk) in y.iter().enumerate() {
         let refs = if velocity {
-            // The seed: 2×, 4× of the motor velocity, misalignment at velocity / ratio.
+            // The paper's phase source: 2×, 4× of the motor velocity, misalignment at velocity / ratio.
             let w = s.motor_velocity_rad_s[k];
             ReferenceValues::new(w, w / n_s, w)
         } else {
@@ -232,14 +232,14 @@ fn apply(
             lti(&Biquad::lowpass(fc, std::f64::consts::FRAC_1_SQRT_2, fs).map_err(core_err("low-pass"))?, y)
         }
         Method::Notch(f0) => lti(&notch(f0, fs)?, y),
-        Method::Seed4th => {
-            let m = RippleModel::<f64, 2>::seed_4th_order(fs)
+        Method::Taghirad4th => {
+            let m = RippleModel::<f64, 2>::taghirad_4th_order(fs)
                 .map_err(core_err("paper's model"))?
                 .with_phase_source(PhaseSource::Velocity);
             run_kalman(&m, gear, y, s, true)?.iter().map(|o| o.torque_nm).collect()
         }
-        Method::Seed6th => {
-            let m = RippleModel::<f64, 3>::seed_6th_order(fs)
+        Method::Taghirad6th => {
+            let m = RippleModel::<f64, 3>::taghirad_6th_order(fs)
                 .map_err(core_err("paper's model"))?
                 .with_phase_source(PhaseSource::Velocity);
             run_kalman(&m, gear, y, s, true)?.iter().map(|o| o.torque_nm).collect()

@@ -252,7 +252,7 @@ pub(crate) fn rts_step<const M: usize>(
 /// ```
 /// use strainwave_analysis::smoother::smooth;
 /// use strainwave_core::ripple::{ReferenceValues, RippleInput, RippleModel};
-/// let model = RippleModel::<f64, 2>::seed_4th_order(1000.0).unwrap();
+/// let model = RippleModel::<f64, 2>::taghirad_4th_order(1000.0).unwrap();
 /// let inputs: Vec<_> = (0..2000)
 ///     .map(|k| {
 ///         let phi = 0.05 * k as f64;
@@ -457,7 +457,7 @@ mod tests {
     fn smoothed_waveform_is_zero_phase() {
         // A pure 2× ripple of growing amplitude: the smoothed estimate has no lag, so its
         // error is not correlated with the amplitude's rate of change.
-        let model = RippleModel::<f64, 2>::seed_4th_order(1000.0).unwrap();
+        let model = RippleModel::<f64, 2>::taghirad_4th_order(1000.0).unwrap();
         let inputs: Vec<_> = (0..20_000)
             .map(|k| {
                 let phi = 0.05 * k as f64;
@@ -541,11 +541,12 @@ mod tests {
 
     #[test]
     fn works_in_f32_and_reports_filter_errors() {
-        let model = RippleModel::<f32, 2>::seed_4th_order(1000.0).unwrap();
+        let model = RippleModel::<f32, 2>::taghirad_4th_order(1000.0).unwrap();
         let inputs: Vec<_> =
             (0..500).map(|k| RippleInput::new(1.0f32, ReferenceValues::new(0.05 * k as f32, 0.0, 0.0))).collect();
         assert_eq!(smooth(&model, &inputs).unwrap().smoothed.len(), 500);
-        let bad = RippleModel::<f32, 2>::seed_4th_order(1000.0).unwrap().with_initial_variance(f32::MAX, 1.0).unwrap();
+        let bad =
+            RippleModel::<f32, 2>::taghirad_4th_order(1000.0).unwrap().with_initial_variance(f32::MAX, 1.0).unwrap();
         assert!(matches!(smooth(&bad, &inputs), Err(SmootherError::Filter { index: 0, .. })));
         assert!(smooth(&model, &[]).unwrap().smoothed.is_empty());
     }

@@ -60,14 +60,14 @@ pub const DYNAMIC_ERRORS_NM: [f64; 16] =
     [0.16, -0.16, 0.16, -0.16, -0.11, -0.16, 0.11, 0.16, -0.16, -0.16, 0.16, 0.11, 0.64, -0.11, -0.64, 0.16];
 
 /// `(T_sens, T_ref)` of the static fixture.
-pub fn seed001_static() -> (Vec<f64>, Vec<f64>) {
+pub fn embedded_sensor_static() -> (Vec<f64>, Vec<f64>) {
     let x: Vec<f64> = (0..8).map(|k| 2.0 * k as f64).collect();
     let t = x.iter().zip(STATIC_ERRORS_NM).map(|(x, e)| STATIC_ALPHA * x + STATIC_BETA_NM + e).collect();
     (x, t)
 }
 
 /// `(T_sens, T_ref)` of the dynamic fixture.
-pub fn seed001_dynamic() -> (Vec<f64>, Vec<f64>) {
+pub fn embedded_sensor_dynamic() -> (Vec<f64>, Vec<f64>) {
     let x: Vec<f64> = (0..16).map(|k| k as f64 - 7.5).collect();
     let t = x.iter().zip(DYNAMIC_ERRORS_NM).map(|(x, e)| DYNAMIC_ALPHA * x + DYNAMIC_BETA_NM + e).collect();
     (x, t)
@@ -75,8 +75,8 @@ pub fn seed001_dynamic() -> (Vec<f64>, Vec<f64>) {
 
 #[test]
 fn error_patterns_are_orthogonal_to_the_regressors() {
-    let (xs, _) = seed001_static();
-    let (xd, _) = seed001_dynamic();
+    let (xs, _) = embedded_sensor_static();
+    let (xd, _) = embedded_sensor_dynamic();
     for (x, e) in [(&xs, &STATIC_ERRORS_NM[..]), (&xd, &DYNAMIC_ERRORS_NM[..])] {
         let sum: f64 = e.iter().sum();
         let dot: f64 = x.iter().zip(e).map(|(a, b)| a * b).sum();

@@ -8,7 +8,7 @@ use strainwave_analysis::ident::{
 };
 use strainwave_analysis::AnalysisError;
 use strainwave_core::compliance::{
-    Compliance, CubicStiffness, FlexsplineStiffening, PlayHysteresis, SeedCompliance, ThreeSlopeStiffness,
+    Compliance, CubicStiffness, FlexsplineStiffening, HdaArmCompliance, PlayHysteresis, ThreeSlopeStiffness,
     WaveGeneratorSoftening,
 };
 use strainwave_core::gear::{FixedElement, Gear};
@@ -35,9 +35,9 @@ fn held_run(n: usize, twist: impl Fn(f64, usize) -> f64) -> (Vec<f64>, Vec<f64>,
 }
 
 #[test]
-fn seed002_polynomial_is_recovered_over_one_motor_revolution() {
+fn hda_arm_polynomial_is_recovered_over_one_motor_revolution() {
     // HDA arm, Table II: the polynomial over one motor revolution (2π/N of output).
-    let truth = KinematicPolynomial::<f64, 6>::seed002();
+    let truth = KinematicPolynomial::<f64, 6>::hda_arm();
     let g = gear();
     let n = 4000;
     let (mut motor, mut link) = (Vec::new(), Vec::new());
@@ -55,7 +55,7 @@ fn seed002_polynomial_is_recovered_over_one_motor_revolution() {
     }
     let core = fit.to_polynomial::<6>().unwrap();
     assert!((core.eval(0.05) - truth.eval(0.05)).abs() < 1e-12);
-    println!("seed polynomial refitted: {:?}", fit.coefficients);
+    println!("the paper's polynomial refitted: {:?}", fit.coefficients);
     // A run that does not move cannot be fitted.
     let still = vec![0.0; 100];
     let a = JointAngles { motor_angle_rad: &still, link_angle_rad: &still, sample_rate_hz: FS_HZ };
@@ -115,7 +115,7 @@ fn linear_and_cubic_stiffness_by_least_squares() {
 }
 
 #[test]
-fn three_slope_and_seed_springs_by_levenberg_marquardt() {
+fn three_slope_and_hda_arm_springs_by_levenberg_marquardt() {
     let g = gear();
     let k = ThreeSlopeStiffness::new(1.3e4, 1.8e4, 2.3e4, 7.0, 25.0).unwrap();
     let (m, l, tau) = held_run(6000, |t, _| Compliance::twist_rad(&k, t));
@@ -131,19 +131,19 @@ fn three_slope_and_seed_springs_by_levenberg_marquardt() {
         }
         p => panic!("{p:?}"),
     }
-    let seed = SeedCompliance::new(
+    let springs = HdaArmCompliance::new(
         FlexsplineStiffening::new(2.0e4, 0.015).unwrap(),
         WaveGeneratorSoftening::new(2.5, 1.5).unwrap(),
         N,
     )
     .unwrap();
-    let (m, l, tau) = held_run(6000, |t, _| seed.twist_rad(t));
+    let (m, l, tau) = held_run(6000, |t, _| springs.twist_rad(t));
     let a = JointAngles { motor_angle_rad: &m, link_angle_rad: &l, sample_rate_hz: FS_HZ };
     let mut o = ComplianceFitOptions::new(ComplianceForm::Seed { ratio: N }, 40.0);
     o.decimation = 4;
     o.max_iterations = 80;
     let fit = fit_compliance(&g, &NoKinematicError, &a, &tau, &o).unwrap();
-    println!("seed springs: {:?} {:?}", fit.params, fit.metrics);
+    println!("HDA-arm springs: {:?} {:?}", fit.params, fit.metrics);
     // Two hardening springs in series are nearly interchangeable: check the curve, not each parameter.
     assert!(fit.metrics.max_abs < 0.02, "{:?}", fit.metrics);
 }

@@ -1,6 +1,7 @@
-//! The demo's bench section (spec §6): Table I figures from the models, then the hybrid
-//! fusion methods measured on the bench twin's current sweeps (calibrate on one sweep,
-//! validate on another against the true air-gap torque).
+//! The demo's bench section (hybrid torque sensing after Stoß et al., 2022): Table I
+//! figures from the models, then the hybrid fusion methods measured on the bench twin's
+//! current sweeps (calibrate on one sweep, validate on another against the true air-gap
+//! torque).
 //!
 //! What limits the corrected fusion is the calibration sweep, not the FIR design: a log
 //! sweep of length `T` puts energy `∝ T / f` into each bin, while the errors of the
@@ -74,7 +75,7 @@ pub fn section() -> Result<(String, String, Vec<LinePlot>)> {
     let ts = TorsionShaftModel::<f64>::kit();
     let acc = AccelerometerModel::<f64>::kit();
     let eq13 = LinearPmsm::<f64>::nanotec_db59().torque_nm(0.0, 2.0);
-    let fig_header = ["quantity", "value", "spec"];
+    let fig_header = ["quantity", "value", "paper"];
     let fig_rows = vec![
         vec!["f_res,TS (torsion shaft)".into(), format!("{:.1} Hz", ts.resonance_hz()), "829.3 Hz".into()],
         vec!["f_res,ACC (housing)".into(), format!("{:.2} Hz", acc.resonance_hz()), "23.73 Hz".into()],

@@ -19,12 +19,12 @@ use crate::report::plot::LinePlot;
 use crate::report::text::text_table;
 
 /// Taghirad and Bélanger (1999)'s gain, N·m/V, and consistency, %.
-const SEED000_GAIN_NM_PER_V: f64 = 6.60;
-const SEED000_CONSISTENCY_PERCENT: f64 = 2.0;
-/// the embedded-sensor article's full scale (its % FS figures imply about 20 N·m).
-const SEED001_FULL_SCALE_NM: f64 = 20.0;
-/// the embedded-sensor article's table: model, α, β N·m, max |e| N·m, RMS N·m, RMS % FS.
-const SEED001: [(&str, f64, f64, f64, f64, f64); 2] =
+const TAGHIRAD_GAIN_NM_PER_V: f64 = 6.60;
+const TAGHIRAD_CONSISTENCY_PERCENT: f64 = 2.0;
+/// The embedded-sensor article's full scale (its % FS figures imply about 20 N·m).
+const EMBEDDED_FULL_SCALE_NM: f64 = 20.0;
+/// The embedded-sensor article's table: model, α, β N·m, max |e| N·m, RMS N·m, RMS % FS.
+const EMBEDDED_ROWS: [(&str, f64, f64, f64, f64, f64); 2] =
     [("static", 1.284, -0.0812, 0.39, 0.21, 1.04), ("dynamic", 1.572, -0.0928, 0.64, 0.265, 1.27)];
 /// Quasi-static rows: the reference steady for this long, s.
 const HOLD_S: f64 = 0.6;
@@ -83,7 +83,7 @@ pub fn section() -> Result<(String, String, Vec<LinePlot>)> {
         format!("{:.4}", g.gain_nm_per_v),
         format!("{true_mean:.4}"),
         err(g.gain_nm_per_v, true_mean),
-        format!("{SEED000_GAIN_NM_PER_V:.2}"),
+        format!("{TAGHIRAD_GAIN_NM_PER_V:.2}"),
     ]);
     rows.push(vec![
         "consistency std/mean %".into(),
@@ -91,10 +91,10 @@ pub fn section() -> Result<(String, String, Vec<LinePlot>)> {
         format!("{consistency:.3}"),
         format!("{:.3}", 100.0 * true_consistency),
         format!("{:+.3} pt", consistency - 100.0 * true_consistency),
-        format!("{SEED000_CONSISTENCY_PERCENT:.0}"),
+        format!("{TAGHIRAD_CONSISTENCY_PERCENT:.0}"),
     ]);
     let header =
-        ["locked WG (Taghirad 1999)", "position, range, temperature", "fitted N·m/V", "true N·m/V", "error %", "seed"];
+        ["locked WG (Taghirad 1999)", "position, range, temperature", "fitted N·m/V", "true N·m/V", "error %", "paper"];
     let _ = writeln!(text, "  gain per experiment (T = g V through the origin) against the simulator's truth:");
     text += &text_table(&header, &rows);
     html += "<p>Taghirad 1999: gain per experiment on the simulated locked-wave-generator procedure \
@@ -156,15 +156,15 @@ pub fn section() -> Result<(String, String, Vec<LinePlot>)> {
         };
         let pick = |x: &[f64]| x.iter().zip(&keep).filter(|(_, &k)| k).map(|(v, _)| *v).collect::<Vec<f64>>();
         let (rs, ms) = (pick(r), pick(m));
-        let f = fit_affine(&ms, &rs, Some(SEED001_FULL_SCALE_NM))?;
-        let seed = SEED001.iter().find(|s| s.0 == name).context("seed row")?;
+        let f = fit_affine(&ms, &rs, Some(EMBEDDED_FULL_SCALE_NM))?;
+        let paper = EMBEDDED_ROWS.iter().find(|s| s.0 == name).context("paper row")?;
         let what = if name == "static" { format!("static, held {HOLD_S} s") } else { "dynamic, all rows".into() };
         err_rows.push(affine_row(&what, rs.len(), f.alpha, f.beta_nm, &f.metrics));
-        err_rows.push(seed_row(seed));
+        err_rows.push(paper_row(paper));
         if name == "dynamic" {
             let w = c("motor_velocity")?;
             let dep = SpeedDependence::Table(SpeedBins::EqualWidth(3));
-            let tab = fit_speed_dependent(m, r, w, &dep, Extrapolation::Clamp, Some(SEED001_FULL_SCALE_NM))?;
+            let tab = fit_speed_dependent(m, r, w, &dep, Extrapolation::Clamp, Some(EMBEDDED_FULL_SCALE_NM))?;
             let coeffs: Vec<String> = tab
                 .speed_rad_s
                 .iter()
@@ -185,12 +185,12 @@ pub fn section() -> Result<(String, String, Vec<LinePlot>)> {
     let err_header = ["embedded-sensor model", "rows", "T_ref = α T_sens + β", "max |e| N·m", "RMS N·m", "RMS % FS"];
     let _ = writeln!(
         text,
-        "  embedded-sensor rig (presets flexspline-fixed-static / -dynamic), sensor = measured_torque, FS {SEED001_FULL_SCALE_NM} N·m:"
+        "  embedded-sensor rig (presets flexspline-fixed-static / -dynamic), sensor = measured_torque, FS {EMBEDDED_FULL_SCALE_NM} N·m:"
     );
     text += &text_table(&err_header, &err_rows);
     html += &format!(
         "<p>Embedded sensor: static model on held loads (reference steady for {HOLD_S} s), dynamic model on the \
-         sinusoidal-load run, and a speed table; error figures over the fitted rows, % of a {SEED001_FULL_SCALE_NM} N·m \
+         sinusoidal-load run, and a speed table; error figures over the fitted rows, % of a {EMBEDDED_FULL_SCALE_NM} N·m \
          full scale, beside the paper's table.</p>"
     );
     html += &table(&err_header, &err_rows);
@@ -214,7 +214,7 @@ fn affine_row(
     ]
 }
 
-fn seed_row(s: &(&str, f64, f64, f64, f64, f64)) -> Vec<String> {
+fn paper_row(s: &(&str, f64, f64, f64, f64, f64)) -> Vec<String> {
     vec![
         format!("  embedded sensor {}", s.0),
         "".into(),

@@ -10,7 +10,7 @@ use strainwave_analysis::ident::{
 };
 use strainwave_core::gear::{FixedElement, Gear};
 use strainwave_core::torsion::{EncoderConfig, EstimatorState, MeshAngle, NoKinematicError};
-use strainwave_sim::arm::{simulate_arm, ArmRecording, ArmScenario, SeedExperiment};
+use strainwave_sim::arm::{simulate_arm, ArmExperiment, ArmRecording, ArmScenario};
 
 use crate::report::plot::{LinePlot, Series};
 
@@ -19,8 +19,8 @@ struct Run {
     scenario: ArmScenario,
 }
 
-fn run(e: SeedExperiment) -> Result<Run> {
-    let scenario = ArmScenario::seed_experiment(e)?;
+fn run(e: ArmExperiment) -> Result<Run> {
+    let scenario = ArmScenario::experiment(e)?;
     Ok(Run { rec: simulate_arm(&scenario)?, scenario })
 }
 
@@ -60,8 +60,8 @@ fn estimate_counts(fit: &ComplianceFit, kin: &KinematicFit, r: &Run) -> Result<V
 
 /// Text for the terminal, HTML for the report, plots.
 pub fn section() -> Result<(String, String, Vec<LinePlot>)> {
-    let no_load = run(SeedExperiment::NoLoad)?;
-    let loaded = run(SeedExperiment::LoadedHold)?;
+    let no_load = run(ArmExperiment::NoLoad)?;
+    let loaded = run(ArmExperiment::LoadedHold)?;
     let s = &no_load.scenario;
     let g = gear(s)?;
     let opts = KinematicFitOptions::default();
@@ -105,22 +105,22 @@ pub fn section() -> Result<(String, String, Vec<LinePlot>)> {
     let mut rows = Vec::new();
     let mut plots = Vec::new();
     for e in [
-        SeedExperiment::StepHold,
-        SeedExperiment::PeriodicHold,
-        SeedExperiment::StepConstantTorque,
-        SeedExperiment::PeriodicConstantTorque,
+        ArmExperiment::StepHold,
+        ArmExperiment::PeriodicHold,
+        ArmExperiment::StepConstantTorque,
+        ArmExperiment::PeriodicConstantTorque,
     ] {
         let r = run(e)?;
         let truth = col(&r, "true_link_torque")?;
         let est = estimate_counts(&ours, &fourier, &r)?;
         let m_ours = FitMetrics::of(&est, truth);
         let m_lin = FitMetrics::of(&linear.predict(&gear(&r.scenario)?, NoKinematicError, &angles(&r)?)?, truth);
-        let (paper, ratio) = match e.seed_figures_nm() {
+        let (paper, ratio) = match e.paper_figures_nm() {
             Some((mean, max)) => (format!("{mean}/{max}"), format!("{:.1}×", mean / m_ours.mean_abs)),
             None => ("—".into(), "—".into()),
         };
         rows.push(vec![e.name().to_string(), paper, fmt(&m_lin), fmt(&m_ours), ratio]);
-        if e == SeedExperiment::StepHold {
+        if e == ArmExperiment::StepHold {
             let t = col(&r, "time")?.to_vec();
             plots.push(LinePlot {
                 title: "HDA arm step (position held): link torque from the encoders".into(),

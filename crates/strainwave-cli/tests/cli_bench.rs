@@ -235,7 +235,7 @@ fn bad_inputs_give_one_line_errors() {
     assert_user_error(&o, "nope");
 }
 
-/// The target, end to end: `fuse` with its defaults on the `kit-bench-sweep`
+/// The fusion target, end to end: `fuse` with its defaults on the `kit-bench-sweep`
 /// preset is flat against the true air-gap torque within ±1 dB and ±5° over 1 Hz–2 kHz
 /// (and 4 kHz) after a constant delay of at most 1 ms, and prints those figures.
 #[test]

@@ -7,7 +7,7 @@ use std::process::{Command, Output};
 
 use strainwave_analysis::calibration::{fit_affine, held_rows};
 
-/// Recovered gain against the simulator's true mean gain, relative (the 0.5 %).
+/// Recovered gain against the simulator's true mean gain, relative: at most 0.5 %.
 const GAIN_TOL: f64 = 0.005;
 /// Printed consistency against the true spread, percentage points.
 const CONSISTENCY_TOL_PT: f64 = 0.1;
@@ -78,8 +78,8 @@ fn write_csv(p: &Path, header: &str, rows: &[Vec<f64>]) {
 }
 
 #[test]
-fn seed000_loop_recovers_the_true_gain_and_spread() {
-    let d = tmp("seed000");
+fn taghirad_loop_recovers_the_true_gain_and_spread() {
+    let d = tmp("taghirad-gain");
     let (rec, cal) = (d.join("locked.csv"), d.join("cal.toml"));
     ok(&["simulate", "--preset", "taghirad", "--procedure", "locked-wg", "--out", s(&rec), "--quiet"]);
     let out = ok(&[
@@ -138,8 +138,8 @@ fn seed000_loop_recovers_the_true_gain_and_spread() {
 }
 
 #[test]
-fn seed001_static_and_dynamic_through_the_cli() {
-    let d = tmp("seed001");
+fn embedded_sensor_static_and_dynamic_through_the_cli() {
+    let d = tmp("embedded-sensor");
     let (st, dy) = (d.join("static.csv"), d.join("dynamic.csv"));
     ok(&["simulate", "--preset", "flexspline-fixed-static", "--out", s(&st), "--quiet"]);
     ok(&["simulate", "--preset", "flexspline-fixed-dynamic", "--out", s(&dy), "--quiet"]);

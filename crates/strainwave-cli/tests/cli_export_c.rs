@@ -75,10 +75,10 @@ fn errors_are_one_line() {
     assert_user_error(&run(&["export-c", "--config", &cfg, "--out", out, "--name", "3joint"]), "--name `3joint`");
     assert_user_error(&run(&["export-c", "--config", &cfg, "--out", out, "--name", "static"]), "--name `static`");
     // A learned file for another model: its identity lists five orders against the paper's three.
-    let seed = example("joint-taghirad-seed-6th.toml");
+    let sixth = example("joint-taghirad-6th-order.toml");
     let learned = example("joint-taghirad-learned.toml");
     assert_user_error(
-        &run(&["export-c", "--config", &seed, "--learned", &learned, "--out", out]),
+        &run(&["export-c", "--config", &sixth, "--learned", &learned, "--out", out]),
         "joint-taghirad-learned.toml: learned on another joint than",
     );
     assert_user_error(
@@ -86,7 +86,7 @@ fn errors_are_one_line() {
         "none.toml",
     );
     // The velocity phase without a tachometer channel.
-    let text = std::fs::read_to_string(&seed)
+    let text = std::fs::read_to_string(&sixth)
         .unwrap()
         .replace("phase = \"angle\"", "phase = \"velocity\"")
         .replace("motor_velocity = \"motor_velocity\"", "# no tachometer");

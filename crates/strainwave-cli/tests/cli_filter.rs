@@ -181,8 +181,8 @@ fn every_shipped_joint_config_runs_on_its_preset() {
     let cases = [
         ("joint-taghirad.toml", "taghirad-loaded", Some(20.0)),
         ("joint-flexspline-fixed.toml", "flexspline-fixed", Some(20.0)),
-        ("joint-taghirad-seed-4th.toml", "taghirad", None),
-        ("joint-taghirad-seed-6th.toml", "taghirad", None),
+        ("joint-taghirad-4th-order.toml", "taghirad", None),
+        ("joint-taghirad-6th-order.toml", "taghirad", None),
     ];
     for (cfg, preset, floor_db) in cases {
         let sim = d.join(format!("{preset}.csv"));

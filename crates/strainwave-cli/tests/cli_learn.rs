@@ -92,7 +92,7 @@ fn several_runs_in_one_call_merge_into_the_file() {
     std::fs::remove_dir_all(&d).unwrap();
 }
 
-/// The case: the flexspline-fixed joint's learned file with the taghirad config
+/// A learned file of another joint: the flexspline-fixed joint's learned file with the taghirad config
 /// is refused, naming the file and the fixed element.
 #[test]
 fn a_learned_file_of_another_joint_is_refused() {

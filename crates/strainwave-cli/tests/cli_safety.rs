@@ -1,4 +1,5 @@
-//! Nothing lost, nothing crashes: each case of the safety issue as a run of the binary.
+//! Nothing lost, nothing crashes: each failure case (partial outputs, overwritten inputs,
+//! bounds, glitches, interrupts, closed pipes) as a run of the binary.
 //! Outputs appear whole or not at all, an output naming an input is refused, bounds and
 //! glitches are one-line errors (exit 1, never a panic's 101), interrupts leave no
 //! temporary files and closed pipes end quietly.

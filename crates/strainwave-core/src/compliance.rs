@@ -30,12 +30,12 @@
 //! `c_w = 0` the linear limit `τ_w / K_w0`; all three are accepted.
 
 mod cubic;
+mod hda_arm;
 mod hysteresis;
-mod seed;
 
 pub use cubic::CubicStiffness;
+pub use hda_arm::{FlexsplineStiffening, HdaArmCompliance, WaveGeneratorSoftening};
 pub use hysteresis::{Hysteresis, PlayHysteresis, MAX_PLAYS};
-pub use seed::{FlexsplineStiffening, SeedCompliance, WaveGeneratorSoftening};
 
 use crate::error::{non_negative, positive, Error};
 use crate::Real;

@@ -14,7 +14,7 @@
 //! | `R` | `radius_m` | radius of the two accelerometers |
 //!
 //! ```text
-//! G_TS(s)  = T_TS / T_e = (2 J_B Γ s + J_B k) / (J_B J_R s² + 2Γ (J_B + J_R) s + k (J_B + J_R))   (seed eq. 1)
+//! G_TS(s)  = T_TS / T_e = (2 J_B Γ s + J_B k) / (J_B J_R s² + 2Γ (J_B + J_R) s + k (J_B + J_R))   (Stoß et al. 2022, eq. 1)
 //! f_res,TS = √(k (1/J_B + 1/J_R)) / 2π                                                        (eq. 2)
 //! G_ACC(s) = α_m / T_e = s² / (J_S s² + Γ_LS s + k_S)                                         (eq. 6)
 //! G_ACC(s) = s (J_B J_R s³ + J_B Γ s² + k (J_B + J_R) s + k Γ)

@@ -100,13 +100,13 @@ fn equivalence<const M: usize>(model: RippleModel<f64, M>, n: usize) {
 }
 
 #[test]
-fn seed_4th_order_equals_dense() {
-    equivalence(RippleModel::<f64, 2>::seed_4th_order(1000.0).unwrap(), 3000);
+fn taghirad_4th_order_equals_dense() {
+    equivalence(RippleModel::<f64, 2>::taghirad_4th_order(1000.0).unwrap(), 3000);
 }
 
 #[test]
-fn seed_6th_order_equals_dense() {
-    equivalence(RippleModel::<f64, 3>::seed_6th_order(1000.0).unwrap(), 3000);
+fn taghirad_6th_order_equals_dense() {
+    equivalence(RippleModel::<f64, 3>::taghirad_6th_order(1000.0).unwrap(), 3000);
 }
 
 #[test]

@@ -98,6 +98,6 @@ fn bad_priors_are_refused() {
     assert!(o.with_prior([f64::INFINITY, 0.0], 1.0).is_err());
     assert!(o.with_prior([0.0, 0.0], 0.0).is_err());
     assert!(o.with_prior([0.0, 0.0], f64::NAN).is_err());
-    let m = RippleModel::<f64, 2>::seed_4th_order(FS).unwrap();
+    let m = RippleModel::<f64, 2>::taghirad_4th_order(FS).unwrap();
     assert!(m.with_priors([([0.0, f64::NAN], 1.0), ([0.0, 0.0], 1.0)]).is_err());
 }

@@ -65,8 +65,8 @@ fn f32_product_1e7_samples() {
 }
 
 #[test]
-fn f32_seed_6th_order_1e7_samples() {
-    long_run(RippleModel::<f32, 3>::seed_6th_order(FS as f32).unwrap(), 10_000_000, 1_000_000);
+fn f32_taghirad_6th_order_1e7_samples() {
+    long_run(RippleModel::<f32, 3>::taghirad_6th_order(FS as f32).unwrap(), 10_000_000, 1_000_000);
 }
 
 #[test]

@@ -54,13 +54,13 @@ fn feed<T: Real, const M: usize>(model: &RippleModel<T, M>, inputs: &[RippleInpu
 fn models<T: Real>() -> (RippleModel<T, 3>, RippleModel<T, 2>, RippleModel<T, 3>) {
     let c = T::from_f64;
     let product = RippleModel::product(c(1000.0), c(0.05)).unwrap();
-    let seed = RippleModel::seed_4th_order(c(1000.0)).unwrap();
+    let classic = RippleModel::taghirad_4th_order(c(1000.0)).unwrap();
     let velocity = RippleModel::product(c(500.0), c(0.1))
         .unwrap()
         .with_phase_source(PhaseSource::Velocity)
         .with_limits(Limits { max_gap_periods: c(f64::INFINITY), ..Limits::default() })
         .unwrap();
-    (product, seed, velocity)
+    (product, classic, velocity)
 }
 
 fn special_f64() -> impl Strategy<Value = f64> {

@@ -231,7 +231,8 @@ fn velocity_form_matches_angle_form_at_constant_speed() {
 
 #[test]
 fn bad_covariance_is_an_error_not_a_panic() {
-    let model = RippleModel::<f32, 2>::seed_4th_order(1000.0).unwrap().with_initial_variance(f32::MAX, 1.0).unwrap();
+    let model =
+        RippleModel::<f32, 2>::taghirad_4th_order(1000.0).unwrap().with_initial_variance(f32::MAX, 1.0).unwrap();
     let mut state = RippleState::new(&model);
     let mut errors = 0;
     for k in 0..50 {
@@ -243,7 +244,7 @@ fn bad_covariance_is_an_error_not_a_panic() {
     }
     assert!(errors > 0);
     // A finite but huge measurement overflows the innovation: reported, then recovered.
-    let model = RippleModel::<f32, 2>::seed_4th_order(1000.0).unwrap();
+    let model = RippleModel::<f32, 2>::taghirad_4th_order(1000.0).unwrap();
     let mut state = RippleState::new(&model);
     let big = step(&model, &mut state, &RippleInput::new(f32::MAX, ReferenceValues::new(0.0, 0.0, 0.0)));
     let next = step(&model, &mut state, &RippleInput::new(f32::MIN, ReferenceValues::new(0.1, 0.0, 0.0)));

@@ -127,12 +127,12 @@ fn ripple_amplitude_growing_with_load_is_tracked() {
 }
 
 #[test]
-fn seed_6th_order_reduces_ripple_at_the_seed_speed() {
+fn taghirad_6th_order_reduces_ripple_at_the_paper_speed() {
     // 156 rad/s motor speed (the classic test bench), lines near 312 and 624 rad/s. No load change here:
     // the paper's model has no bias state and is meant for y = T_meas − T_exp.
     let joint = Joint { noise: NOISE_NM, ..Joint::default() };
     let data = joint.run(30_000, 13, |t| 156.0 * t, |_| 0.0);
-    let model = RippleModel::<f64, 3>::seed_6th_order(FS).unwrap();
+    let model = RippleModel::<f64, 3>::taghirad_6th_order(FS).unwrap();
     let mut state = RippleState::new(&model);
     let out: Vec<_> = data
         .iter()

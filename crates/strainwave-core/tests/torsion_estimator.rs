@@ -3,7 +3,7 @@
 //! hysteresis, f32 against f64, and bad input.
 
 use strainwave_core::compliance::{
-    Compliance, FlexsplineStiffening, Hysteresis, SeedCompliance, WaveGeneratorSoftening,
+    Compliance, FlexsplineStiffening, HdaArmCompliance, Hysteresis, WaveGeneratorSoftening,
 };
 use strainwave_core::gear::{FixedElement, Gear};
 use strainwave_core::torsion::{
@@ -17,8 +17,8 @@ const TAU: f64 = std::f64::consts::TAU;
 const MOTOR_CPR: u64 = 1 << 17;
 const LINK_CPR: u64 = 1 << 20;
 
-fn seed_model<T: Real>() -> SeedCompliance<T> {
-    SeedCompliance::new(
+fn hda_arm_model<T: Real>() -> HdaArmCompliance<T> {
+    HdaArmCompliance::new(
         FlexsplineStiffening::new(T::from_f64(2.0e4), T::from_f64(0.015)).unwrap(),
         WaveGeneratorSoftening::new(T::from_f64(2.5), T::from_f64(1.5)).unwrap(),
         T::from_f64(100.0),
@@ -38,7 +38,7 @@ fn kinematic() -> KinematicFourier<f64, 2, 4> {
 
 /// Synthetic run: `(motor_angle, link_angle, true_torque)` in the gear convention.
 fn run(n: usize, gear: &Gear<f64>, kin: &dyn Fn(&GearAngles<f64>) -> f64) -> Vec<(f64, f64, f64)> {
-    let model = seed_model::<f64>();
+    let model = hda_arm_model::<f64>();
     (0..n)
         .map(|k| {
             let t = k as f64 * 1e-3;
@@ -77,7 +77,7 @@ fn single_turn_counters_wrap_without_losing_torque() {
         EncoderConfig::single_turn(MOTOR_CPR).unwrap(),
         EncoderConfig::single_turn(LINK_CPR).unwrap(),
         kin,
-        seed_model::<f64>(),
+        hda_arm_model::<f64>(),
         TorqueSolver::for_rated_torque(40.0).unwrap(),
     );
     let mut st = EstimatorState::new();
@@ -110,7 +110,7 @@ fn kinematic_error_model_removes_the_bias() {
             EncoderConfig::multi_turn(MOTOR_CPR).unwrap(),
             EncoderConfig::multi_turn(LINK_CPR).unwrap(),
             kin,
-            seed_model::<f64>(),
+            hda_arm_model::<f64>(),
             TorqueSolver::for_rated_torque(40.0).unwrap(),
         );
         let e0 = TorsionEstimator::new(
@@ -118,7 +118,7 @@ fn kinematic_error_model_removes_the_bias() {
             EncoderConfig::multi_turn(MOTOR_CPR).unwrap(),
             EncoderConfig::multi_turn(LINK_CPR).unwrap(),
             NoKinematicError,
-            seed_model::<f64>(),
+            hda_arm_model::<f64>(),
             TorqueSolver::for_rated_torque(40.0).unwrap(),
         );
         let (mut s0, mut s1) = (EstimatorState::new(), EstimatorState::new());
@@ -183,7 +183,7 @@ fn reversed_motor_encoder_with_offsets_as_on_lara8() {
 #[test]
 fn hysteresis_is_tracked() {
     let gear = Gear::new(100.0, FixedElement::CircularSpline).unwrap();
-    let model = seed_model::<f64>();
+    let model = hda_arm_model::<f64>();
     let hyst = Hysteresis::new(1.0e-4, 5.0e-5).unwrap();
     let solver = TorqueSolver::for_rated_torque(40.0).unwrap();
     let est = TorsionEstimator::new(
@@ -242,7 +242,7 @@ fn jumps_and_bad_input_are_reported() {
         EncoderConfig::single_turn(MOTOR_CPR).unwrap(),
         EncoderConfig::multi_turn(LINK_CPR).unwrap().with_max_step(1000),
         NoKinematicError,
-        seed_model::<f64>(),
+        hda_arm_model::<f64>(),
         TorqueSolver::for_rated_torque(40.0).unwrap(),
     );
     let mut st = EstimatorState::new();
@@ -274,11 +274,11 @@ fn single_turn_motor_turn_count_is_resolved_at_start() {
         EncoderConfig::single_turn(MOTOR_CPR).unwrap(),
         EncoderConfig::single_turn(LINK_CPR).unwrap(),
         NoKinematicError,
-        seed_model::<f64>(),
+        hda_arm_model::<f64>(),
         TorqueSolver::for_rated_torque(40.0).unwrap(),
     );
     let mut st = EstimatorState::new();
-    let w = seed_model::<f64>().twist_rad(25.0);
+    let w = hda_arm_model::<f64>().twist_rad(25.0);
     let link = 1.0;
     let motor = (link + w) * -100.0;
     let mc = counts(motor, MOTOR_CPR).rem_euclid(MOTOR_CPR as i64);

@@ -3,7 +3,7 @@
 
 use proptest::prelude::*;
 use strainwave_core::compliance::{
-    CatalogueCompliance, Compliance, CubicStiffness, FlexsplineStiffening, SeedCompliance, ThreeSlopeStiffness,
+    CatalogueCompliance, Compliance, CubicStiffness, FlexsplineStiffening, HdaArmCompliance, ThreeSlopeStiffness,
     WaveGeneratorSoftening,
 };
 use strainwave_core::torsion::TorqueSolver;
@@ -15,8 +15,8 @@ const RATED_NM: f64 = 40.0;
 const REL_TOL_F64: f64 = 1e-7;
 const REL_TOL_F32: f64 = 2e-3;
 
-fn seed_model<T: Real>() -> SeedCompliance<T> {
-    SeedCompliance::new(
+fn hda_arm_model<T: Real>() -> HdaArmCompliance<T> {
+    HdaArmCompliance::new(
         FlexsplineStiffening::new(T::from_f64(2.0e4), T::from_f64(0.015)).unwrap(),
         WaveGeneratorSoftening::new(T::from_f64(2.5), T::from_f64(1.5)).unwrap(),
         T::from_f64(100.0),
@@ -73,7 +73,7 @@ fn catalogue_example_inverts_to_60_nm() {
 
 #[test]
 fn warm_start_converges_in_few_iterations() {
-    let m = seed_model::<f64>();
+    let m = hda_arm_model::<f64>();
     let mut worst = 0;
     for i in 0..1000 {
         let tau = 100.0 * (i as f64 * 0.01).sin();
@@ -88,7 +88,7 @@ fn warm_start_converges_in_few_iterations() {
 #[test]
 fn out_of_range_and_nan_are_errors() {
     let solver = TorqueSolver::for_rated_torque(RATED_NM).unwrap();
-    let m = seed_model::<f64>();
+    let m = hda_arm_model::<f64>();
     // Twist beyond the hardening springs' asymptote, and beyond θ(±4 × rated).
     assert_eq!(solver.solve(&m, 0.02, 0.0), Err(Error::OutOfRange("windup_rad")));
     assert_eq!(solver.solve(&m, -0.0075, 0.0), Err(Error::OutOfRange("windup_rad")));
@@ -107,12 +107,12 @@ fn out_of_range_and_nan_are_errors() {
 #[test]
 fn iteration_cap_gives_no_convergence() {
     let solver = TorqueSolver::new(1.0e3_f64, 1e-15, 2).unwrap();
-    let m = seed_model::<f64>();
+    let m = hda_arm_model::<f64>();
     assert_eq!(solver.solve(&m, 5e-3, -1.0e3), Err(Error::NoConvergence("torque_nm")));
 }
 
 fn check_all<T: Real>(tau: f64, guess: f64, tol: f64) -> Result<(), TestCaseError> {
-    let (e, _) = round_trip::<T, _>(&seed_model::<T>(), tau, guess);
+    let (e, _) = round_trip::<T, _>(&hda_arm_model::<T>(), tau, guess);
     prop_assert!(e < tol, "seed {e}");
     let (e, _) = round_trip::<T, _>(&three_slope::<T>(), tau, guess);
     prop_assert!(e < tol, "three-slope {e}");
@@ -141,7 +141,7 @@ proptest! {
     #[test]
     fn never_panics_on_any_windup(w in proptest::num::f64::ANY, guess in proptest::num::f64::ANY) {
         let solver = TorqueSolver::for_rated_torque(RATED_NM).unwrap();
-        let _ = solver.solve(&seed_model::<f64>(), w, guess);
+        let _ = solver.solve(&hda_arm_model::<f64>(), w, guess);
         let _ = solver.solve(&cubic::<f64>(), w, guess);
         let _ = solver.solve(&catalogue::<f64>(), w, guess);
     }

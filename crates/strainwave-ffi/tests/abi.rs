@@ -102,8 +102,8 @@ from_core!(from_core64, f64, sw_model, sw_order, sw_limits, sw_calibration, sw_g
 from_core!(from_core32, f32, sw32_model, sw32_order, sw32_limits, sw32_calibration, sw32_guard);
 
 /// The paper's 6th-order model with a 2.5 N·m/V gain, as a C program would write it.
-fn seed6() -> sw_model {
-    from_core64(&RippleModel::<f64, 3>::seed_6th_order(1000.0).unwrap())
+fn taghirad6() -> sw_model {
+    from_core64(&RippleModel::<f64, 3>::taghirad_6th_order(1000.0).unwrap())
 }
 
 /// Makes one field of a model invalid.
@@ -129,7 +129,7 @@ fn sample(k: usize) -> (f64, f64, f64, f64) {
 
 #[test]
 fn bad_input_gives_error_codes() {
-    let model = seed6();
+    let model = taghirad6();
     let mut state = new_state();
     let s = sw_sample {
         time: 0.0,
@@ -306,8 +306,8 @@ fn same_as_core<const M: usize>(core: RippleModel<f64, M>) {
 
 #[test]
 fn sw_step_equals_the_core_step() {
-    same_as_core(RippleModel::<f64, 3>::seed_6th_order(1000.0).unwrap());
-    same_as_core(RippleModel::<f64, 2>::seed_4th_order(1000.0).unwrap().with_bias_state(1e-4).unwrap());
+    same_as_core(RippleModel::<f64, 3>::taghirad_6th_order(1000.0).unwrap());
+    same_as_core(RippleModel::<f64, 2>::taghirad_4th_order(1000.0).unwrap().with_bias_state(1e-4).unwrap());
     same_as_core(RippleModel::<f64, 3>::product(1000.0, 0.02).unwrap());
     let full = RippleModel::<f64, 5>::full(1000.0, 0.02).unwrap();
     let priors = [([0.3, 0.1], 1e-4), ([0.1, 0.0], 1e-4), ([0.01, 0.0], 1e-6), ([0.0, 0.01], 1e-6), ([0.2, 0.0], 1e-4)];

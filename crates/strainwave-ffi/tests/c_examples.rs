@@ -122,7 +122,7 @@ fn c_example_matches_filter_and_cpp_example_builds() {
         ("joint-taghirad.toml", true, true),
         ("joint-taghirad.toml", true, false),
         ("joint-taghirad.toml", false, true),
-        ("joint-taghirad-seed-6th.toml", true, false),
+        ("joint-taghirad-6th-order.toml", true, false),
     ] {
         let kind = match (guard, learned) {
             (true, true) => "guarded",

@@ -51,11 +51,11 @@ pub fn build_model<V: ModelVisitor>(cfg: &JointConfig, with_learned_priors: bool
             visitor.visit(m)
         }
         ModelChoice::Taghirad4thOrder => {
-            let m = RippleModel::<f64, 2>::seed_4th_order(fs).map_err(core)?.with_phase_source(phase);
+            let m = RippleModel::<f64, 2>::taghirad_4th_order(fs).map_err(core)?.with_phase_source(phase);
             visitor.visit(m)
         }
         ModelChoice::Taghirad6thOrder => {
-            let m = RippleModel::<f64, 3>::seed_6th_order(fs).map_err(core)?.with_phase_source(phase);
+            let m = RippleModel::<f64, 3>::taghirad_6th_order(fs).map_err(core)?.with_phase_source(phase);
             visitor.visit(m)
         }
         ModelChoice::Orders => {

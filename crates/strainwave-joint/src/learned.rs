@@ -294,7 +294,7 @@ mod tests {
         wrong.orders[2].load_scaled = false;
         let err = wrong.apply(seed, &path).unwrap_err().to_string();
         assert!(err.contains("orders[2]") && err.contains("load-scaled"), "{err}");
-        let four = RippleModel::<f64, 2>::seed_4th_order(1000.0).unwrap();
+        let four = RippleModel::<f64, 2>::taghirad_4th_order(1000.0).unwrap();
         assert!(file.apply(four, &path).unwrap_err().to_string().contains("has 5 orders"));
         std::fs::remove_file(&path).unwrap();
     }

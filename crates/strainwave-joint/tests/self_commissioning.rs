@@ -1,4 +1,4 @@
-//! Self-commissioning (issue 31, part 2) against the twin's truth: learning from a run
+//! Self-commissioning against the twin's truth: learning from a run
 //! into a learned file, merging runs by information, order discovery of an unmodelled
 //! line, and the joint identity a learned file carries.
 
@@ -10,7 +10,7 @@ use strainwave_joint::{filter_recording, FilterOptions, FilterSummary, JointConf
 use strainwave_sim::scenario::{ExtraLine, LineReference};
 use strainwave_sim::{presets, simulate, Recording, Scenario};
 
-/// The floor ratio the issue asks for once the line is discovered.
+/// Largest RMS error over the noise floor once the line is discovered.
 const DISCOVERED_WITHIN_FLOOR: f64 = 1.1;
 /// Seconds left out of the RMS figures (the filter's start).
 const WARM_UP_S: f64 = 0.3;
@@ -154,7 +154,7 @@ fn write_config(d: &Path, name: &str, noise_nm: f64, learned: Option<&Path>) -> 
     p
 }
 
-/// The issue's test: an unmodelled 3× line of 0.3 N·m keeps the commissioned
+/// Order discovery: an unmodelled 3× line of 0.3 N·m keeps the commissioned
 /// canceller well above the noise floor; the order analysis of a `--learn` run finds
 /// it, and with the learned file the error comes back within 1.1× of the floor.
 #[test]

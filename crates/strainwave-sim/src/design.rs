@@ -203,7 +203,7 @@ mod tests {
     }
 
     #[test]
-    fn seed_000_sensitivity_and_ideal_cancellation() {
+    fn taghirad_sensor_sensitivity_and_ideal_cancellation() {
         let r = config().evaluate().unwrap();
         // Gain 6.6 N·m/V after the amplifier (Taghirad and Bélanger (1999) Table I).
         assert!((1.0 / r.amplified_v_per_nm - 6.6).abs() < 0.05, "{}", 1.0 / r.amplified_v_per_nm);

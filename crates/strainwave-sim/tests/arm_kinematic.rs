@@ -9,10 +9,10 @@ use strainwave_analysis::ident::{
 use strainwave_analysis::AnalysisError;
 use strainwave_core::gear::{FixedElement, Gear};
 use strainwave_core::torsion::MeshAngle;
-use strainwave_sim::arm::{simulate_arm, ArmRecording, ArmScenario, SeedExperiment};
+use strainwave_sim::arm::{simulate_arm, ArmExperiment, ArmRecording, ArmScenario};
 
-fn run(e: SeedExperiment) -> ArmRecording {
-    simulate_arm(&ArmScenario::seed_experiment(e).unwrap()).unwrap()
+fn run(e: ArmExperiment) -> ArmRecording {
+    simulate_arm(&ArmScenario::experiment(e).unwrap()).unwrap()
 }
 
 fn angles(r: &ArmRecording) -> JointAngles<'_> {
@@ -33,17 +33,17 @@ fn rms_centred(a: &[f64], b: &[f64]) -> f64 {
 
 const FOURIER: KinematicBasis =
     KinematicBasis::Fourier { output_harmonics: 2, mesh_harmonics: 4, mesh_angle: MeshAngle::Relative };
-const SEED_POLY: KinematicBasis = KinematicBasis::Polynomial { order: 5 };
+const PAPER_POLY: KinematicBasis = KinematicBasis::Polynomial { order: 5 };
 
 #[test]
 fn fourier_beats_the_fifth_order_polynomial_over_a_revolution() {
     let gear = Gear::new(100.0, FixedElement::CircularSpline).unwrap();
-    let no_load = run(SeedExperiment::NoLoad);
+    let no_load = run(ArmExperiment::NoLoad);
     let opts = KinematicFitOptions::default();
     let fourier = fit_kinematic_error(&gear, &angles(&no_load), FOURIER, &opts).unwrap();
-    let poly = fit_kinematic_error(&gear, &angles(&no_load), SEED_POLY, &opts).unwrap();
+    let poly = fit_kinematic_error(&gear, &angles(&no_load), PAPER_POLY, &opts).unwrap();
     // On another run that turns the link a revolution (constant motor torque, load by hand).
-    let turning = run(SeedExperiment::PeriodicConstantTorque);
+    let turning = run(ArmExperiment::PeriodicConstantTorque);
     let truth = turning.column("true_kinematic_error").unwrap();
     let e_f = rms_centred(&fourier.eval_run(&gear, &angles(&turning)), truth);
     let e_p = rms_centred(&poly.eval_run(&gear, &angles(&turning)), truth);
@@ -71,11 +71,11 @@ fn fourier_beats_the_fifth_order_polynomial_over_a_revolution() {
 #[test]
 fn cross_validation_finds_the_mesh_harmonics() {
     let gear = Gear::new(100.0, FixedElement::CircularSpline).unwrap();
-    let no_load = run(SeedExperiment::NoLoad);
+    let no_load = run(ArmExperiment::NoLoad);
     let candidates: Vec<KinematicBasis> = [0, 1, 2, 4, 8]
         .iter()
         .map(|&hr| KinematicBasis::Fourier { output_harmonics: 2, mesh_harmonics: hr, mesh_angle: MeshAngle::Relative })
-        .chain([SEED_POLY])
+        .chain([PAPER_POLY])
         .collect();
     let cv =
         cross_validate_kinematic(&gear, &angles(&no_load), &candidates, 5, &KinematicFitOptions::default()).unwrap();
@@ -91,13 +91,13 @@ fn cross_validation_finds_the_mesh_harmonics() {
 #[test]
 fn a_held_run_cannot_identify_the_kinematic_error() {
     let gear = Gear::new(100.0, FixedElement::CircularSpline).unwrap();
-    let held = run(SeedExperiment::StepHold);
+    let held = run(ArmExperiment::StepHold);
     match fit_kinematic_error(&gear, &angles(&held), FOURIER, &KinematicFitOptions::default()) {
         Err(AnalysisError::Invalid { what, .. }) => assert_eq!(what, "link_angle_rad"),
         other => panic!("{other:?}"),
     }
     // Half a revolution is not enough for output harmonics either.
-    let no_load = run(SeedExperiment::NoLoad);
+    let no_load = run(ArmExperiment::NoLoad);
     let n = no_load.column("time").unwrap().len() / 5;
     let part = JointAngles {
         motor_angle_rad: &no_load.column("motor_angle").unwrap()[..n],

@@ -1,11 +1,11 @@
 //! The HDA-arm arm twin: columns, determinism, physics checks with known answers,
 //! encoder counts, integrator convergence and scenario validation.
 
-use strainwave_sim::arm::{simulate_arm, ArmRecording, ArmScenario, ArmSimulator, SeedExperiment, COLUMNS};
+use strainwave_sim::arm::{simulate_arm, ArmExperiment, ArmRecording, ArmScenario, ArmSimulator, COLUMNS};
 use strainwave_sim::SimError;
 
-fn run(e: SeedExperiment) -> (ArmScenario, ArmRecording) {
-    let s = ArmScenario::seed_experiment(e).unwrap();
+fn run(e: ArmExperiment) -> (ArmScenario, ArmRecording) {
+    let s = ArmScenario::experiment(e).unwrap();
     let r = simulate_arm(&s).unwrap();
     (s, r)
 }
@@ -38,7 +38,7 @@ fn columns_and_determinism() {
 fn held_motor_carries_the_hand_torque() {
     // Static equilibrium J θ̈ = τ + τ_d = 0: the link torque is minus the hand's 15 N·m,
     // and the link is pushed forward of its rigid position (θ_h > 0).
-    let (_, r) = run(SeedExperiment::StepHold);
+    let (_, r) = run(ArmExperiment::StepHold);
     let tau = at(&r, "true_link_torque", 3.5);
     assert!((tau + 15.0).abs() < 0.05, "{tau}");
     assert!(at(&r, "true_torsion", 3.5) - at(&r, "true_kinematic_error", 3.5) > 1e-3);
@@ -51,7 +51,7 @@ fn held_motor_carries_the_hand_torque() {
 #[test]
 fn no_load_torque_is_the_link_drag() {
     // Turning at 0.2 rad/s the gear transmits only the link's viscous drag b_L ω = 0.4 N·m.
-    let (s, r) = run(SeedExperiment::NoLoad);
+    let (s, r) = run(ArmExperiment::NoLoad);
     let drag = s.link.viscous_nm_s_per_rad * 0.2;
     assert!((at(&r, "true_link_torque", 15.0) - drag).abs() < 0.05);
     assert!((at(&r, "true_link_torque", 50.0) + drag).abs() < 0.05);
@@ -70,7 +70,7 @@ fn no_load_torque_is_the_link_drag() {
 
 #[test]
 fn constant_motor_torque_turns_the_arm_about_once() {
-    let (s, r) = run(SeedExperiment::PeriodicConstantTorque);
+    let (s, r) = run(ArmExperiment::PeriodicConstantTorque);
     let end = *r.column("true_link_angle").unwrap().last().unwrap();
     assert!((5.5..7.5).contains(&end), "{end}");
     // The motor torque is what the paper's 4.14 N·m at the link asks for.
@@ -84,7 +84,7 @@ fn constant_motor_torque_turns_the_arm_about_once() {
 
 #[test]
 fn reference_sensor_noise_and_quantized_angles() {
-    let (s, r) = run(SeedExperiment::PeriodicHold);
+    let (s, r) = run(ArmExperiment::PeriodicHold);
     let d: Vec<f64> = r
         .column("reference_torque")
         .unwrap()
@@ -102,7 +102,7 @@ fn reference_sensor_noise_and_quantized_angles() {
 
 #[test]
 fn integrator_converges_against_a_finer_step() {
-    let s = ArmScenario::seed_experiment(SeedExperiment::Fig4Step).unwrap();
+    let s = ArmScenario::experiment(ArmExperiment::Fig4Step).unwrap();
     let mut coarse = ArmSimulator::new(&s).unwrap();
     let mut fine = ArmSimulator::with_substeps(&s, 4 * coarse.substeps()).unwrap();
     let (mut a, mut b) = (Vec::new(), Vec::new());
@@ -118,7 +118,7 @@ fn integrator_converges_against_a_finer_step() {
 
 #[test]
 fn viscous_friction_from_the_motor_data() {
-    // Seed App. A: r_m = k_m I_0 / ω_0, ω_0 = 2π n_0 / 60.
+    // The HDA-arm paper's App. A: r_m = k_m I_0 / ω_0, ω_0 = 2π n_0 / 60.
     let s = ArmScenario::preset().unwrap();
     let expect = 0.06 * 0.15 / (std::f64::consts::TAU * 4000.0 / 60.0);
     assert!((s.motor.viscous_nm_s_per_rad() - expect).abs() < 1e-15);

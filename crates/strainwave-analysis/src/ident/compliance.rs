@@ -94,7 +94,7 @@ pub enum AnyCompliance {
     /// Cubic.
     Cubic(CubicStiffness<f64>),
     /// HDA arm.
-    Seed(SeedCompliance<f64>),
+    HdaArm(HdaArmCompliance<f64>),
 }
 
 impl Compliance<f64> for AnyCompliance {
@@ -102,21 +102,21 @@ impl Compliance<f64> for AnyCompliance {
         match self {
             AnyCompliance::ThreeSlope(m) => Compliance::twist_rad(m, torque_nm),
             AnyCompliance::Cubic(m) => m.twist_rad(torque_nm),
-            AnyCompliance::Seed(m) => m.twist_rad(torque_nm),
+            AnyCompliance::HdaArm(m) => m.twist_rad(torque_nm),
         }
     }
     fn compliance_rad_per_nm(&self, torque_nm: f64) -> f64 {
         match self {
             AnyCompliance::ThreeSlope(m) => m.compliance_rad_per_nm(torque_nm),
             AnyCompliance::Cubic(m) => m.compliance_rad_per_nm(torque_nm),
-            AnyCompliance::Seed(m) => m.compliance_rad_per_nm(torque_nm),
+            AnyCompliance::HdaArm(m) => m.compliance_rad_per_nm(torque_nm),
         }
     }
     fn max_twist_rad(&self) -> Option<f64> {
         match self {
             AnyCompliance::ThreeSlope(m) => m.max_twist_rad(),
             AnyCompliance::Cubic(m) => m.max_twist_rad(),
-            AnyCompliance::Seed(m) => m.max_twist_rad(),
+            AnyCompliance::HdaArm(m) => m.max_twist_rad(),
         }
     }
 }
@@ -144,8 +144,8 @@ impl ComplianceParams {
                 wave_generator_k0_nm_per_rad,
                 wave_generator_c_per_nm,
                 ratio,
-            } => AnyCompliance::Seed(
-                SeedCompliance::new(
+            } => AnyCompliance::HdaArm(
+                HdaArmCompliance::new(
                     FlexsplineStiffening::new(flexspline_k0_nm_per_rad, flexspline_c_per_nm).map_err(core)?,
                     WaveGeneratorSoftening::new(wave_generator_k0_nm_per_rad, wave_generator_c_per_nm).map_err(core)?,
                     ratio,

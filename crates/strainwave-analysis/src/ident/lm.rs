@@ -8,7 +8,7 @@
 //! - **step**: `|δ_j| ≤ xtol (|p_j| + xtol)` for every parameter;
 //! - **cost**: an accepted step lowers `½‖r‖²` by less than `ftol` relative (default
 //!   1e-5: the RMS then moves by less than 5e-6 relative per step; on the arm twin's
-//!   `seed` spring form with plays the iteration otherwise crawls along a flat valley, the cost
+//!   HDA-arm spring pair with plays the iteration otherwise crawls along a flat valley, the cost
 //!   falling 0.05 % over twenty more iterations);
 //! - the iteration cap, or no step lowering the cost even at a large damping.
 //!

@@ -28,8 +28,8 @@
 //! [`strainwave_core::torsion`] for the signs.
 
 use strainwave_core::compliance::{
-    Compliance, CubicStiffness, FlexsplineStiffening, Hysteresis, PlayHysteresis, SeedCompliance, ThreeSlopeStiffness,
-    WaveGeneratorSoftening, MAX_PLAYS,
+    Compliance, CubicStiffness, FlexsplineStiffening, HdaArmCompliance, Hysteresis, PlayHysteresis,
+    ThreeSlopeStiffness, WaveGeneratorSoftening, MAX_PLAYS,
 };
 use strainwave_core::gear::Gear;
 use strainwave_core::torsion::{

@@ -45,7 +45,7 @@ impl<T: Real, const M: usize> CheckpointStore<T, M> for Vec<RippleState<T, M>> {
 /// ```
 /// use strainwave_analysis::smoother::{smooth, CheckpointedSmoother};
 /// use strainwave_core::ripple::{ReferenceValues, RippleInput, RippleModel};
-/// let model = RippleModel::<f64, 2>::seed_4th_order(1000.0).unwrap();
+/// let model = RippleModel::<f64, 2>::taghirad_4th_order(1000.0).unwrap();
 /// let inputs: Vec<_> = (0..2500)
 ///     .map(|k| RippleInput::new(0.5 * (0.1 * k as f64).cos(), ReferenceValues::new(0.05 * k as f64, 0.0, 0.0)))
 ///     .collect();
@@ -256,9 +256,9 @@ mod tests {
         for block in [1, 7, 1000, 4096, 7001, 10_000] {
             assert_eq!(blockwise(&product, &ins, block), whole, "block {block}");
         }
-        let seed = RippleModel::<f32, 3>::seed_6th_order(1000.0).unwrap();
+        let classic = RippleModel::<f32, 3>::taghirad_6th_order(1000.0).unwrap();
         let ins32 = single(&ins);
-        assert_eq!(blockwise(&seed, &ins32, 333), smooth(&seed, &ins32).unwrap());
+        assert_eq!(blockwise(&classic, &ins32, 333), smooth(&classic, &ins32).unwrap());
     }
 
     /// Checkpoints as snapshots in one flat buffer, as a scratch file keeps them.
@@ -340,7 +340,7 @@ mod tests {
     #[test]
     fn blocks_out_of_order_or_of_the_wrong_length_are_refused() {
         let ins = inputs(2500);
-        let model = RippleModel::<f64, 2>::seed_4th_order(1000.0).unwrap();
+        let model = RippleModel::<f64, 2>::taghirad_4th_order(1000.0).unwrap();
         let mut s = CheckpointedSmoother::new(&model, 1000);
         assert!(s.is_empty() && s.blocks() == 0);
         assert!(matches!(s.smooth_block(0, &[]), Err(SmootherError::BlockMismatch { expected_block: usize::MAX, .. })));

@@ -2,7 +2,7 @@
 
 use anyhow::{bail, Context, Result};
 use strainwave_io::RecordingWriter;
-use strainwave_sim::arm::{ArmScenario, ArmSimulator, SeedExperiment};
+use strainwave_sim::arm::{ArmExperiment, ArmScenario, ArmSimulator};
 
 /// The arm scenario named by `name` (`hda-arm` or `hda-arm-<experiment>`), if it is one.
 pub fn arm_preset(name: &str) -> Option<Result<ArmScenario>> {
@@ -10,11 +10,11 @@ pub fn arm_preset(name: &str) -> Option<Result<ArmScenario>> {
         return Some(ArmScenario::preset().context("preset hda-arm"));
     }
     let which = name.strip_prefix("hda-arm-")?;
-    let Some(e) = SeedExperiment::ALL.into_iter().find(|e| e.name() == which) else {
-        let names: Vec<String> = SeedExperiment::ALL.iter().map(|e| format!("hda-arm-{}", e.name())).collect();
+    let Some(e) = ArmExperiment::ALL.into_iter().find(|e| e.name() == which) else {
+        let names: Vec<String> = ArmExperiment::ALL.iter().map(|e| format!("hda-arm-{}", e.name())).collect();
         return Some(Err(anyhow::anyhow!("unknown arm preset `{name}`; known: hda-arm, {}", names.join(", "))));
     };
-    Some(ArmScenario::seed_experiment(e).with_context(|| format!("preset {name}")))
+    Some(ArmScenario::experiment(e).with_context(|| format!("preset {name}")))
 }
 
 /// Runs the preset when it is one of this twin's; `Ok(false)` otherwise.

@@ -29,7 +29,7 @@ pub mod kit {
     /// times what a 59 mm motor's housing suggests (a typo in `a_max` or `R` is likely), but
     /// only `a / R` enters the torque, so the torque-domain figures are those of the paper.
     pub const ACCEL_RADIUS_M: f64 = 0.6727;
-    /// Range of one sensor `a_max`, m/s² (seed: PCB 352B, 50 m/s²).
+    /// Range of one sensor `a_max`, m/s² (Stoß et al. 2022: PCB 352B, 50 m/s²).
     pub const ACCEL_MAX_M_S2: f64 = 50.0;
     /// Resolution of one sensor `a_min`, m/s² (implied by eq. 10's 21 µN·m with this `R`).
     pub const ACCEL_MIN_M_S2: f64 = 0.0108;
@@ -42,7 +42,7 @@ fn jw<T: Real>(freq_hz: T) -> Complex<T> {
     Complex::new(T::ZERO, T::TAU * freq_hz)
 }
 
-/// The torsion-shaft measurement: DUT rotor and brake on a shaft (seed eq. 1, Fig. 3).
+/// The torsion-shaft measurement: DUT rotor and brake on a shaft (Stoß et al. 2022, eq. 1, Fig. 3).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TorsionShaftModel<T: Real> {
     /// `J_R`, kg·m².
@@ -118,7 +118,7 @@ impl<T: Real> TorsionShaftModel<T> {
     }
 }
 
-/// The accelerometer measurement, simplified (seed eq. 6): the housing on its coupling.
+/// The accelerometer measurement, simplified (Stoß et al. 2022, eq. 6): the housing on its coupling.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AccelerometerModel<T: Real> {
     /// `J_S`, kg·m².
@@ -190,7 +190,7 @@ impl<T: Real> AccelerometerModel<T> {
     }
 }
 
-/// The accelerometer measurement with the rotor, brake and rotor bearings (seed eq. 5).
+/// The accelerometer measurement with the rotor, brake and rotor bearings (Stoß et al. 2022, eq. 5).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AccelerometerModelFull<T: Real> {
     /// Housing part (`J_S`, `k_S`, `Γ_LS`).

@@ -45,7 +45,7 @@ impl<T: Real, const M: usize, const J: usize> RippleBank<T, M, J> {
     ///
     /// ```
     /// use strainwave_core::ripple::{RippleBank, RippleModel};
-    /// let model = RippleModel::<f32, 3>::seed_6th_order(1000.0).unwrap();
+    /// let model = RippleModel::<f32, 3>::taghirad_6th_order(1000.0).unwrap();
     /// let bank = RippleBank::<f32, 3, 8>::new(&model);
     /// assert_eq!(bank.covariance(&model, 0, 0, 0), Some(1.0));
     /// assert_eq!(bank.covariance(&model, 8, 0, 0), None);

@@ -19,7 +19,7 @@ impl<T: Real, const M: usize> RippleState<T, M> {
     ///
     /// ```
     /// use strainwave_core::ripple::{RippleModel, RippleState};
-    /// let model = RippleModel::<f64, 2>::seed_4th_order(1000.0).unwrap();
+    /// let model = RippleModel::<f64, 2>::taghirad_4th_order(1000.0).unwrap();
     /// let state = RippleState::new(&model);
     /// assert_eq!(state.estimate(&model, 0), Some(0.0));
     /// assert_eq!(state.covariance(&model, 1, 1), Some(1.0));
@@ -51,7 +51,7 @@ impl<T: Real, const M: usize> RippleState<T, M> {
     ///
     /// ```
     /// use strainwave_core::ripple::{RippleModel, RippleState};
-    /// let model = RippleModel::<f64, 2>::seed_4th_order(1000.0).unwrap();
+    /// let model = RippleModel::<f64, 2>::taghirad_4th_order(1000.0).unwrap();
     /// let state = RippleState::new(&model);
     /// assert_eq!(state.learned(1), Some(([0.0, 0.0], 1.0)));
     /// assert_eq!(state.learned(2), None);
@@ -97,7 +97,7 @@ impl<T: Real, const M: usize> RippleState<T, M> {
 ///
 /// ```
 /// use strainwave_core::ripple::{step, ReferenceValues, RippleInput, RippleModel, RippleState};
-/// let model = RippleModel::<f64, 2>::seed_4th_order(1000.0)?;
+/// let model = RippleModel::<f64, 2>::taghirad_4th_order(1000.0)?;
 /// let mut state = RippleState::new(&model);
 /// let (w, load) = (0.05, 2.0); // relative angle per sample, N·m
 /// let mut last = 0.0;
@@ -125,7 +125,7 @@ pub fn step<T: Real, const M: usize>(
 ///
 /// ```
 /// use strainwave_core::ripple::{step_traced, ReferenceValues, RippleInput, RippleModel, RippleState, StepTrace};
-/// let model = RippleModel::<f64, 3>::seed_6th_order(1000.0)?;
+/// let model = RippleModel::<f64, 3>::taghirad_6th_order(1000.0)?;
 /// let mut state = RippleState::new(&model);
 /// let mut trace = StepTrace::new();
 /// step_traced(&model, &mut state, &RippleInput::new(1.0, ReferenceValues::new(0.0, 0.0, 0.0)), &mut trace)?;

@@ -280,7 +280,7 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
     ///
     /// ```
     /// use strainwave_core::ripple::RippleModel;
-    /// let m = RippleModel::<f32, 2>::seed_4th_order(1000.0)?.with_bias_state(1e-2)?;
+    /// let m = RippleModel::<f32, 2>::taghirad_4th_order(1000.0)?.with_bias_state(1e-2)?;
     /// assert_eq!(m.state_len(), 5);
     /// # Ok::<(), strainwave_core::Error>(())
     /// ```
@@ -294,7 +294,7 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
     ///
     /// ```
     /// use strainwave_core::ripple::RippleModel;
-    /// let m = RippleModel::<f64, 3>::seed_6th_order(1000.0)?.with_initial_variance(4.0, 100.0)?;
+    /// let m = RippleModel::<f64, 3>::taghirad_6th_order(1000.0)?.with_initial_variance(4.0, 100.0)?;
     /// assert_eq!(m.initial_variance_nm2(), (4.0, 100.0));
     /// # Ok::<(), strainwave_core::Error>(())
     /// ```
@@ -310,7 +310,7 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
     ///
     /// ```
     /// use strainwave_core::ripple::RippleModel;
-    /// let m = RippleModel::<f64, 2>::seed_4th_order(1000.0)?;
+    /// let m = RippleModel::<f64, 2>::taghirad_4th_order(1000.0)?;
     /// let m = m.with_priors([([0.3, 0.1], 1e-4), ([0.0, -0.05], 1e-4)])?;
     /// assert_eq!(m.orders()[0].prior(), ([0.3, 0.1], Some(1e-4)));
     /// # Ok::<(), strainwave_core::Error>(())
@@ -327,7 +327,7 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
     ///
     /// ```
     /// use strainwave_core::ripple::{PhaseSource, RippleModel};
-    /// let m = RippleModel::<f64, 2>::seed_4th_order(1000.0)?.with_phase_source(PhaseSource::Velocity);
+    /// let m = RippleModel::<f64, 2>::taghirad_4th_order(1000.0)?.with_phase_source(PhaseSource::Velocity);
     /// assert_eq!(m.phase_source(), PhaseSource::Velocity);
     /// # Ok::<(), strainwave_core::Error>(())
     /// ```
@@ -341,10 +341,10 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
     /// ```
     /// use strainwave_core::ripple::{Limits, RippleModel};
     /// let limits = Limits { hold_below_hz: 0.0, ..Limits::default() };
-    /// let m = RippleModel::<f64, 2>::seed_4th_order(1000.0)?.with_limits(limits)?;
+    /// let m = RippleModel::<f64, 2>::taghirad_4th_order(1000.0)?.with_limits(limits)?;
     /// assert_eq!(m.limits().hold_below_hz, 0.0);
     /// let bad = Limits { nyquist_fraction: 0.7, ..Limits::default() };
-    /// assert!(RippleModel::<f64, 2>::seed_4th_order(1000.0)?.with_limits(bad).is_err());
+    /// assert!(RippleModel::<f64, 2>::taghirad_4th_order(1000.0)?.with_limits(bad).is_err());
     /// # Ok::<(), strainwave_core::Error>(())
     /// ```
     pub fn with_limits(mut self, limits: Limits<T>) -> Result<Self, Error> {

@@ -1,4 +1,4 @@
-//! Ready-made models: the classic 4th- and 6th-order filters of Taghirad and Bélanger, “An intelligent built-in torque sensor for harmonic drive systems”, 1999,
+//! Ready-made models: the classic 4th- and 6th-order filters of Taghirad and Bélanger, "Intelligent built-in torque sensor for harmonic drive systems" (1999),
 //! and the product defaults.
 
 use super::model::{Limits, Order, Reference, RippleModel};
@@ -33,10 +33,10 @@ impl<T: Real> RippleModel<T, 2> {
     ///
     /// ```
     /// use strainwave_core::ripple::RippleModel;
-    /// let m = RippleModel::<f64, 2>::seed_4th_order(1000.0).unwrap();
+    /// let m = RippleModel::<f64, 2>::taghirad_4th_order(1000.0).unwrap();
     /// assert_eq!((m.state_len(), m.r_nm2()), (4, 1.0));
     /// ```
-    pub fn seed_4th_order(sample_rate_hz: T) -> Result<Self, Error> {
+    pub fn taghirad_4th_order(sample_rate_hz: T) -> Result<Self, Error> {
         let orders = [classic_order(Reference::Relative, 2.0)?, classic_order(Reference::Relative, 4.0)?];
         RippleModel::new(orders, T::ONE, sample_rate_hz)?.with_limits(classic_limits())
     }
@@ -48,10 +48,10 @@ impl<T: Real> RippleModel<T, 3> {
     ///
     /// ```
     /// use strainwave_core::ripple::{Reference, RippleModel};
-    /// let m = RippleModel::<f32, 3>::seed_6th_order(1000.0).unwrap();
+    /// let m = RippleModel::<f32, 3>::taghirad_6th_order(1000.0).unwrap();
     /// assert_eq!(m.orders()[2].reference(), Reference::Output);
     /// ```
-    pub fn seed_6th_order(sample_rate_hz: T) -> Result<Self, Error> {
+    pub fn taghirad_6th_order(sample_rate_hz: T) -> Result<Self, Error> {
         let orders = [
             classic_order(Reference::Relative, 2.0)?,
             classic_order(Reference::Relative, 4.0)?,

@@ -152,7 +152,7 @@ impl<T: Real, const M: usize> RippleState<T, M> {
     ///
     /// ```
     /// use strainwave_core::ripple::{step, ReferenceValues, RippleInput, RippleModel, RippleState};
-    /// let model = RippleModel::<f32, 2>::seed_4th_order(1000.0)?;
+    /// let model = RippleModel::<f32, 2>::taghirad_4th_order(1000.0)?;
     /// let mut state = RippleState::new(&model);
     /// step(&model, &mut state, &RippleInput::new(1.5, ReferenceValues::new(0.3, 0.0, 0.0)))?;
     /// let mut values = [0.0; RippleState::<f32, 2>::SNAPSHOT_LEN];
@@ -219,7 +219,7 @@ mod tests {
 
     #[test]
     fn snapshot_round_trips_bit_for_bit() {
-        round_trip(RippleModel::<f64, 3>::seed_6th_order(1000.0).unwrap());
+        round_trip(RippleModel::<f64, 3>::taghirad_6th_order(1000.0).unwrap());
         round_trip(RippleModel::<f32, 3>::product(1000.0, 0.05).unwrap());
         round_trip(RippleModel::<f64, 5>::full(1000.0, 0.05).unwrap());
     }
@@ -238,7 +238,7 @@ mod tests {
 
     #[test]
     fn bad_snapshots_are_refused_by_name() {
-        let model = RippleModel::<f32, 2>::seed_4th_order(1000.0).unwrap();
+        let model = RippleModel::<f32, 2>::taghirad_4th_order(1000.0).unwrap();
         let n = RippleState::<f32, 2>::SNAPSHOT_LEN;
         let mut values = vec![0.0; n];
         RippleState::new(&model).snapshot(&mut values).unwrap();

@@ -281,7 +281,7 @@ mod tests {
     }
 
     #[test]
-    fn seed_noise_is_about_3_5_hz_at_1_khz() {
+    fn classic_noise_is_about_3_5_hz_at_1_khz() {
         let b = oscillator_bandwidth_hz(1e-3, 1000.0, 1.0).unwrap();
         assert!((b - 3.480).abs() < 1e-3, "{b}");
         // 156 rad/s motor speed (the classic test bench), 2× line at 312 rad/s.

@@ -83,10 +83,10 @@ impl<T: Real> KinematicPolynomial<T, 6> {
     ///
     /// ```
     /// use strainwave_core::torsion::KinematicPolynomial;
-    /// let p = KinematicPolynomial::<f64, 6>::seed002();
+    /// let p = KinematicPolynomial::<f64, 6>::hda_arm();
     /// assert!((p.eval(0.0) + 6.5719e-5).abs() < 1e-12);
     /// ```
-    pub fn seed002() -> Self {
+    pub fn hda_arm() -> Self {
         Self { coefficients: [-6.5719e-5, 0.0018, 0.032, -0.0017, 2.6840e-4, -1.2686e-5].map(T::from_f64) }
     }
 }

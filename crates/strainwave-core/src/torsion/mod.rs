@@ -18,7 +18,7 @@
 //! docs/physics.md §5. The estimator reports the **link torque**: the torque the gear transmits to
 //! the link, positive when it drives the link in its positive direction. Driving the link
 //! forward makes it lag its rigid position, so `θ_h < 0` and the wind-up `w > 0`. In static
-//! equilibrium the link torque is minus the external torque on the link (SPEC's `τ`, which
+//! equilibrium the link torque is minus the external torque on the link (the HDA-arm paper's `τ`, which
 //! solves `Δθ = θ_f + θ_w/N`, is that external torque).
 //!
 //! The motor angle here is the WG angle in the gear's own convention. An encoder mounted
@@ -421,7 +421,7 @@ impl<T: Real, K: KinematicError<T>, C: Compliance<T>> TorsionEstimator<T, K, C> 
 mod tests {
     use super::kinematic::fourier_sum;
     use super::*;
-    use crate::compliance::{FlexsplineStiffening, SeedCompliance, ThreeSlopeStiffness, WaveGeneratorSoftening};
+    use crate::compliance::{FlexsplineStiffening, HdaArmCompliance, ThreeSlopeStiffness, WaveGeneratorSoftening};
     use crate::gear::FixedElement;
 
     const TORQUE_TOL_NM: f64 = 1e-6;
@@ -450,9 +450,9 @@ mod tests {
     }
 
     #[test]
-    fn solver_inverts_seed_model_f32_f64() {
+    fn solver_inverts_hda_arm_model_f32_f64() {
         fn case<T: Real>(tol: f64) {
-            let m = SeedCompliance::new(
+            let m = HdaArmCompliance::new(
                 FlexsplineStiffening::new(T::from_f64(2.0e4), T::from_f64(0.015)).unwrap(),
                 WaveGeneratorSoftening::new(T::from_f64(2.5), T::from_f64(1.5)).unwrap(),
                 T::from_f64(100.0),

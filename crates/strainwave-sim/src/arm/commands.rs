@@ -104,7 +104,7 @@ impl HandTorque {
 
 /// The HDA-arm runs, built from the preset.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum SeedExperiment {
+pub enum ArmExperiment {
     /// No load: the PID turns the link one revolution forward and back at 0.2 rad/s
     /// (for the kinematic error; the paper's Fig. 7 runs).
     NoLoad,
@@ -120,46 +120,46 @@ pub enum SeedExperiment {
     StepConstantTorque,
     /// Paper §IV-B, periodic: constant motor torque, 5 N·m at 1.5 Hz by hand.
     PeriodicConstantTorque,
-    /// Seed Fig. 4 (a, b): motor torque step (10 N·m at the link) on the free arm.
+    /// Paper Fig. 4 (a, b): motor torque step (10 N·m at the link) on the free arm.
     Fig4Step,
-    /// Seed Fig. 4 (c, d): sinusoidal motor torque (10 N·m at the link, 2 Hz) on the free arm.
+    /// Paper Fig. 4 (c, d): sinusoidal motor torque (10 N·m at the link, 2 Hz) on the free arm.
     Fig4Sine,
 }
 
-impl SeedExperiment {
+impl ArmExperiment {
     /// All runs, in order.
-    pub const ALL: [SeedExperiment; 8] = [
-        SeedExperiment::NoLoad,
-        SeedExperiment::LoadedHold,
-        SeedExperiment::StepHold,
-        SeedExperiment::PeriodicHold,
-        SeedExperiment::StepConstantTorque,
-        SeedExperiment::PeriodicConstantTorque,
-        SeedExperiment::Fig4Step,
-        SeedExperiment::Fig4Sine,
+    pub const ALL: [ArmExperiment; 8] = [
+        ArmExperiment::NoLoad,
+        ArmExperiment::LoadedHold,
+        ArmExperiment::StepHold,
+        ArmExperiment::PeriodicHold,
+        ArmExperiment::StepConstantTorque,
+        ArmExperiment::PeriodicConstantTorque,
+        ArmExperiment::Fig4Step,
+        ArmExperiment::Fig4Sine,
     ];
 
     /// Short name.
     pub fn name(self) -> &'static str {
         match self {
-            SeedExperiment::NoLoad => "no-load",
-            SeedExperiment::LoadedHold => "loaded-hold",
-            SeedExperiment::StepHold => "step-hold",
-            SeedExperiment::PeriodicHold => "periodic-hold",
-            SeedExperiment::StepConstantTorque => "step-constant-torque",
-            SeedExperiment::PeriodicConstantTorque => "periodic-constant-torque",
-            SeedExperiment::Fig4Step => "fig4-step",
-            SeedExperiment::Fig4Sine => "fig4-sine",
+            ArmExperiment::NoLoad => "no-load",
+            ArmExperiment::LoadedHold => "loaded-hold",
+            ArmExperiment::StepHold => "step-hold",
+            ArmExperiment::PeriodicHold => "periodic-hold",
+            ArmExperiment::StepConstantTorque => "step-constant-torque",
+            ArmExperiment::PeriodicConstantTorque => "periodic-constant-torque",
+            ArmExperiment::Fig4Step => "fig4-step",
+            ArmExperiment::Fig4Sine => "fig4-sine",
         }
     }
 
     /// The paper's mean and max |error| for this run, N·m (§IV), where it gives them.
-    pub fn seed_figures_nm(self) -> Option<(f64, f64)> {
+    pub fn paper_figures_nm(self) -> Option<(f64, f64)> {
         match self {
-            SeedExperiment::StepHold => Some((0.46, 2.54)),
-            SeedExperiment::PeriodicHold => Some((0.62, 2.8)),
-            SeedExperiment::StepConstantTorque => Some((1.27, 5.89)),
-            SeedExperiment::PeriodicConstantTorque => Some((1.33, 4.5)),
+            ArmExperiment::StepHold => Some((0.46, 2.54)),
+            ArmExperiment::PeriodicHold => Some((0.62, 2.8)),
+            ArmExperiment::StepConstantTorque => Some((1.27, 5.89)),
+            ArmExperiment::PeriodicConstantTorque => Some((1.33, 4.5)),
             _ => None,
         }
     }

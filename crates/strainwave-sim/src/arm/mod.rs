@@ -4,7 +4,7 @@
 //! motor      J_m θ̈_m + r_m θ̇_m = τ_m − τ / n_s,        r_m = k_m I_0 / ω_0,  ω_0 = 2π n_0 / 60
 //! link       J θ̈ = τ − b_L θ̇ + τ_d
 //! wind-up    w = θ_m / n_s + θ_k(θ, φ) − θ            (the rigid output plus the kinematic error, minus the link)
-//! springs    w + h z = θ_f(τ_s) + θ_w(τ_s / N) / N    (seed App. B, solved for τ_s by the core's Newton solver)
+//! springs    w + h z = θ_f(τ_s) + θ_w(τ_s / N) / N    (paper App. B, solved for τ_s by the core's Newton solver)
 //! hysteresis z = Σ_i α_i (w − p_i) / r_i,  p_i = clamp(p_i, w − r_i, w + r_i)   (Maxwell-slip / Prandtl–Ishlinskii)
 //! torque     τ = τ_s + c ẇ,  ẇ ≈ θ̇_m / n_s − θ̇         (structural damping; θ̇_k neglected in the damping)
 //! ```
@@ -28,14 +28,14 @@
 //! driven along a position ramp (a no-load run for identification), or given an
 //! open-loop torque: constant (the paper's second experiment), a step or a sinusoid
 //! (the paper's Fig. 4 simulations). A hand applies the external torque `τ_d`: smooth
-//! steps and sinusoids. [`SeedExperiment`] builds each seed run from the preset.
+//! steps and sinusoids. [`ArmExperiment`] builds each of the paper's runs from the preset.
 //!
 //! Encoders count `floor(θ/step + noise)`; with `single_turn` the counters wrap every
 //! revolution, with the zero offsets added. The reference torque stands in for the paper's
 //! six-axis sensor at the flange: `τ` plus white noise.
 
 use serde::{Deserialize, Serialize};
-use strainwave_core::compliance::{Compliance, FlexsplineStiffening, SeedCompliance, WaveGeneratorSoftening};
+use strainwave_core::compliance::{Compliance, FlexsplineStiffening, HdaArmCompliance, WaveGeneratorSoftening};
 use strainwave_core::torsion::TorqueSolver;
 
 use crate::check::{finite as fin, non_negative as nonneg, positive as pos};
@@ -68,8 +68,8 @@ mod tests {
     fn preset_parses_and_round_trips() {
         let s = ArmScenario::preset().unwrap();
         assert_eq!(ArmScenario::from_toml(&s.to_toml()).unwrap(), s);
-        for e in SeedExperiment::ALL {
-            ArmScenario::seed_experiment(e).unwrap();
+        for e in ArmExperiment::ALL {
+            ArmScenario::experiment(e).unwrap();
         }
     }
 

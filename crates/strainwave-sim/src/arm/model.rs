@@ -39,7 +39,7 @@ impl ArmState {
 /// The arm's physics (no controller, no sensors).
 #[derive(Debug, Clone)]
 pub struct ArmModel {
-    springs: SeedCompliance<f64>,
+    springs: HdaArmCompliance<f64>,
     half_width_rad: f64,
     solver: TorqueSolver<f64>,
     kinematic: ArmKinematicError,
@@ -55,7 +55,7 @@ impl ArmModel {
     /// Builds the model from a scenario (parameters checked by the core).
     pub fn new(s: &ArmScenario) -> Result<Self, SimError> {
         let g = &s.gear;
-        let springs = SeedCompliance::new(
+        let springs = HdaArmCompliance::new(
             FlexsplineStiffening::new(g.flexspline_k0_nm_per_rad, g.flexspline_c_per_nm)?,
             WaveGeneratorSoftening::new(g.wave_generator_k0_nm_per_rad, g.wave_generator_c_per_nm)?,
             g.ratio,
@@ -78,7 +78,7 @@ impl ArmModel {
     }
 
     /// The paper's springs.
-    pub fn springs(&self) -> &SeedCompliance<f64> {
+    pub fn springs(&self) -> &HdaArmCompliance<f64> {
         &self.springs
     }
 

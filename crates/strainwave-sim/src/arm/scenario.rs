@@ -99,7 +99,7 @@ impl ArmKinematicError {
     }
 }
 
-/// Motor (seed App. A).
+/// Motor (the HDA-arm paper's App. A).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ArmMotor {
@@ -203,11 +203,11 @@ impl ArmScenario {
     /// A HDA-arm run on the preset arm.
     ///
     /// ```
-    /// use strainwave_sim::arm::{ArmScenario, SeedExperiment};
-    /// let s = ArmScenario::seed_experiment(SeedExperiment::PeriodicHold).unwrap();
+    /// use strainwave_sim::arm::{ArmScenario, ArmExperiment};
+    /// let s = ArmScenario::experiment(ArmExperiment::PeriodicHold).unwrap();
     /// assert_eq!(s.external_torque.len(), 1);
     /// ```
-    pub fn seed_experiment(which: SeedExperiment) -> Result<Self, SimError> {
+    pub fn experiment(which: ArmExperiment) -> Result<Self, SimError> {
         let mut s = Self::preset()?;
         s.with_experiment(which);
         s.validate()?;
@@ -215,7 +215,7 @@ impl ArmScenario {
     }
 
     /// Replaces the command, hand torque, duration and name by one of the paper's runs.
-    pub fn with_experiment(&mut self, which: SeedExperiment) {
+    pub fn with_experiment(&mut self, which: ArmExperiment) {
         let n = self.gear.ratio;
         // CS fixed: a negative motor torque drives the link forward.
         let drive = -4.14 / n;
@@ -233,30 +233,30 @@ impl ArmScenario {
             end_s: None,
         };
         let (command, external, duration) = match which {
-            SeedExperiment::NoLoad => {
+            ArmExperiment::NoLoad => {
                 // Slow enough that the 2× relative-angle error (at 2 N v) stays far below
                 // the link mode (≈ 28 Hz held): the torsion is then kinematic, not dynamic.
                 let v = 0.2;
                 let reverse = TAU / v + 1.0;
                 (MotorCommand::PositionRamp { link_speed_rad_s: v, reverse_at_s: reverse }, vec![], 2.0 * reverse + 1.0)
             }
-            SeedExperiment::LoadedHold => (
+            ArmExperiment::LoadedHold => (
                 MotorCommand::HoldPosition,
                 vec![sine(40.0, 0.2, 0.5), sine(10.0, 1.3, 0.5), sine(5.0, 3.1, 0.5), sine(4.0, 7.0, 0.5)],
                 15.0,
             ),
-            SeedExperiment::StepHold => (MotorCommand::HoldPosition, vec![step(1.0, 15.0, Some(4.0))], 6.0),
-            SeedExperiment::PeriodicHold => (MotorCommand::HoldPosition, vec![sine(12.0, 1.0, 1.0)], 6.0),
-            SeedExperiment::StepConstantTorque => {
+            ArmExperiment::StepHold => (MotorCommand::HoldPosition, vec![step(1.0, 15.0, Some(4.0))], 6.0),
+            ArmExperiment::PeriodicHold => (MotorCommand::HoldPosition, vec![sine(12.0, 1.0, 1.0)], 6.0),
+            ArmExperiment::StepConstantTorque => {
                 (MotorCommand::ConstantTorque { motor_torque_nm: drive }, vec![step(1.0, 3.0, Some(2.2))], 3.0)
             }
-            SeedExperiment::PeriodicConstantTorque => {
+            ArmExperiment::PeriodicConstantTorque => {
                 (MotorCommand::ConstantTorque { motor_torque_nm: drive }, vec![sine(5.0, 1.5, 0.5)], 3.5)
             }
-            SeedExperiment::Fig4Step => {
+            ArmExperiment::Fig4Step => {
                 (MotorCommand::TorqueStep { motor_torque_nm: -10.0 / n, at_s: 0.1 }, vec![], 1.0)
             }
-            SeedExperiment::Fig4Sine => {
+            ArmExperiment::Fig4Sine => {
                 (MotorCommand::TorqueSine { amplitude_nm: 10.0 / n, frequency_hz: 2.0 }, vec![], 2.0)
             }
         };

@@ -71,7 +71,7 @@ pub struct MechanicsParams {
     /// Damping across the shaft (the paper's `2 Γ_LP` of eq. 1), N·m·s/rad.
     pub shaft_damping_nm_s_per_rad: f64,
     /// DUT bearing damping between rotor and housing (carries rotor motion into the
-    /// accelerometers, seed eq. 5), N·m·s/rad.
+    /// accelerometers, Stoß et al. 2022, eq. 5), N·m·s/rad.
     pub rotor_bearing_damping_nm_s_per_rad: f64,
     /// Brake bearing damping to ground, N·m·s/rad.
     pub brake_bearing_damping_nm_s_per_rad: f64,
@@ -384,7 +384,7 @@ pub fn preset_text(name: &str) -> Result<&'static str, SimError> {
 
 /// A bench preset, validated:
 ///
-/// - `kit-bench`: Table I/II bench, speed ramp 0 → 3200 rpm at `i_d = −4 A` (seed Fig. 8);
+/// - `kit-bench`: Table I/II bench, speed ramp 0 → 3200 rpm at `i_d = −4 A` (Stoß et al. 2022, Fig. 8);
 /// - `kit-bench-sweep`: the same bench at standstill, brake not braked, `i_q` of 0.1 A
 ///   swept logarithmically from 0.5 Hz to 8 kHz over 40 s (paper §V: 100 Hz … 8 kHz,
 ///   extended down into the torsion sensor's range).

@@ -15,7 +15,7 @@
 //! ```
 //!
 //! Flux linkages: `ψ_d = L_d i_d + Ψ_PM + Σ A_d cos(kγ + φ)`, `ψ_q = L_q i_q + Σ A_q sin(kγ + φ)`.
-//! The torsion sensor reads `T_sh` (spring and damper, as seed eq. 1 does); the
+//! The torsion sensor reads `T_sh` (spring and damper, as eq. 1 of Stoß et al. 2022 does); the
 //! accelerometers read `−R ω̇_S` (sign: see [`strainwave_core::fusion::AccelerometerPair`]).
 
 use strainwave_core::pmsm::{torque_eq12, FluxMap, FluxSample};

@@ -78,7 +78,7 @@ fn hybrid_fusion_accuracy() {
 /// The twin's paths are the paper's models: the shaft torque follows eq. 1 and the ideal
 /// accelerometer torque `J_S · eq. 6`, both driven by the true air-gap torque.
 #[test]
-fn twin_paths_follow_seed_models() {
+fn twin_paths_follow_the_paper_models() {
     use strainwave_analysis::frf::h1;
     use strainwave_analysis::psd::SpectralConfig;
     use strainwave_core::fusion::{AccelerometerModel, TorsionShaftModel};
@@ -130,7 +130,7 @@ const MODEL_TOL: f64 = 0.02;
 /// The speed ramp: the drive tracks 3200 rpm, nothing clips, the housing vibration
 /// cancels in the sum, the orders sit on their lines in the Campbell diagram, and the
 /// accelerometers give the 6th electrical order's amplitude and phase where the torsion
-/// shaft resonates (seed Figs. 8–9).
+/// shaft resonates (Stoß et al. 2022, Figs. 8–9).
 #[test]
 fn speed_ramp_orders_and_vibration() {
     use strainwave_analysis::campbell::{campbell, order_slice, CampbellConfig, OrderSliceConfig};

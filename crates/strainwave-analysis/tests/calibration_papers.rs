@@ -1,4 +1,4 @@
-//! Calibration behaviour against the seeds: Taghirad and Bélanger's gain consistency, the embedded-sensor article's
+//! Calibration behaviour against the papers: Taghirad and Bélanger's gain consistency, the embedded-sensor article's
 //! error table, and the series-elastic dead-weight fixture against numpy's polyfit.
 
 #[path = "calibration_fixture.rs"]
@@ -22,7 +22,7 @@ fn round2(x: f64) -> f64 {
 /// Eight experiments (Taghirad and Bélanger (1999) used eight), loading and unloading at five steps, with
 /// zero-mean hysteresis-like scatter orthogonal to the voltages so each gain is exact:
 /// gains alternate 6.468 / 6.732 N·m/V → mean 6.6, deviations ±0.132.
-fn seed000_experiments() -> Vec<Experiment> {
+fn taghirad_experiments() -> Vec<Experiment> {
     let v = [0.5, 1.0, 1.5, 1.0, 0.5];
     let scatter = [0.02, -0.01, 0.0, 0.01, -0.02]; // Σ v·scatter = 0
     (0..8)
@@ -35,8 +35,8 @@ fn seed000_experiments() -> Vec<Experiment> {
 }
 
 #[test]
-fn seed000_consistency_uses_sample_std() {
-    let g = calibrate_gain(&seed000_experiments(), GainFit::ThroughOrigin, Some(10.0)).unwrap();
+fn taghirad_consistency_uses_sample_std() {
+    let g = calibrate_gain(&taghirad_experiments(), GainFit::ThroughOrigin, Some(10.0)).unwrap();
     for (i, e) in g.experiments.iter().enumerate() {
         let want = if i % 2 == 0 { 6.468 } else { 6.732 };
         assert!((e.gain_nm_per_v - want).abs() < COEFF_TOL * want, "{}: {}", e.label, e.gain_nm_per_v);
@@ -57,8 +57,8 @@ fn seed000_consistency_uses_sample_std() {
 }
 
 #[test]
-fn seed001_static_row_reproduced() {
-    let (x, t) = seed001_static();
+fn embedded_sensor_static_row_reproduced() {
+    let (x, t) = embedded_sensor_static();
     let f = fit_affine(&x, &t, Some(20.19)).unwrap();
     assert!((f.alpha - STATIC_ALPHA).abs() < COEFF_TOL * STATIC_ALPHA);
     assert!((f.beta_nm - STATIC_BETA_NM).abs() < 1e-12);
@@ -73,8 +73,8 @@ fn seed001_static_row_reproduced() {
 }
 
 #[test]
-fn seed001_dynamic_row_reproduced() {
-    let (x, t) = seed001_dynamic();
+fn embedded_sensor_dynamic_row_reproduced() {
+    let (x, t) = embedded_sensor_dynamic();
     let f = fit_affine(&x, &t, Some(20.87)).unwrap();
     assert!((f.alpha - DYNAMIC_ALPHA).abs() < COEFF_TOL * DYNAMIC_ALPHA);
     assert!((f.beta_nm - DYNAMIC_BETA_NM).abs() < 1e-12);
@@ -108,7 +108,7 @@ fn series_elastic_dead_weight_matches_numpy() {
 
 #[test]
 fn nan_rows_and_single_load_are_named() {
-    let (mut x, t) = seed001_static();
+    let (mut x, t) = embedded_sensor_static();
     x[3] = f64::NAN;
     let err = fit_affine(&x, &t, None).unwrap_err();
     assert_eq!(err, CalibrationError::NonFiniteRow { what: "affine fit".into(), row: 3, column: "sensor" });

@@ -12,10 +12,10 @@ use strainwave_analysis::ident::{
     fit_compliance, fit_kinematic_error, run_estimator, select_kinematic_basis, ComplianceFit, ComplianceFitOptions,
     ComplianceForm, FitMetrics, HysteresisForm, JointAngles, KinematicBasis, KinematicFit, KinematicFitOptions,
 };
-use strainwave_core::compliance::SeedCompliance;
+use strainwave_core::compliance::HdaArmCompliance;
 use strainwave_core::gear::{FixedElement, Gear};
 use strainwave_core::torsion::{EncoderConfig, EstimatorState, MeshAngle, TorqueSolver, TorsionEstimator};
-use strainwave_sim::arm::{simulate_arm, ArmModel, ArmRecording, ArmScenario, SeedExperiment};
+use strainwave_sim::arm::{simulate_arm, ArmExperiment, ArmModel, ArmRecording, ArmScenario};
 
 /// Required improvement over the paper's figures.
 const IMPROVEMENT: f64 = 5.0;
@@ -25,8 +25,8 @@ struct Run {
     scenario: ArmScenario,
 }
 
-fn run(e: SeedExperiment) -> Run {
-    let scenario = ArmScenario::seed_experiment(e).unwrap();
+fn run(e: ArmExperiment) -> Run {
+    let scenario = ArmScenario::experiment(e).unwrap();
     Run { rec: simulate_arm(&scenario).unwrap(), scenario }
 }
 
@@ -76,9 +76,9 @@ fn estimate_counts(fit: &ComplianceFit, kin: &KinematicFit, r: &Run) -> Vec<f64>
 
 /// The paper's estimator: the manufacturer's springs (the twin's true values), the
 /// 5th-order polynomial kinematic error, no hysteresis, no damping.
-fn estimate_seed_method(poly: &KinematicFit, r: &Run) -> Vec<f64> {
+fn estimate_paper_method(poly: &KinematicFit, r: &Run) -> Vec<f64> {
     let s = &r.scenario;
-    let springs: SeedCompliance<f64> = *ArmModel::new(s).unwrap().springs();
+    let springs: HdaArmCompliance<f64> = *ArmModel::new(s).unwrap().springs();
     let enc = EncoderConfig::multi_turn(1 << 20).unwrap();
     let est = TorsionEstimator::new(
         gear(s),
@@ -99,8 +99,8 @@ struct Identified {
 }
 
 fn identify() -> Identified {
-    let no_load = run(SeedExperiment::NoLoad);
-    let loaded = run(SeedExperiment::LoadedHold);
+    let no_load = run(ArmExperiment::NoLoad);
+    let loaded = run(ArmExperiment::LoadedHold);
     let s = &no_load.scenario;
     let g = gear(s);
     let opts = KinematicFitOptions::default();
@@ -141,31 +141,31 @@ fn identify() -> Identified {
 }
 
 #[test]
-fn seed002_experiments_five_times_better_than_the_seed() {
+fn hda_arm_experiments_five_times_better_than_the_paper() {
     let id = identify();
     println!();
-    println!("| run | paper mean/max | seed method on twin | linear K | ours (counts) | limit (seed/5) |");
+    println!("| run | paper mean/max | paper's method on twin | linear K | ours (counts) | limit (paper/5) |");
     println!("|---|---|---|---|---|---|");
-    for e in SeedExperiment::ALL {
-        if matches!(e, SeedExperiment::NoLoad | SeedExperiment::LoadedHold) {
+    for e in ArmExperiment::ALL {
+        if matches!(e, ArmExperiment::NoLoad | ArmExperiment::LoadedHold) {
             continue;
         }
         let r = run(e);
         let truth = col(&r, "true_link_torque");
         let ours = FitMetrics::of(&estimate_counts(&id.ours, &id.fourier, &r), truth);
-        let seed = FitMetrics::of(&estimate_seed_method(&id.poly, &r), truth);
+        let theirs = FitMetrics::of(&estimate_paper_method(&id.poly, &r), truth);
         let lin = FitMetrics::of(
             &id.linear.predict(&gear(&r.scenario), strainwave_core::torsion::NoKinematicError, &angles(&r)).unwrap(),
             truth,
         );
         assert_eq!(ours.samples, truth.len(), "{}: the estimator failed on some samples", e.name());
-        let paper = e.seed_figures_nm();
+        let paper = e.paper_figures_nm();
         let fmt = |m: &FitMetrics| format!("{:.3}/{:.3}", m.mean_abs, m.max_abs);
         let (paper_s, limit_s) = match paper {
             Some((a, b)) => (format!("{a}/{b}"), format!("{:.3}/{:.3}", a / IMPROVEMENT, b / IMPROVEMENT)),
             None => ("—".into(), "—".into()),
         };
-        println!("| {} | {} | {} | {} | {} | {} |", e.name(), paper_s, fmt(&seed), fmt(&lin), fmt(&ours), limit_s);
+        println!("| {} | {} | {} | {} | {} | {} |", e.name(), paper_s, fmt(&theirs), fmt(&lin), fmt(&ours), limit_s);
         if let Some((mean, max)) = paper {
             assert!(
                 ours.mean_abs <= mean / IMPROVEMENT,
@@ -175,7 +175,7 @@ fn seed002_experiments_five_times_better_than_the_seed() {
                 mean / IMPROVEMENT
             );
             assert!(ours.max_abs <= max / IMPROVEMENT, "{}: max {} > {}", e.name(), ours.max_abs, max / IMPROVEMENT);
-            assert!(ours.mean_abs < seed.mean_abs, "{}", e.name());
+            assert!(ours.mean_abs < theirs.mean_abs, "{}", e.name());
         }
     }
 }

@@ -45,7 +45,7 @@ impl<T: Real> FlexsplineStiffening<T> {
         }
     }
 
-    /// Torque for a twist (seed eq. B.2), N·m; `OutOfRange` at or beyond the asymptote.
+    /// Torque for a twist (the HDA-arm paper's eq. B.2), N·m; `OutOfRange` at or beyond the asymptote.
     pub fn torque_nm(&self, twist_rad: T) -> Result<T, Error> {
         finite(twist_rad, "twist_rad")?;
         if self.c_per_nm == T::ZERO {
@@ -156,7 +156,7 @@ impl<T: Real> Compliance<T> for WaveGeneratorSoftening<T> {
 ///
 /// `N` is the ratio from the WG to the output (pass `N + 1` when the flexspline is fixed).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SeedCompliance<T: Real> {
+pub struct HdaArmCompliance<T: Real> {
     /// Flexspline spring.
     pub flexspline: FlexsplineStiffening<T>,
     /// Wave-generator spring, at the WG.
@@ -164,12 +164,12 @@ pub struct SeedCompliance<T: Real> {
     ratio: T,
 }
 
-impl<T: Real> SeedCompliance<T> {
+impl<T: Real> HdaArmCompliance<T> {
     /// Both springs and the ratio `N > 0`.
     ///
     /// ```
-    /// use strainwave_core::compliance::{Compliance, FlexsplineStiffening, SeedCompliance, WaveGeneratorSoftening};
-    /// let hd = SeedCompliance::new(
+    /// use strainwave_core::compliance::{Compliance, FlexsplineStiffening, HdaArmCompliance, WaveGeneratorSoftening};
+    /// let hd = HdaArmCompliance::new(
     ///     FlexsplineStiffening::new(2.0e4_f64, 0.015).unwrap(),
     ///     WaveGeneratorSoftening::new(2.5, 1.5).unwrap(),
     ///     100.0,
@@ -200,7 +200,7 @@ impl<T: Real> SeedCompliance<T> {
     }
 }
 
-impl<T: Real> Compliance<T> for SeedCompliance<T> {
+impl<T: Real> Compliance<T> for HdaArmCompliance<T> {
     fn twist_rad(&self, torque_nm: T) -> T {
         self.flexspline.twist_rad(torque_nm) + self.wave_generator.twist_rad(torque_nm / self.ratio) / self.ratio
     }
