@@ -283,27 +283,27 @@ fn bench_bank<T: Real, const M: usize, const JOINTS: usize>(c: &mut Criterion, n
 }
 
 fn all(c: &mut Criterion) {
-    bench_strainwave(c, "ripple/4-state/f64/strainwave", RippleModel::<f64, 2>::seed_4th_order(1000.0).unwrap());
+    bench_strainwave(c, "ripple/4-state/f64/strainwave", RippleModel::<f64, 2>::taghirad_4th_order(1000.0).unwrap());
     bench_dense::<f64, 4>(c, "ripple/4-state/f64/nalgebra-dense");
     bench_ads4::<f64>(c, "ripple/4-state/f64/adskalman");
-    bench_strainwave(c, "ripple/4-state/f32/strainwave", RippleModel::<f32, 2>::seed_4th_order(1000.0).unwrap());
+    bench_strainwave(c, "ripple/4-state/f32/strainwave", RippleModel::<f32, 2>::taghirad_4th_order(1000.0).unwrap());
     bench_dense::<f32, 4>(c, "ripple/4-state/f32/nalgebra-dense");
     bench_ads4::<f32>(c, "ripple/4-state/f32/adskalman");
-    bench_strainwave(c, "ripple/6-state/f64/strainwave", RippleModel::<f64, 3>::seed_6th_order(1000.0).unwrap());
+    bench_strainwave(c, "ripple/6-state/f64/strainwave", RippleModel::<f64, 3>::taghirad_6th_order(1000.0).unwrap());
     bench_dense::<f64, 6>(c, "ripple/6-state/f64/nalgebra-dense");
     bench_ads6::<f64>(c, "ripple/6-state/f64/adskalman");
-    bench_strainwave(c, "ripple/6-state/f32/strainwave", RippleModel::<f32, 3>::seed_6th_order(1000.0).unwrap());
+    bench_strainwave(c, "ripple/6-state/f32/strainwave", RippleModel::<f32, 3>::taghirad_6th_order(1000.0).unwrap());
     bench_dense::<f32, 6>(c, "ripple/6-state/f32/nalgebra-dense");
     bench_ads6::<f32>(c, "ripple/6-state/f32/adskalman");
     bench_strainwave(c, "ripple/7-state-product/f64/strainwave", RippleModel::<f64, 3>::product(1000.0, 0.1).unwrap());
     bench_strainwave(c, "ripple/7-state-product/f32/strainwave", RippleModel::<f32, 3>::product(1000.0, 0.1).unwrap());
     bench_strainwave(c, "ripple/11-state-full/f64/strainwave", RippleModel::<f64, 5>::full(1000.0, 0.1).unwrap());
     bench_strainwave(c, "ripple/11-state-full/f32/strainwave", RippleModel::<f32, 5>::full(1000.0, 0.1).unwrap());
-    bench_alternating(c, "6-state/f64/2-joints", RippleModel::<f64, 3>::seed_6th_order(1000.0).unwrap());
-    bench_bank::<f64, 3, 2>(c, "6-state/f64/2-joints", RippleModel::seed_6th_order(1000.0).unwrap());
-    bench_bank::<f32, 3, 8>(c, "6-state/f32/8-joints", RippleModel::seed_6th_order(1000.0).unwrap());
-    bench_bank::<f32, 3, 16>(c, "6-state/f32/16-joints", RippleModel::seed_6th_order(1000.0).unwrap());
-    bench_bank::<f64, 3, 8>(c, "6-state/f64/8-joints", RippleModel::seed_6th_order(1000.0).unwrap());
+    bench_alternating(c, "6-state/f64/2-joints", RippleModel::<f64, 3>::taghirad_6th_order(1000.0).unwrap());
+    bench_bank::<f64, 3, 2>(c, "6-state/f64/2-joints", RippleModel::taghirad_6th_order(1000.0).unwrap());
+    bench_bank::<f32, 3, 8>(c, "6-state/f32/8-joints", RippleModel::taghirad_6th_order(1000.0).unwrap());
+    bench_bank::<f32, 3, 16>(c, "6-state/f32/16-joints", RippleModel::taghirad_6th_order(1000.0).unwrap());
+    bench_bank::<f64, 3, 8>(c, "6-state/f64/8-joints", RippleModel::taghirad_6th_order(1000.0).unwrap());
     bench_bank::<f32, 3, 8>(c, "7-state-product/f32/8-joints", RippleModel::product(1000.0, 0.1).unwrap());
 }
 

@@ -87,7 +87,7 @@ impl<T: Real, const M: usize> Plan<T, M> {
 ///
 /// ```
 /// use strainwave_core::ripple::{step_many, BankInput, BankOutput, ReferenceValues, RippleBank, RippleModel};
-/// let model = RippleModel::<f32, 2>::seed_4th_order(1000.0).unwrap();
+/// let model = RippleModel::<f32, 2>::taghirad_4th_order(1000.0).unwrap();
 /// let mut bank = RippleBank::<f32, 2, 4>::new(&model);
 /// let mut out = BankOutput::default();
 /// for k in 0..100 {
@@ -1050,10 +1050,10 @@ pub(super) mod tests {
             Order::new(Reference::Output, 3.0).unwrap().scaled_by_load(),
         ];
         (
-            RippleModel::seed_6th_order(1000.0).unwrap(),
+            RippleModel::taghirad_6th_order(1000.0).unwrap(),
             RippleModel::new(motor, 0.5, 1000.0).unwrap().with_bias_state(1e-3).unwrap(),
             RippleModel::full(1000.0, 0.05).unwrap(),
-            RippleModel::seed_4th_order(1000.0).unwrap().with_phase_source(PhaseSource::Velocity),
+            RippleModel::taghirad_4th_order(1000.0).unwrap().with_phase_source(PhaseSource::Velocity),
         )
     }
 
