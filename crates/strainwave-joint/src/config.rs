@@ -4,10 +4,10 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use strainwave_core::calibration::Calibration;
 use strainwave_core::denoise::TorqueDenoiser;
-use strainwave_core::gear::{FixedElement, Gear};
+use strainwave_core::gear::Gear;
 use strainwave_io::Channel;
 
 /// Largest calibration table the filter accepts.
@@ -44,25 +44,10 @@ pub struct GearConfig {
     pub fixed: Fixed,
 }
 
-/// `gear.fixed`: which element is fixed (the other one is the output).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Fixed {
-    /// Circular spline fixed, flexspline output (the usual robot joint).
-    #[serde(alias = "circular-spline")]
-    CircularSpline,
-    /// Flexspline fixed, circular spline output.
-    Flexspline,
-}
-
-impl From<Fixed> for FixedElement {
-    fn from(f: Fixed) -> Self {
-        match f {
-            Fixed::CircularSpline => FixedElement::CircularSpline,
-            Fixed::Flexspline => FixedElement::Flexspline,
-        }
-    }
-}
+/// `gear.fixed`: which element is fixed (the other one is the output): the core's
+/// [`FixedElement`], spelled as in every configuration file (`circular_spline`, alias
+/// `circular-spline`, or `flexspline`).
+pub use strainwave_core::gear::FixedElement as Fixed;
 
 /// `filter.model`: which canceller model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
@@ -84,8 +69,8 @@ pub enum ModelChoice {
 }
 
 /// `filter.phase`: where the oscillators' phase comes from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
-#[serde(rename_all = "snake_case")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum PhaseChoice {
     /// Motor and output encoders.
     #[default]
@@ -95,8 +80,8 @@ pub enum PhaseChoice {
 }
 
 /// `filter.orders.reference`: the angle an order is a multiple of.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
-#[serde(rename_all = "snake_case")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum ReferenceChoice {
     /// The relative wave generator–flexspline angle (meshing ripple).
     Relative,
@@ -104,6 +89,38 @@ pub enum ReferenceChoice {
     Output,
     /// The motor angle.
     Motor,
+}
+
+impl PhaseChoice {
+    /// Its name in files and messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            PhaseChoice::Angle => "angle",
+            PhaseChoice::Velocity => "velocity",
+        }
+    }
+}
+
+impl ReferenceChoice {
+    /// Its name in files and messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            ReferenceChoice::Relative => "relative",
+            ReferenceChoice::Output => "output",
+            ReferenceChoice::Motor => "motor",
+        }
+    }
+}
+
+impl From<strainwave_core::ripple::Reference> for ReferenceChoice {
+    fn from(r: strainwave_core::ripple::Reference) -> Self {
+        use strainwave_core::ripple::Reference;
+        match r {
+            Reference::Relative => Self::Relative,
+            Reference::Output => Self::Output,
+            Reference::Motor => Self::Motor,
+        }
+    }
 }
 
 impl From<ReferenceChoice> for strainwave_core::ripple::Reference {

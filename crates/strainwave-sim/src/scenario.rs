@@ -79,15 +79,9 @@ pub struct ExtraLine {
     pub phase_rad: f64,
 }
 
-/// Which gear element is fixed, as written in TOML.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum FixedElementName {
-    /// Circular spline fixed, flexspline output.
-    CircularSpline,
-    /// Flexspline fixed, circular spline output.
-    Flexspline,
-}
+/// Which gear element is fixed, as written in TOML: the core's enum, spelled as in every
+/// configuration file (`circular_spline`, alias `circular-spline`, or `flexspline`).
+pub use strainwave_core::gear::FixedElement as FixedElementName;
 
 /// Gear parameters: ratio, configuration, catalogue stiffness, hysteresis, friction.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
