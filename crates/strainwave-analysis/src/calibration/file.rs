@@ -10,7 +10,7 @@ use super::{check_columns, invalid, CalibrationError, ErrorMetrics, Extrapolatio
 
 /// The model form stored in a calibration file (`model = "…"`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
+#[serde(rename_all = "kebab-case")]
 pub enum ModelKind {
     /// `T = g V`: key `gain_nm_per_v`.
     Gain,
@@ -19,9 +19,11 @@ pub enum ModelKind {
     /// `T = α x + β` from sinusoidal-load data, speed-independent: same keys.
     Dynamic,
     /// Table: `speed_rad_s`, `alpha`, `beta_nm` (arrays of equal length), `extrapolation`.
+    #[serde(alias = "speed_table")]
     SpeedTable,
     /// Polynomials: `alpha`, `beta_nm` (coefficients lowest order first, per (rad/s)^k),
     /// `speed_range_rad_s = [min, max]`, `extrapolation`.
+    #[serde(alias = "speed_poly")]
     SpeedPoly,
 }
 
@@ -31,8 +33,8 @@ impl ModelKind {
             ModelKind::Gain => "gain",
             ModelKind::Static => "static",
             ModelKind::Dynamic => "dynamic",
-            ModelKind::SpeedTable => "speed_table",
-            ModelKind::SpeedPoly => "speed_poly",
+            ModelKind::SpeedTable => "speed-table",
+            ModelKind::SpeedPoly => "speed-poly",
         }
     }
 }
@@ -51,7 +53,7 @@ pub enum Coefficients {
 /// the model are refused. Example:
 ///
 /// ```toml
-/// model = "speed_table"          # gain | static | dynamic | speed_table | speed_poly
+/// model = "speed-table"          # gain | static | dynamic | speed-table | speed-poly
 /// extrapolation = "clamp"        # clamp | linear | reject (speed models only, required)
 /// speed_rad_s = [0.5, 2.0, 4.0]  # breakpoints, strictly increasing
 /// alpha = [1.55, 1.57, 1.60]
@@ -87,10 +89,10 @@ pub struct CalibrationFile {
     /// Gain, N·m/V (model `gain`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gain_nm_per_v: Option<f64>,
-    /// Table breakpoints, rad/s (model `speed_table`).
+    /// Table breakpoints, rad/s (model `speed-table`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub speed_rad_s: Option<Vec<f64>>,
-    /// `[min, max]` fitted speed range, rad/s (model `speed_poly`).
+    /// `[min, max]` fitted speed range, rad/s (model `speed-poly`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub speed_range_rad_s: Option<Vec<f64>>,
     /// α: a number (static, dynamic), table values or polynomial coefficients.
@@ -449,5 +451,10 @@ mod tests {
         assert!((c.apply(2.0, 7.0).unwrap() - (2.0 * 1.57 - 0.09)).abs() < 1e-5);
         let again = CalibrationFile::from_toml_str(&f.to_toml_string().unwrap()).unwrap();
         assert_eq!(again, f);
+        // Written kebab-case, as every value; the snake spelling (older files) still loads.
+        assert!(f.to_toml_string().unwrap().contains("model = \"speed-poly\""));
+        assert_eq!(CalibrationFile::from_toml_str(&text.replace("speed_poly", "speed-poly")).unwrap(), f);
+        let e = CalibrationFile::from_toml_str(&text.replace("speed_poly", "speed_spline")).unwrap_err().to_string();
+        assert!(e.contains("unknown variant `speed_spline`") && e.contains("`speed-table`"), "{e}");
     }
 }

@@ -14,7 +14,7 @@ use crate::lstsq::{self, expansion_matrix};
 /// Extrapolation policy outside a speed table or fitted speed range (file key
 /// `extrapolation = "clamp" | "linear" | "reject"`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
+#[serde(rename_all = "kebab-case")]
 pub enum Extrapolation {
     /// Hold the end coefficients.
     Clamp,
@@ -108,7 +108,7 @@ pub struct SpeedFit {
 }
 
 impl SpeedFit {
-    /// The calibration file (`speed_table` or `speed_poly`).
+    /// The calibration file (`speed-table` or `speed-poly`).
     pub fn to_file(&self) -> CalibrationFile {
         let poly = self.model == ModelKind::SpeedPoly;
         CalibrationFile {

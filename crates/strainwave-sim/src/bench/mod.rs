@@ -197,7 +197,7 @@ pub struct EncoderParams {
 
 /// Log or linear frequency law of a sweep.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
+#[serde(rename_all = "kebab-case")]
 pub enum SweepSpacing {
     /// `f(t) = f0 (f1/f0)^(t/T)`.
     Log,
@@ -207,9 +207,10 @@ pub enum SweepSpacing {
 
 /// What the drive does.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum BenchProfile {
     /// Speed-controlled ramp (paper §IV): a PI speed loop sets `i_q`, `i_d` is held.
+    #[serde(alias = "speed_ramp")]
     SpeedRamp {
         /// Start speed, rpm (≥ 0).
         from_rpm: f64,
@@ -225,6 +226,7 @@ pub enum BenchProfile {
     /// Current injection at standstill (paper §V): `i_q = I cos φ(t)`, `i_d = 0`, in the
     /// rotor frame (ideal current loop), the frequency swept from `from_hz` to `to_hz` over
     /// the run.
+    #[serde(alias = "current_sweep")]
     CurrentSweep {
         /// `I`, A.
         amplitude_a: f64,

@@ -246,3 +246,11 @@ fn integrator_converges_against_a_finer_step() {
         }
     }
 }
+
+#[test]
+fn the_snake_spelling_of_a_profile_kind_still_loads() {
+    let text = preset_text("kit-bench").unwrap();
+    assert!(text.contains("kind = \"speed-ramp\""));
+    let old = text.replace("\"speed-ramp\"", "\"speed_ramp\"");
+    assert_eq!(BenchScenario::from_toml(&old).unwrap(), BenchScenario::from_toml(text).unwrap());
+}
