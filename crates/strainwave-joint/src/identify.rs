@@ -196,13 +196,7 @@ fn kinematic_model(fit: &KinematicFit) -> KinematicModel {
             (Basis::Fourier, output_harmonics, mesh_harmonics, mesh_angle)
         }
     };
-    KinematicModel {
-        basis,
-        order,
-        mesh_harmonics: mesh,
-        mesh_angle,
-        coefficients: fit.coefficients.clone(),
-    }
+    KinematicModel { basis, order, mesh_harmonics: mesh, mesh_angle, coefficients: fit.coefficients.clone() }
 }
 
 fn compliance_options(cfg: &ArmConfig, windup_offset: bool) -> Result<ComplianceFitOptions> {

@@ -402,7 +402,8 @@ mod tests {
         [compliance]\nspring = \"hda\"\nhysteresis = \"plays\"\n";
 
     fn parse(text: &str) -> std::result::Result<ArmConfig, String> {
-        toml::from_str(text).map_err(|e| crate::toml_error::one_line(std::path::Path::new("arm.toml"), text, &e).to_string())
+        toml::from_str(text)
+            .map_err(|e| crate::toml_error::one_line(std::path::Path::new("arm.toml"), text, &e).to_string())
     }
 
     #[test]
