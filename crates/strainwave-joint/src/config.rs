@@ -279,18 +279,18 @@ impl JointConfig {
 
     /// The gear; errors name `gear.ratio` / `gear.fixed`.
     pub fn gear(&self) -> Result<Gear<f64>> {
-        Gear::new(self.gear.ratio, self.gear.fixed.into())
+        Gear::new(self.gear.ratio, self.gear.fixed)
             .map_err(|_| anyhow::anyhow!("`gear.ratio` must be positive, got {}", self.gear.ratio))
     }
 
-    /// The measurement noise variance of the `orders` model, N·m²: `noise_nm` squared, or
-    /// the older `r_nm2`; errors name the key the user wrote.
-    pub fn orders_noise_variance_nm2(&self) -> Result<f64> {
+    /// The measurement noise of the `orders` model, 1σ, N·m: `noise_nm`, or the square
+    /// root of the older variance key `r_nm2`; errors name the key the user wrote.
+    pub fn orders_noise_nm(&self) -> Result<f64> {
         match (self.filter.noise_nm, self.filter.r_nm2) {
             (Some(_), Some(_)) => bail!("`filter.noise_nm` and `filter.r_nm2` say the same thing; keep `noise_nm`"),
-            (Some(n), None) if n.is_finite() && n > 0.0 => Ok(n * n),
+            (Some(n), None) if n.is_finite() && n > 0.0 => Ok(n),
             (Some(n), None) => bail!("`filter.noise_nm` must be positive, got {n}"),
-            (None, Some(r)) if r.is_finite() && r > 0.0 => Ok(r),
+            (None, Some(r)) if r.is_finite() && r > 0.0 => Ok(r.sqrt()),
             (None, Some(r)) => bail!("`filter.r_nm2` must be positive, got {r}"),
             (None, None) => bail!("`filter.noise_nm` is needed by the orders model"),
         }
@@ -359,11 +359,12 @@ mod tests {
     #[test]
     fn one_name_for_the_measurement_noise() {
         let c = load(BASE).unwrap();
-        assert!((c.orders_noise_variance_nm2().unwrap() - 4e-4).abs() < 1e-18);
+        assert_eq!(c.orders_noise_nm().unwrap(), 0.02);
+        // The older variance key is the square of the noise, not an alias of it.
         let c = load(&BASE.replace("noise_nm = 0.02", "r_nm2 = 4e-4")).unwrap();
-        assert_eq!(c.orders_noise_variance_nm2().unwrap(), 4e-4);
+        assert!((c.orders_noise_nm().unwrap() - 0.02).abs() < 1e-17);
         let c = load(&BASE.replace("noise_nm = 0.02", "noise_nm = 0.02\nr_nm2 = 4e-4")).unwrap();
-        assert!(c.orders_noise_variance_nm2().unwrap_err().to_string().contains("keep `noise_nm`"));
+        assert!(c.orders_noise_nm().unwrap_err().to_string().contains("keep `noise_nm`"));
     }
 
     #[test]

@@ -250,7 +250,7 @@ impl<const M: usize> RunLearner for Learner<M> {
                 d.threshold,
                 d.cycles
             );
-            let least = MIN_AMPLITUDE_OF_NOISE * self.model.r_nm2().sqrt();
+            let least = MIN_AMPLITUDE_OF_NOISE * self.model.noise_nm();
             if d.amplitude_nm() < least {
                 lines.push(format!(
                     "found {what}; not added: below {least:.4} N·m ({MIN_AMPLITUDE_OF_NOISE} × the noise)"

@@ -57,7 +57,8 @@ mod tests {
     fn snake_spellings_of_values_still_load() {
         let text = preset_text("taghirad").unwrap();
         assert!(text.contains("\"four-rosettes\"") && text.contains("\"small-strain\""));
-        let old = text.replace("\"four-rosettes\"", "\"four_rosettes\"").replace("\"small-strain\"", "\"small_strain\"");
+        let old =
+            text.replace("\"four-rosettes\"", "\"four_rosettes\"").replace("\"small-strain\"", "\"small_strain\"");
         assert_eq!(Scenario::from_toml(&old).unwrap(), preset("taghirad").unwrap());
         let old = text.replace("\"circular_spline\"", "\"circular-spline\"");
         assert_eq!(Scenario::from_toml(&old).unwrap(), preset("taghirad").unwrap());

@@ -146,8 +146,9 @@ pub struct DutParams {
 pub struct TorsionSensorParams {
     /// Range `±range_nm`; readings clip there, N·m.
     pub range_nm: f64,
-    /// White noise per sample, N·m rms.
-    pub noise_nm_rms: f64,
+    /// White noise per sample, 1σ (rms), N·m (`noise_nm_rms` in older files).
+    #[serde(alias = "noise_nm_rms")]
+    pub noise_nm: f64,
 }
 
 /// A vibration of the housing that both accelerometers see with opposite signs (it
@@ -303,7 +304,7 @@ impl BenchScenario {
             fin(c.phase_rad, "dut.cogging.phase_rad")?;
         }
         pos(self.torsion_sensor.range_nm, "torsion_sensor.range_nm")?;
-        nonneg(self.torsion_sensor.noise_nm_rms, "torsion_sensor.noise_nm_rms")?;
+        nonneg(self.torsion_sensor.noise_nm, "torsion_sensor.noise_nm")?;
         let a = &self.accelerometers;
         pos(a.radius_m, "accelerometers.radius_m")?;
         pos(a.range_m_s2, "accelerometers.range_m_s2")?;
