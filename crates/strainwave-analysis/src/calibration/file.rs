@@ -27,6 +27,26 @@ pub enum ModelKind {
     SpeedPoly,
 }
 
+impl std::str::FromStr for ModelKind {
+    type Err = String;
+
+    /// `gain`, `static`, `dynamic`, `speed-table` or `speed-poly` (the snake spellings are
+    /// accepted); the error lists them.
+    fn from_str(name: &str) -> Result<Self, String> {
+        use ModelKind::*;
+        let table = [
+            ("gain", Gain),
+            ("static", Static),
+            ("dynamic", Dynamic),
+            ("speed-table", SpeedTable),
+            ("speed-poly", SpeedPoly),
+            ("speed_table", SpeedTable),
+            ("speed_poly", SpeedPoly),
+        ];
+        crate::choice::parse(name, &table, 5)
+    }
+}
+
 impl ModelKind {
     fn name(self) -> &'static str {
         match self {

@@ -24,6 +24,16 @@ pub enum Extrapolation {
     Reject,
 }
 
+impl std::str::FromStr for Extrapolation {
+    type Err = String;
+
+    /// `clamp`, `linear` or `reject`; the error lists them.
+    fn from_str(name: &str) -> Result<Self, String> {
+        let table = [("clamp", Self::Clamp), ("linear", Self::Linear), ("reject", Self::Reject)];
+        crate::choice::parse(name, &table, 3)
+    }
+}
+
 impl From<Extrapolation> for CoreExtrapolation {
     fn from(e: Extrapolation) -> Self {
         match e {
