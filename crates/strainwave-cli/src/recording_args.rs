@@ -162,7 +162,8 @@ pub struct ReadArgs {
     #[arg(long = "topic", global = true, value_name = "TOPIC")]
     pub topics: Vec<String>,
     /// Log message time: `header` (header.stamp where a message has one) or `log` (receive time).
-    #[arg(long, global = true, value_name = "CLOCK", value_enum)]
+    // Its own id: `calibrate --time-column` is a field called `time` too.
+    #[arg(id = "log_clock", long = "time", global = true, value_name = "CLOCK", value_enum)]
     pub time: Option<TimeArg>,
     /// How log topics at different rates meet on one clock: linear, hold, nearest, or none
     /// (one row per message).
