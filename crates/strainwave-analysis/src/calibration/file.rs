@@ -403,16 +403,39 @@ impl CalibrationFile {
     }
 }
 
-/// A TOML error on one line: `line L, column C: message` (the `toml` crate's own text
-/// draws the offending line over several).
+/// A TOML error on one line: `line L, column C: key `K`: message`, the key as the user
+/// wrote it when the error is a value's (the `toml` crate's own text draws the offending
+/// line over several).
 pub fn toml_error_line(text: &str, e: &toml::de::Error) -> String {
     let at = e.span().map_or(String::new(), |s| {
         let before = text.get(..s.start).unwrap_or(text);
         let line = before.matches('\n').count() + 1;
         let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
-        format!("line {line}, column {column}: ")
+        let key = toml_key_at(before).map_or(String::new(), |k| format!("`{k}`: "));
+        format!("line {line}, column {column}: {key}")
     });
     format!("{at}{}", e.message().trim().replace('\n', "; "))
+}
+
+/// The dotted key whose value starts at the end of `before` (the text up to an error's
+/// span): the table header above it joined with the key on its own line, when the line
+/// is a plain `key = value` (`filter.model`).
+pub fn toml_key_at(before: &str) -> Option<String> {
+    let mut lines = before.rsplit('\n');
+    let current = lines.next()?;
+    let (key, _) = current.split_once('=')?;
+    let key = key.trim().trim_matches('"');
+    if key.is_empty() || key.contains(['[', '{', ',']) {
+        return None;
+    }
+    let table = lines
+        .map(str::trim)
+        .find(|l| l.starts_with('[') && !l.starts_with("[["))
+        .map(|l| l.trim_start_matches('[').split(']').next().unwrap_or("").trim().to_string());
+    Some(match table {
+        Some(t) if !t.is_empty() => format!("{t}.{key}"),
+        _ => key.to_string(),
+    })
 }
 
 #[cfg(test)]
@@ -475,6 +498,7 @@ mod tests {
         assert!(f.to_toml_string().unwrap().contains("model = \"speed-poly\""));
         assert_eq!(CalibrationFile::from_toml_str(&text.replace("speed_poly", "speed-poly")).unwrap(), f);
         let e = CalibrationFile::from_toml_str(&text.replace("speed_poly", "speed_spline")).unwrap_err().to_string();
-        assert!(e.contains("unknown variant `speed_spline`") && e.contains("`speed-table`"), "{e}");
+        assert!(e.contains("line 1, column 9: `model`: unknown variant `speed_spline`"), "{e}");
+        assert!(e.contains("`speed-table`") && !e.contains('\n'), "{e}");
     }
 }
