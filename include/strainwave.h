@@ -80,7 +80,7 @@
  * Layout version of [`sw_model`] / [`sw32_model`]; `sw_init` refuses any other value, so
  * a model exported for another version of this header is caught at start-up.
  */
-#define SW_MODEL_VERSION 2
+#define SW_MODEL_VERSION 3
 
 /**
  * Most orders (oscillators) a model can hold.
@@ -487,9 +487,9 @@ typedef struct sw_model {
      */
     double sample_rate_hz;
     /**
-     * Measurement noise variance, N·m².
+     * Measurement noise, 1σ, N·m, > 0 (the filter's variance is its square).
      */
-    double r_nm2;
+    double noise_nm;
     /**
      * Bias random-walk variance per sample, N·m² (with the bias state).
      */
@@ -825,9 +825,9 @@ typedef struct sw32_model {
      */
     float sample_rate_hz;
     /**
-     * Measurement noise variance, N·m².
+     * Measurement noise, 1σ, N·m.
      */
-    float r_nm2;
+    float noise_nm;
     /**
      * Bias random-walk variance, N·m².
      */

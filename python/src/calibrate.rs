@@ -5,7 +5,8 @@ use anyhow::{bail, Context, Result};
 use numpy::PyReadonlyArray1;
 use pyo3::prelude::*;
 use strainwave_analysis::calibration::{
-    calibrate_gain, fit_affine, fit_speed_dependent, Experiment, Extrapolation, GainFit, SpeedBins, SpeedDependence,
+    calibrate_gain, fit_affine, fit_speed_dependent, Experiment, Extrapolation, GainFit, ModelKind, SpeedBins,
+    SpeedDependence,
 };
 
 use crate::error::to_py;
@@ -42,16 +43,13 @@ pub fn calibrate_experiments(
         .map(|(l, r, s, v)| (l.clone(), r.as_array().to_vec(), s.as_array().to_vec(), v.as_array().to_vec()))
         .collect();
     py.detach(|| -> Result<String> {
-        let extrapolation = match extrapolation.as_str() {
-            "clamp" => Extrapolation::Clamp,
-            "linear" => Extrapolation::Linear,
-            "reject" => Extrapolation::Reject,
-            other => bail!("--extrapolation: `{other}` is not one of clamp, linear, reject"),
-        };
-        if model != "gain" && with_offset {
+        let extrapolation: Extrapolation =
+            extrapolation.parse().map_err(|e| anyhow::anyhow!("--extrapolation: {e}"))?;
+        let kind: ModelKind = model.parse().map_err(|e| anyhow::anyhow!("--model: {e}"))?;
+        if kind != ModelKind::Gain && with_offset {
             bail!("--with-offset applies to --model gain (static and dynamic models always fit an offset)");
         }
-        if (bins.is_some() || speed_edges.is_some()) && model != "speed-table" && model != "dynamic" {
+        if (bins.is_some() || speed_edges.is_some()) && !matches!(kind, ModelKind::SpeedTable | ModelKind::Dynamic) {
             bail!("--bins / --speed-edges apply to --model speed-table (or dynamic with --speed)");
         }
         let table = || match &speed_edges {
@@ -65,23 +63,23 @@ pub fn calibrate_experiments(
             sensor.extend_from_slice(s);
             speed.extend_from_slice(v);
         }
-        let mut file = match model.as_str() {
-            "gain" => {
+        let mut file = match kind {
+            ModelKind::Gain => {
                 let fit = if with_offset { GainFit::WithOffset } else { GainFit::ThroughOrigin };
                 let e: Vec<Experiment> = exps.iter().map(|(l, r, s, _)| Experiment::new(l, r, s)).collect();
                 calibrate_gain(&e, fit, full_scale).context("fitting the gain")?.to_file()
             }
-            "static" | "dynamic" => {
+            ModelKind::Static | ModelKind::Dynamic => {
                 let f = fit_affine(&sensor, &reference, full_scale)
                     .with_context(|| format!("fitting the {model} model to {inputs}"))?;
-                if model == "static" {
+                if kind == ModelKind::Static {
                     f.to_static_file()
                 } else {
                     f.to_dynamic_file()
                 }
             }
-            "speed-table" | "speed-poly" => {
-                let dep = if model == "speed-table" {
+            ModelKind::SpeedTable | ModelKind::SpeedPoly => {
+                let dep = if kind == ModelKind::SpeedTable {
                     SpeedDependence::Table(table())
                 } else {
                     SpeedDependence::Polynomial { degree }
@@ -90,7 +88,6 @@ pub fn calibrate_experiments(
                     .with_context(|| format!("fitting the speed model to {inputs} (speed column `{speed_column}`)"))?
                     .to_file()
             }
-            other => bail!("--model: `{other}` is not one of gain, static, dynamic, speed-table, speed-poly"),
         };
         file.description = Some(description);
         Ok(file.to_toml_string()?)

@@ -450,7 +450,9 @@ impl RippleCanceller {
         Ok(file
             .orders
             .into_iter()
-            .map(|o: LearnedOrder| (o.reference, o.multiple, o.load_scaled, o.cos_nm, o.sin_nm, o.variance_nm2))
+            .map(|o: LearnedOrder| {
+                (o.reference.name().to_string(), o.multiple, o.load_scaled, o.cos_nm, o.sin_nm, o.variance_nm2)
+            })
             .collect())
     }
 

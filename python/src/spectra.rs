@@ -28,17 +28,8 @@ fn config(
     if let Some(w) = window {
         c.window = Window::Custom(w.as_array().to_vec());
     }
-    c.detrend = match detrend {
-        "constant" => Detrend::Constant,
-        "linear" => Detrend::Linear,
-        "none" => Detrend::None,
-        other => return Err(err(format!("detrend: `{other}` is not one of constant, linear, none"))),
-    };
-    c.scaling = match scaling {
-        "density" => Scaling::Density,
-        "spectrum" => Scaling::Spectrum,
-        other => return Err(err(format!("scaling: `{other}` is not one of density, spectrum"))),
-    };
+    c.detrend = detrend.parse::<Detrend>().map_err(|e| err(format!("detrend: {e}")))?;
+    c.scaling = scaling.parse::<Scaling>().map_err(|e| err(format!("scaling: {e}")))?;
     Ok(c)
 }
 

@@ -187,7 +187,7 @@ def orders(
     speed_bin: float = 200.0,
 ) -> Dict[str, pd.DataFrame]:
     """Order slices: the amplitude and phase of each order (cycles per revolution) of
-    ``signal`` against the speed column ``speed`` (``rpm`` or ``rad_s``), in angle-domain
+    ``signal`` against the speed column ``speed`` (``rpm`` or ``rad-s``), in angle-domain
     blocks of ``revs_per_block`` revolutions overlapping by half; ``strainwave orders``.
 
     Returns ``{"blocks": DataFrame(order, time_s, speed_rpm, amplitude, phase_rad) per
@@ -207,9 +207,9 @@ def orders(
     x = _column(data, signal, "--signal")
     fs = sample_rate_hz(data)
     raw = _column(data, speed, "--speed")
-    if speed_unit not in ("rpm", "rad_s"):
-        raise StrainwaveError(f"--speed-unit: `{speed_unit}` is not rpm or rad_s")
-    v = raw * (60.0 / (2 * math.pi)) if speed_unit == "rad_s" else raw.copy()
+    if speed_unit not in ("rpm", "rad-s", "rad_s"):
+        raise StrainwaveError(f"--speed-unit: `{speed_unit}` is not one of rpm, rad-s")
+    v = raw * (60.0 / (2 * math.pi)) if speed_unit in ("rad-s", "rad_s") else raw.copy()
     bad = np.flatnonzero(~np.isfinite(v))
     if bad.size:
         i = int(bad[0])

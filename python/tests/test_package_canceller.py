@@ -172,7 +172,7 @@ def test_errors_are_the_cli_messages(cli, recording, tmp_path):
     with pytest.raises(sw.StrainwaveError) as e:
         sw.RippleCanceller.from_config(cfg)
     # The command names the key through the learned file's check; the reason is the same.
-    reason = "joint.toml: `noise_nm` must be positive"
+    reason = "joint.toml: `filter.noise_nm` must be positive"
     assert str(e.value).endswith(reason) and expected.endswith(reason), (str(e.value), expected)
     with pytest.raises(sw.StrainwaveError, match="nope.toml"):
         sw.RippleCanceller.from_config(CONFIG, learned=tmp_path / "nope.toml")

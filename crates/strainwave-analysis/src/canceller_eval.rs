@@ -211,7 +211,7 @@ fn run_smoothed(
             multiples.iter().map(|n| [(n * i.references.relative).cos(), (n * i.references.relative).sin()]).collect()
         })
         .collect();
-    let tracks = RippleTorqueTrack::pair(multiples.len(), m.r_nm2(), s.sample_rate_hz);
+    let tracks = RippleTorqueTrack::pair(multiples.len(), m.noise_nm(), s.sample_rate_hz);
     let level = smooth_torque_with_ripple(&clean, &phasors, &[], tracks);
     Ok(out.smoothed.iter().zip(level).map(|(o, (t, sd))| [t, sd, o.ripple_nm + o.misalignment_nm]).collect())
 }

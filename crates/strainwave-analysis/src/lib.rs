@@ -4,6 +4,7 @@ pub mod bench;
 pub mod calibration;
 pub mod campbell;
 pub mod canceller_eval;
+mod choice;
 pub mod error;
 pub mod fir;
 pub mod frf;

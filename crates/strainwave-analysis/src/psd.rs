@@ -71,6 +71,25 @@ pub enum Scaling {
     Spectrum,
 }
 
+impl std::str::FromStr for Detrend {
+    type Err = String;
+
+    /// `constant`, `linear` or `none` (scipy's names); the error lists them.
+    fn from_str(name: &str) -> Result<Self, String> {
+        let table = [("constant", Self::Constant), ("linear", Self::Linear), ("none", Self::None)];
+        crate::choice::parse(name, &table, 3)
+    }
+}
+
+impl std::str::FromStr for Scaling {
+    type Err = String;
+
+    /// `density` or `spectrum` (scipy's names); the error lists them.
+    fn from_str(name: &str) -> Result<Self, String> {
+        crate::choice::parse(name, &[("density", Self::Density), ("spectrum", Self::Spectrum)], 2)
+    }
+}
+
 /// Segmentation, window, detrending and scaling (scipy's keyword arguments).
 #[derive(Debug, Clone, PartialEq)]
 pub struct SpectralConfig {

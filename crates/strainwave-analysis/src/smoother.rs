@@ -482,7 +482,7 @@ mod tests {
         use strainwave_core::ripple::{Order, Reference};
         let (r_nm2, q_nm2) = (0.01, 1e-4);
         let order = Order::new(Reference::Relative, 2.0).unwrap();
-        let model = RippleModel::<f64, 1>::new([order], r_nm2, 1000.0).unwrap().with_bias_state(q_nm2).unwrap();
+        let model = RippleModel::<f64, 1>::new([order], r_nm2.sqrt(), 1000.0).unwrap().with_bias_state(q_nm2).unwrap();
         let mut seed = 99u64;
         let mut uniform = move || {
             seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);

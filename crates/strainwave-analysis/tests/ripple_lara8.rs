@@ -84,11 +84,15 @@ fn periodic_rms(y: &[f64], angle: &[f64], link: &[f64], current: &[f64]) -> f64 
     (fit.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt()
 }
 
-fn removal_db(log: &Log, y: &[f64], q_rad: f64, r: f64, q_bias: f64) -> f64 {
+fn removal_db(log: &Log, y: &[f64], q_rad: f64, noise_nm: f64, q_bias: f64) -> f64 {
     let (motor, _, link, current) = log;
     let orders = HARMONICS.map(|h| Order::new(Reference::Motor, h).unwrap().with_noise(0.0, q_rad).unwrap());
-    let model =
-        RippleModel::new(orders, r, 250.0).unwrap().with_bias_state(q_bias).unwrap().with_limits(limits()).unwrap();
+    let model = RippleModel::new(orders, noise_nm, 250.0)
+        .unwrap()
+        .with_bias_state(q_bias)
+        .unwrap()
+        .with_limits(limits())
+        .unwrap();
     let mut st = RippleState::new(&model);
     let mut clean = Vec::with_capacity(y.len());
     for k in 0..y.len() {
@@ -104,7 +108,7 @@ fn removal_db(log: &Log, y: &[f64], q_rad: f64, r: f64, q_bias: f64) -> f64 {
 fn canceller_removes_the_periodic_torsion_of_joint_3() {
     let log = data().expect("the log parses");
     let y: Vec<f64> = log.1.iter().map(|t| t * STIFFNESS).collect();
-    let db = removal_db(&log, &y, Q_PER_RAD_NM2, R_NM2, Q_BIAS_NM2);
+    let db = removal_db(&log, &y, Q_PER_RAD_NM2, R_NM2.sqrt(), Q_BIAS_NM2);
     println!("joint 3: {db:.1} dB of the motor-angle-periodic torsion (1×, 2×) removed");
     assert!(db > FLOOR_DB, "{db:.1} dB");
 }

@@ -53,16 +53,25 @@ pub enum Method {
 /// The method names, as the command line takes them.
 pub const METHODS: [&str; 4] = ["online-corrected", "complementary", "spectral", "corrected"];
 
-impl Method {
-    /// The method called `name` (one of [`METHODS`]).
-    pub fn parse(name: &str) -> Result<Self> {
+impl std::str::FromStr for Method {
+    type Err = String;
+
+    /// The method called `name` (one of [`METHODS`]); the error lists them.
+    fn from_str(name: &str) -> std::result::Result<Self, String> {
         Ok(match name {
             "online-corrected" => Method::OnlineCorrected,
             "complementary" => Method::Complementary,
             "spectral" => Method::Spectral,
             "corrected" => Method::Corrected,
-            other => bail!("method: `{other}` is not one of {}", METHODS.join(", ")),
+            other => return Err(format!("`{other}` is not one of {}", METHODS.join(", "))),
         })
+    }
+}
+
+impl Method {
+    /// The method called `name` (one of [`METHODS`]); the error names the `method` key.
+    pub fn parse(name: &str) -> Result<Self> {
+        name.parse().map_err(|e| anyhow::anyhow!("method: {e}"))
     }
 
     /// Its name.
@@ -175,7 +184,7 @@ struct Idx {
 
 impl Idx {
     fn new(cfg: &BenchConfig, cols: &[String], path: &str) -> Result<Self> {
-        let c = &cfg.columns;
+        let c = &cfg.channels;
         let accel = match (&c.accel_1, &c.accel_2, &c.accel_torque) {
             (Some(a1), Some(a2), _) => Ok((column(cols, a1, path)?, column(cols, a2, path)?)),
             (_, _, Some(t)) => Err(column(cols, t, path)?),
@@ -223,7 +232,7 @@ impl Job<'_> {
         }
         let fs = match cfg.sample_rate_hz {
             Some(fs) => fs,
-            None => rate_from_time(first[idx.time], second[idx.time], &cfg.columns.time, self.input)?,
+            None => rate_from_time(first[idx.time], second[idx.time], &cfg.channels.time, self.input)?,
         };
         let mut fusion = if self.method == Method::OnlineCorrected {
             let f = cfg.model(method, config)?.online(cfg.stator_inertia_kg_m2, fs, config)?;
@@ -243,14 +252,14 @@ impl Job<'_> {
             let input = self.input;
             let time = row[idx.time];
             if !(time.is_finite() && time > last_t) {
-                bail!("{input}: row {n}, column `{}`: time {time} s does not come after {last_t} s", cfg.columns.time);
+                bail!("{input}: row {n}, column `{}`: time {time} s does not come after {last_t} s", cfg.channels.time);
             }
             last_t = time;
             let (t, acc) = (row[idx.torsion], idx.accel_torque(pair, row));
             if !(t.is_finite() && acc.is_finite()) {
                 bail!(
                     "{input}: data row {n}: `{}` or the accelerometer torque is not finite (torsion {t}, accelerometers {acc} N·m)",
-                    cfg.columns.torsion
+                    cfg.channels.torsion
                 );
             }
             if n == 1 {
@@ -301,13 +310,13 @@ impl Job<'_> {
                 "{}: row {}, column `{}`: time {} s does not come after the row before",
                 self.input,
                 k + 1,
-                cfg.columns.time,
+                cfg.channels.time,
                 time[k]
             );
         }
         let fs = match cfg.sample_rate_hz {
             Some(fs) => fs,
-            None => rate_from_time(table.data[idx.time][0], table.data[idx.time][1], &cfg.columns.time, self.input)?,
+            None => rate_from_time(table.data[idx.time][0], table.data[idx.time][1], &cfg.channels.time, self.input)?,
         };
         cfg.check_crossover(fs, config)?;
         let torsion = &table.data[idx.torsion];
@@ -322,7 +331,7 @@ impl Job<'_> {
                 "{}: row {}: `{}` or the accelerometer torque is not finite (torsion {}, accelerometers {} N·m)",
                 self.input,
                 k + 1,
-                cfg.columns.torsion,
+                cfg.channels.torsion,
                 torsion[k],
                 accel[k]
             );

@@ -158,3 +158,27 @@ fn bad_input_is_a_one_line_error_naming_it() {
     let line = strainwave_joint::one_line(&e);
     assert!(line.ends_with("bench.toml: the `online-corrected` method needs a `[model]` section"), "{line}");
 }
+
+#[test]
+fn the_bench_config_spells_keys_as_the_other_configs_and_reads_the_older_ones() {
+    let dir = std::env::temp_dir().join(format!("strainwave-bench-{}-spelling", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("bench.toml");
+    let load = |text: &str| {
+        std::fs::write(&path, text).unwrap();
+        BenchConfig::load(&path).map_err(|e| e.to_string())
+    };
+    let new = "stator_inertia_kg_m2 = 1.0e-3\nradius_m = 0.5\ncrossover_hz = 100.0\ncrossover_order = 1\n\n\
+               [channels]\ntorsion = \"torsion\"\naccel_torque = \"accel\"\n";
+    let c = load(new).unwrap();
+    assert_eq!((c.crossover_order, c.channels.torsion.as_str()), (1, "torsion"));
+    let old = load(&new.replace("crossover_order", "order").replace("[channels]", "[columns]")).unwrap();
+    assert_eq!((old.crossover_order, old.channels.accel_torque), (1, Some("accel".to_string())));
+    let e = load(&new.replace("crossover_order = 1", "crossover_order = 3")).unwrap_err();
+    assert!(e.ends_with("bench.toml: `crossover_order` must be 1 or 2, got 3"), "{e}");
+    assert_eq!(
+        "hoka".parse::<Method>().unwrap_err(),
+        "`hoka` is not one of online-corrected, complementary, spectral, corrected"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -12,12 +12,11 @@ use strainwave_analysis::calibration::{
     Extrapolation, GainFit, SpeedBins, SpeedDependence,
 };
 
-mod report;
 mod rows;
 mod summary;
 
-pub use report::{
-    affine_report, din_groups, din_report, din_series, fit_plots, gain_report, speed_report, stacked_svg,
+use crate::report::calibration::{
+    affine_report, din_report, din_series, fit_plots, gain_report, speed_report, stacked_svg, ExperimentRows,
 };
 
 /// The model to fit.
@@ -140,27 +139,6 @@ pub struct Args {
     /// Print nothing but errors.
     #[arg(long, short)]
     pub quiet: bool,
-}
-
-/// One experiment's rows, every value finite.
-#[derive(Debug, Clone, Default)]
-pub struct ExperimentRows {
-    /// Label for reports and errors.
-    pub label: String,
-    /// Reference torque, N·m.
-    pub reference: Vec<f64>,
-    /// Sensor reading.
-    pub sensor: Vec<f64>,
-    /// Speed, rad/s (when asked for).
-    pub speed: Vec<f64>,
-    /// Time, s (for `--held`).
-    pub time: Vec<f64>,
-    /// Mounting position, degrees (for `--din`).
-    pub mounting: Vec<f64>,
-    /// The file the rows come from, for messages (empty: no file).
-    pub file: String,
-    /// The data row (1-based, as users count) of each entry in the file (empty: none).
-    pub file_rows: Vec<u64>,
 }
 
 fn column<'a>(t: &'a strainwave_io::Table, path: &Path, name: &str, option: &str) -> Result<&'a [f64]> {

@@ -14,6 +14,10 @@ use crate::report::html::{esc, table, Report, Section};
 use crate::report::plot::{LinePlot, Marker, Series};
 use crate::report::text::text_table;
 
+mod bench;
+mod calibration;
+mod estimate;
+
 /// Arguments of `demo`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -139,11 +143,11 @@ pub fn run(a: &Args) -> Result<()> {
     // The canceller against its alternatives, on three runs.
     let (acc_text, acc_html, acc_plots) = canceller_section()?;
     out += &acc_text;
-    let (cal_text, cal_html, cal_plots) = crate::demo_calibration::section()?;
+    let (cal_text, cal_html, cal_plots) = calibration::section()?;
     out += &cal_text;
-    let (est_text, est_html, est_plots) = crate::demo_estimate::section()?;
+    let (est_text, est_html, est_plots) = estimate::section()?;
     out += &est_text;
-    let (bench_text, bench_html, bench_plots) = crate::demo_bench::section()?;
+    let (bench_text, bench_html, bench_plots) = bench::section()?;
     out += &bench_text;
 
     // Report.

@@ -23,8 +23,26 @@ pub struct Args {
     #[arg(long, default_value = "SW_MODEL")]
     pub name: String,
     /// `f64` writes an `sw_model` (the command line's numbers), `f32` an `sw32_model`.
-    #[arg(long, default_value = "f64", value_parser = ["f64", "f32"])]
-    pub precision: String,
+    #[arg(long, value_enum, default_value = "f64")]
+    pub precision: PrecisionArg,
+}
+
+/// `--precision`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PrecisionArg {
+    /// Double precision: an `sw_model`.
+    F64,
+    /// Single precision: an `sw32_model`.
+    F32,
+}
+
+impl From<PrecisionArg> for Precision {
+    fn from(p: PrecisionArg) -> Self {
+        match p {
+            PrecisionArg::F64 => Precision::F64,
+            PrecisionArg::F32 => Precision::F32,
+        }
+    }
 }
 
 /// Runs `export-c`.
@@ -35,14 +53,14 @@ pub fn run(a: &Args) -> Result<()> {
     refuse(&[Some(&a.config), a.learned.as_deref()])?;
     let cfg = JointConfig::load(&a.config)?;
     refuse(&[cfg.filter.learned.as_deref(), cfg.calibration.as_ref().and_then(|c| c.file.as_deref())])?;
-    let precision = if a.precision == "f32" { Precision::F32 } else { Precision::F64 };
-    let text = export_c(&cfg, a.learned.as_deref(), &a.name, precision)?;
+    let text = export_c(&cfg, a.learned.as_deref(), &a.name, a.precision.into())?;
     if strainwave_io::output::is_stdout(&a.out) {
         crate::stdout::print(&text)?;
     } else {
         // A temporary file renamed into place, as every output.
         strainwave_io::output::write_file(&a.out, text).context("--out")?;
-        eprintln!("wrote {} ({} model of {})", a.out.display(), a.precision, a.config.display());
+        let precision = if a.precision == PrecisionArg::F32 { "f32" } else { "f64" };
+        eprintln!("wrote {} ({precision} model of {})", a.out.display(), a.config.display());
     }
     Ok(())
 }

@@ -28,12 +28,8 @@ pub struct Args {
     /// online-corrected (streamed, each path corrected by its bench model; needs
     /// `[model]`), complementary (streamed, the plain HOKA filter), spectral (the paper's
     /// offline combination) or corrected (offline, FIR-corrected paths; needs `[model]`).
-    #[arg(
-        long,
-        default_value = "online-corrected",
-        value_parser = METHODS
-    )]
-    pub method: String,
+    #[arg(long, default_value = "online-corrected", value_parser = method_parser())]
+    pub method: Method,
     /// A reference torque column (e.g. the twin's `true_dut_torque`): prints the fused
     /// torque's worst gain and phase error against it (H1, first 2²¹ rows) over
     /// 1 Hz–2 kHz and 1 Hz–4 kHz, after its best constant delay of at most 1 ms.
@@ -41,11 +37,18 @@ pub struct Args {
     pub reference: Option<String>,
 }
 
+/// `--method`: the bench crate's names (its `FromStr`), listed in `--help` and in the
+/// error for any other value.
+fn method_parser() -> impl clap::builder::TypedValueParser<Value = Method> {
+    use clap::builder::TypedValueParser as _;
+    clap::builder::PossibleValuesParser::new(METHODS).map(|m| m.parse::<Method>().expect("one of METHODS"))
+}
+
 /// Runs `fuse`.
 pub fn run(a: &Args) -> Result<()> {
     strainwave_io::output::refuse_input_as_output(&a.out, [a.input.as_path(), a.config.as_path()])?;
     let cfg = BenchConfig::load(&a.config)?;
-    let fuse = Fuse::new(cfg, &a.config, Method::parse(&a.method)?)?;
+    let fuse = Fuse::new(cfg, &a.config, a.method)?;
     let mut rdr = RecordingReader::open(&a.input)?;
     // What `fuse` says goes to standard output, or to standard error when the recording does.
     let mut say = |text: &str| -> Result<()> {

@@ -39,14 +39,24 @@ pub struct SpeedArgs {
     #[arg(long)]
     pub speed: String,
     /// Unit of the speed column.
-    #[arg(long, default_value = "rpm", value_parser = ["rpm", "rad_s"])]
-    pub speed_unit: String,
+    #[arg(long, value_enum, default_value = "rpm")]
+    pub speed_unit: SpeedUnit,
+}
+
+/// `--speed-unit`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SpeedUnit {
+    /// Revolutions per minute.
+    Rpm,
+    /// Radians per second (`rad_s` is accepted).
+    #[value(name = "rad-s", alias = "rad_s")]
+    RadS,
 }
 
 impl SpeedArgs {
     /// The speed column of `t` (read from `path`) in rpm.
     pub fn rpm(&self, t: &Table, path: &Path) -> Result<Vec<f64>> {
-        speed_rpm(t, &self.speed, &self.speed_unit, path)
+        speed_rpm(t, &self.speed, self.speed_unit, path)
     }
 }
 
@@ -118,9 +128,9 @@ pub fn speed_bins(speed_rpm: &[f64], bin_rpm: f64, name: &str, path: &Path) -> R
 }
 
 /// The speed column in rpm; an error naming it when it is zero or negative on average.
-pub fn speed_rpm(t: &Table, name: &str, unit: &str, path: &Path) -> Result<Vec<f64>> {
+pub fn speed_rpm(t: &Table, name: &str, unit: SpeedUnit, path: &Path) -> Result<Vec<f64>> {
     let raw = column(t, name, "--speed", path)?;
-    let k = if unit == "rad_s" { 60.0 / std::f64::consts::TAU } else { 1.0 };
+    let k = if unit == SpeedUnit::RadS { 60.0 / std::f64::consts::TAU } else { 1.0 };
     let v: Vec<f64> = raw.iter().map(|x| x * k).collect();
     if let Some(i) = v.iter().position(|x| !x.is_finite()) {
         bail!("{}: row {}, column `{name}`: speed {} is not finite", path.display(), i + 1, raw[i]);
@@ -152,12 +162,13 @@ pub struct ReadArgs {
     #[arg(long = "topic", global = true, value_name = "TOPIC")]
     pub topics: Vec<String>,
     /// Log message time: `header` (header.stamp where a message has one) or `log` (receive time).
-    #[arg(long, global = true, value_name = "CLOCK", value_parser = ["header", "log"])]
-    pub time: Option<String>,
+    // Its own id: `calibrate --time-column` is a field called `time` too.
+    #[arg(id = "log_clock", long = "time", global = true, value_name = "CLOCK", value_enum)]
+    pub time: Option<TimeArg>,
     /// How log topics at different rates meet on one clock: linear, hold, nearest, or none
     /// (one row per message).
-    #[arg(long, global = true, value_name = "MODE", value_parser = ["linear", "hold", "nearest", "none"])]
-    pub align: Option<String>,
+    #[arg(long, global = true, value_name = "MODE", value_enum)]
+    pub align: Option<AlignArg>,
     /// A column's value is NaN where its own samples are further apart than this, s
     /// [default: 4 mean periods of its topic, at most 10 s].
     #[arg(long, global = true, value_name = "S")]
@@ -169,6 +180,28 @@ pub struct ReadArgs {
     /// Delimiter of text tables: comma, semicolon, tab, or one character [default: detected].
     #[arg(long, global = true, value_name = "D")]
     pub delimiter: Option<String>,
+}
+
+/// `--time`: which clock a log message's time is read from.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TimeArg {
+    /// header.stamp where a message has one.
+    Header,
+    /// The receive time.
+    Log,
+}
+
+/// `--align`: how log topics at different rates meet on one clock.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AlignArg {
+    /// Linear between a topic's samples.
+    Linear,
+    /// The last sample held.
+    Hold,
+    /// The nearest sample.
+    Nearest,
+    /// One row per message.
+    None,
 }
 
 impl ReadArgs {
@@ -196,15 +229,15 @@ impl ReadArgs {
         }
         Ok(strainwave_io::ReadOptions {
             topics: self.topics.clone(),
-            time: match self.time.as_deref() {
-                Some("log") => strainwave_io::TimeSource::Log,
-                _ => strainwave_io::TimeSource::Header,
+            time: match self.time {
+                Some(TimeArg::Log) => strainwave_io::TimeSource::Log,
+                Some(TimeArg::Header) | None => strainwave_io::TimeSource::Header,
             },
-            align: match self.align.as_deref() {
-                Some("hold") => Align::Hold,
-                Some("nearest") => Align::Nearest,
-                Some("none") => Align::None,
-                _ => Align::Linear,
+            align: match self.align {
+                Some(AlignArg::Hold) => Align::Hold,
+                Some(AlignArg::Nearest) => Align::Nearest,
+                Some(AlignArg::None) => Align::None,
+                Some(AlignArg::Linear) | None => Align::Linear,
             },
             max_gap_s: self.max_gap,
             resample_hz: self.resample_hz,

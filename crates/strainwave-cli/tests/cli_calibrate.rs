@@ -189,7 +189,7 @@ fn embedded_sensor_static_and_dynamic_through_the_cli() {
     assert!((0.1..0.5).contains(&st_rms) && (0.1..0.6).contains(&dy_rms) && dy_rms > st_rms, "{st_rms} {dy_rms}");
     assert!(toml_number(&dy_text, "rms_percent_fs") > toml_number(&st_text, "rms_percent_fs"));
     let tab = read_calibration(&tab_cal);
-    assert!(tab.contains("model = \"speed_table\"") && tab.contains("extrapolation = \"clamp\""), "{tab}");
+    assert!(tab.contains("model = \"speed-table\"") && tab.contains("extrapolation = \"clamp\""), "{tab}");
 }
 
 #[test]

@@ -148,3 +148,52 @@ fn a_scenario_toml_error_is_one_plain_line() {
     );
     assert!(!e.contains('\\'), "an escaped line break: {e}");
 }
+
+/// A command-line choice is an enum: any other value is a usage error (exit 2) that lists
+/// the accepted ones; the older snake spelling of `--speed-unit` still parses.
+#[test]
+fn an_unknown_choice_lists_the_accepted_ones() {
+    for (args, accepted) in [
+        (
+            &["fuse", "--config", "b.toml", "--in", "x.csv", "--out", "y.csv", "--method", "hoka"][..],
+            "online-corrected",
+        ),
+        (&["export-c", "--config", "j.toml", "--out", "-", "--precision", "f16"], "f64, f32"),
+        (&["orders", "--in", "x.csv", "--signal", "s", "--speed", "v", "--speed-unit", "rps"], "rpm, rad-s"),
+        (
+            &["orders", "--in", "x.csv", "--signal", "s", "--speed", "v", "--align", "spline"],
+            "linear, hold, nearest, none",
+        ),
+        (&["orders", "--in", "x.csv", "--signal", "s", "--speed", "v", "--time", "wall"], "header, log"),
+    ] {
+        let o = run(args);
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {e}");
+        assert!(e.contains("possible values") && e.contains(accepted), "{args:?}: {e}");
+    }
+    let d = tmp("speed-unit");
+    let out = d.join("o.csv");
+    let none = d.join("none.csv");
+    let o = run(&[
+        "orders",
+        "--in",
+        s(&none),
+        "--signal",
+        "s",
+        "--speed",
+        "v",
+        "--speed-unit",
+        "rad_s",
+        "--order",
+        "2",
+        "--out",
+        s(&out),
+    ]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "parsed, then the missing file: {e}");
+    // calibrate's --time-column and the global --time are two options.
+    let o = run(&["calibrate", "--in", s(&none), "--reference", "r", "--sensor", "v", "--time", "log"]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(!e.contains("panicked"), "{e}");
+}

@@ -21,7 +21,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     writeln!(
         file,
         "# orders=3 bias=1 r_nm2={:.17e} p0={:.17e} p0_bias={:.17e} inflation={:.17e}",
-        model.r_nm2(),
+        // `r_nm2`: the filter's measurement variance R, as filterpy takes it.
+        model.noise_nm() * model.noise_nm(),
         p0,
         p0b,
         model.limits().covariance_inflation

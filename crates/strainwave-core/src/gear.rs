@@ -16,13 +16,30 @@ use crate::error::{positive, Error};
 use crate::Real;
 
 /// Which element of the gear is held fixed.
+///
+/// With the `serde` feature it is the `fixed` value of every configuration file (joint,
+/// arm, scenario): `"circular_spline"` or `"flexspline"`, with `"circular-spline"`
+/// accepted as an alias.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
 pub enum FixedElement {
     /// Circular spline fixed, flexspline is the output (usual robot joint).
     #[default]
+    #[cfg_attr(feature = "serde", serde(alias = "circular-spline"))]
     CircularSpline,
     /// Flexspline fixed, circular spline is the output (embedded-sensor test rig).
     Flexspline,
+}
+
+impl FixedElement {
+    /// Its name in files and messages: `circular_spline` or `flexspline`.
+    pub fn name(self) -> &'static str {
+        match self {
+            FixedElement::CircularSpline => "circular_spline",
+            FixedElement::Flexspline => "flexspline",
+        }
+    }
 }
 
 /// A strain wave gear: ratio and which element is fixed.

@@ -254,7 +254,7 @@ impl<T: Real, const M: usize> Guard<T, M> {
             settings,
             state: RippleState::new(model),
             trace: StepTrace::new(),
-            orders: core::array::from_fn(|i| OrderGuard::new(&model.orders()[i], &settings, model.r_nm2())),
+            orders: core::array::from_fn(|i| OrderGuard::new(&model.orders()[i], &settings, model.r_nm2)),
             group: core::array::from_fn(|i| {
                 let o = &model.orders()[i];
                 let same = |p: &crate::ripple::Order<T>| p.reference() == o.reference() && p.multiple() == o.multiple();
@@ -264,7 +264,7 @@ impl<T: Real, const M: usize> Guard<T, M> {
             mean_nis: T::ONE,
             slow_mean_nis: T::ONE,
             slow_alpha: T::ONE / (settings.standstill_window_s * model.sample_rate_hz()).max(T::ONE),
-            mean_e2: model.r_nm2(),
+            mean_e2: model.r_nm2,
             pass_through: false,
             stats: GuardStats::new(),
         }
@@ -294,7 +294,7 @@ impl<T: Real, const M: usize> Guard<T, M> {
             Ok(o) => o,
             Err(e) => {
                 self.orders =
-                    core::array::from_fn(|i| OrderGuard::new(&model.orders()[i], &self.settings, model.r_nm2()));
+                    core::array::from_fn(|i| OrderGuard::new(&model.orders()[i], &self.settings, model.r_nm2));
                 return Err(e);
             }
         };

@@ -52,7 +52,7 @@ fn equivalence<const M: usize>(model: RippleModel<f64, M>, n: usize) {
         row[i] = if bias && i == dim - 1 { p0b } else { p0 };
     }
     let c: Vec<f64> = (0..dim).map(|i| if i % 2 == 0 || (bias && i == dim - 1) { 1.0 } else { 0.0 }).collect();
-    let mut dense = DenseKf::new(vec![0.0; dim], p_init, c, model.r_nm2());
+    let mut dense = DenseKf::new(vec![0.0; dim], p_init, c, model.noise_nm() * model.noise_nm());
     let mut state = RippleState::new(&model);
     for k in 0..n {
         let s = &data[k];
@@ -121,7 +121,7 @@ fn mixed_noise_motor_reference_and_fractional_multiple_equal_dense() {
         Order::new(Reference::Motor, 1.5).unwrap().with_noise(0.0, 2e-3).unwrap(),
         Order::new(Reference::Output, 1.0).unwrap().with_noise(1e-5, 0.0).unwrap(),
     ];
-    let model = RippleModel::new(orders, 0.01, 1000.0)
+    let model = RippleModel::new(orders, 0.1, 1000.0)
         .unwrap()
         .with_bias_state(1e-3)
         .unwrap()

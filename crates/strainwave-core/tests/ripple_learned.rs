@@ -21,7 +21,6 @@ fn ripple_nm(phi: f64, load: f64) -> f64 {
 }
 
 fn model(scaled: bool) -> RippleModel<f64, 2> {
-    let r = NOISE_NM * NOISE_NM;
     let o = Order::new(Reference::Relative, 2.0).unwrap().with_noise(0.0, 2e-6).unwrap();
     let second = if scaled {
         Order::new(Reference::Relative, 2.0).unwrap().with_noise(0.0, 1e-9).unwrap().scaled_by_load()
@@ -30,7 +29,7 @@ fn model(scaled: bool) -> RippleModel<f64, 2> {
         Order::new(Reference::Relative, 6.0).unwrap().with_noise(0.0, 1e-9).unwrap()
     };
     let second = second.with_prior([0.0, 0.0], 0.05 * 0.05).unwrap();
-    RippleModel::new([o, second], r, FS).unwrap().with_bias_state(0.05).unwrap()
+    RippleModel::new([o, second], NOISE_NM, FS).unwrap().with_bias_state(0.05).unwrap()
 }
 
 /// RMS ripple error over the last `tail` samples of an `n`-sample run.

@@ -20,7 +20,7 @@ macro_rules! convert {
                     has_bias_state: m.has_bias_state,
                     gear_ratio: m.gear_ratio,
                     sample_rate_hz: m.sample_rate_hz,
-                    r_nm2: m.r_nm2,
+                    noise_nm: m.noise_nm,
                     bias_q_nm2: m.bias_q_nm2,
                     p0_oscillator_nm2: m.initial_oscillator_variance_nm2,
                     p0_bias_nm2: m.initial_bias_variance_nm2,

@@ -28,7 +28,7 @@ pub(crate) struct Plain<T: Real> {
     pub has_bias_state: u32,
     pub gear_ratio: T,
     pub sample_rate_hz: T,
-    pub r_nm2: T,
+    pub noise_nm: T,
     pub bias_q_nm2: T,
     pub p0_oscillator_nm2: T,
     pub p0_bias_nm2: T,
@@ -206,7 +206,7 @@ fn ripple_model<T: Real, const M: usize>(p: &Plain<T>) -> Result<RippleModel<T, 
         _ => return Err(SW_ERROR_MODEL),
     };
     let bad = |_| SW_ERROR_MODEL;
-    let mut m = RippleModel::new(orders, p.r_nm2, p.sample_rate_hz)
+    let mut m = RippleModel::new(orders, p.noise_nm, p.sample_rate_hz)
         .map_err(bad)?
         .with_phase_source(phase)
         .with_initial_variance(p.p0_oscillator_nm2, p.p0_bias_nm2)

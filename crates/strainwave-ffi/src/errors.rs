@@ -36,7 +36,7 @@ pub(crate) fn text(code: i32) -> *const c_char {
         SW_ERROR_VERSION => c"the model was exported for another version of strainwave.h (SW_MODEL_VERSION)",
         SW_ERROR_ORDER_COUNT => c"order_count must be 1 to SW_MAX_ORDERS",
         SW_ERROR_ORDER => c"an order's reference, multiple, process noise, prior or load_scaled is invalid",
-        SW_ERROR_MODEL => c"sample rate, r_nm2, bias, initial variances, phase source or limits are invalid",
+        SW_ERROR_MODEL => c"sample rate, noise_nm, bias, initial variances, phase source or limits are invalid",
         SW_ERROR_GEAR => c"gear_ratio must be positive and gear_fixed a SW_GEAR_* value",
         SW_ERROR_CALIBRATION => c"the calibration's kind, len, values or extrapolation is invalid",
         SW_ERROR_CHANNELS => {

@@ -11,7 +11,7 @@ use core::ffi::c_char;
 
 /// Layout version of [`sw_model`] / [`sw32_model`]; `sw_init` refuses any other value, so
 /// a model exported for another version of this header is caught at start-up.
-pub const SW_MODEL_VERSION: u32 = 2;
+pub const SW_MODEL_VERSION: u32 = 3;
 /// Most orders (oscillators) a model can hold.
 pub const SW_MAX_ORDERS: usize = 8;
 /// Most calibration breakpoints or polynomial coefficients.
@@ -260,8 +260,8 @@ pub struct sw_model {
     pub gear_ratio: f64,
     /// Nominal sample rate, Hz.
     pub sample_rate_hz: f64,
-    /// Measurement noise variance, N·m².
-    pub r_nm2: f64,
+    /// Measurement noise, 1σ, N·m, > 0 (the filter's variance is its square).
+    pub noise_nm: f64,
     /// Bias random-walk variance per sample, N·m² (with the bias state).
     pub bias_q_nm2: f64,
     /// Initial variance of each oscillator component, N·m².
@@ -475,8 +475,8 @@ pub struct sw32_model {
     pub gear_ratio: f32,
     /// Sample rate, Hz.
     pub sample_rate_hz: f32,
-    /// Measurement noise variance, N·m².
-    pub r_nm2: f32,
+    /// Measurement noise, 1σ, N·m.
+    pub noise_nm: f32,
     /// Bias random-walk variance, N·m².
     pub bias_q_nm2: f32,
     /// Initial oscillator variance, N·m².

@@ -51,7 +51,7 @@ macro_rules! from_core {
                 has_bias_state: u32::from(core.bias_q_nm2().is_some()),
                 gear_ratio: 100.0,
                 sample_rate_hz: core.sample_rate_hz(),
-                r_nm2: core.r_nm2(),
+                noise_nm: core.noise_nm(),
                 bias_q_nm2: core.bias_q_nm2().unwrap_or(0.0),
                 initial_oscillator_variance_nm2: core.initial_variance_nm2().0,
                 initial_bias_variance_nm2: core.initial_variance_nm2().1,
@@ -181,7 +181,7 @@ fn bad_input_gives_error_codes() {
             (SW_ERROR_ORDER, |m| m.orders[0].prior_variance_nm2 = -1.0),
             (SW_ERROR_ORDER, |m| m.orders[0].load_scaled = 2),
             (SW_ERROR_MODEL, |m| m.sample_rate_hz = 0.0),
-            (SW_ERROR_MODEL, |m| m.r_nm2 = f64::NAN),
+            (SW_ERROR_MODEL, |m| m.noise_nm = f64::NAN),
             (SW_ERROR_MODEL, |m| m.phase_source = 7),
             (SW_ERROR_MODEL, |m| m.has_bias_state = 2),
             (SW_ERROR_MODEL, |m| {

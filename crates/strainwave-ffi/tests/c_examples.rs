@@ -54,7 +54,8 @@ fn build() -> (PathBuf, PathBuf) {
         if msg["reason"] != "compiler-artifact" {
             continue;
         }
-        if target["name"] == "strainwave" && target["kind"][0] == "bin" {
+        // The command line itself, not its unit-test harness (also a `bin` target).
+        if target["name"] == "strainwave" && target["kind"][0] == "bin" && msg["profile"]["test"] == false {
             cli = msg["executable"].as_str().map(PathBuf::from);
         }
         if target["name"] == "strainwave_ffi" && msg["profile"]["test"] == false {

@@ -69,13 +69,13 @@ pub fn build_model<V: ModelVisitor>(cfg: &JointConfig, with_learned_priors: bool
                         .map_err(core)
                 })
                 .collect::<Result<_>>()?;
-            let r = cfg.orders_noise_variance_nm2().with_context(|| config.clone())?;
+            let noise_nm = cfg.orders_noise_nm().with_context(|| config.clone())?;
             macro_rules! with_m {
                 ($($m:literal)*) => {
                     match orders.len() {
                         $($m => {
                             let arr: [Order<f64>; $m] = orders.clone().try_into().map_err(|_| anyhow!("orders"))?;
-                            let mut model = RippleModel::new(arr, r, fs).map_err(core)?.with_phase_source(phase);
+                            let mut model = RippleModel::new(arr, noise_nm, fs).map_err(core)?.with_phase_source(phase);
                             if let Some(q) = cfg.filter.bias_q_nm2 {
                                 model = model.with_bias_state(q).map_err(core)?;
                             }
@@ -145,7 +145,7 @@ impl<V: ModelVisitor> ModelVisitor for Extend<'_, V> {
                 match orders.len() {
                     $($m => {
                         let arr: [Order<f64>; $m] = orders.clone().try_into().map_err(|_| anyhow!("orders"))?;
-                        let mut model = RippleModel::new(arr, base.r_nm2(), base.sample_rate_hz())
+                        let mut model = RippleModel::new(arr, base.noise_nm(), base.sample_rate_hz())
                             .map_err(core)?
                             .with_phase_source(base.phase_source());
                         if let Some(q) = base.bias_q_nm2() {
@@ -166,11 +166,12 @@ impl<V: ModelVisitor> ModelVisitor for Extend<'_, V> {
 }
 
 /// A core error in the words of the config file: a parameter the user did not write
-/// is named by the key it comes from (`noise_nm`, not the variance `r_nm2` made of it).
+/// is named by the key it comes from (`filter.noise_nm`, also for the variance `r_nm2`
+/// the tuning formulas make of it).
 pub fn in_config_terms(e: strainwave_core::Error, orders_model: bool, sample_rate_hz: f64) -> String {
     use strainwave_core::Error as E;
     let key = |p: &'static str| match p {
-        "r_nm2" => "filter.noise_nm",
+        "noise_nm" | "r_nm2" => "filter.noise_nm",
         "sample_rate_hz" => "filter.sample_rate_hz",
         "q_per_sample_nm2" | "q_per_rad_nm2" | "multiple" => p,
         "q_nm2" if orders_model => "filter.bias_q_nm2",

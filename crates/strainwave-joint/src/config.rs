@@ -4,10 +4,10 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use strainwave_core::calibration::Calibration;
 use strainwave_core::denoise::TorqueDenoiser;
-use strainwave_core::gear::{FixedElement, Gear};
+use strainwave_core::gear::Gear;
 use strainwave_io::Channel;
 
 /// Largest calibration table the filter accepts.
@@ -44,25 +44,10 @@ pub struct GearConfig {
     pub fixed: Fixed,
 }
 
-/// `gear.fixed`: which element is fixed (the other one is the output).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Fixed {
-    /// Circular spline fixed, flexspline output (the usual robot joint).
-    #[serde(alias = "circular-spline")]
-    CircularSpline,
-    /// Flexspline fixed, circular spline output.
-    Flexspline,
-}
-
-impl From<Fixed> for FixedElement {
-    fn from(f: Fixed) -> Self {
-        match f {
-            Fixed::CircularSpline => FixedElement::CircularSpline,
-            Fixed::Flexspline => FixedElement::Flexspline,
-        }
-    }
-}
+/// `gear.fixed`: which element is fixed (the other one is the output): the core's
+/// [`FixedElement`], spelled as in every configuration file (`circular_spline`, alias
+/// `circular-spline`, or `flexspline`).
+pub use strainwave_core::gear::FixedElement as Fixed;
 
 /// `filter.model`: which canceller model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
@@ -84,8 +69,8 @@ pub enum ModelChoice {
 }
 
 /// `filter.phase`: where the oscillators' phase comes from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
-#[serde(rename_all = "snake_case")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum PhaseChoice {
     /// Motor and output encoders.
     #[default]
@@ -95,8 +80,8 @@ pub enum PhaseChoice {
 }
 
 /// `filter.orders.reference`: the angle an order is a multiple of.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
-#[serde(rename_all = "snake_case")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum ReferenceChoice {
     /// The relative wave generator–flexspline angle (meshing ripple).
     Relative,
@@ -104,6 +89,38 @@ pub enum ReferenceChoice {
     Output,
     /// The motor angle.
     Motor,
+}
+
+impl PhaseChoice {
+    /// Its name in files and messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            PhaseChoice::Angle => "angle",
+            PhaseChoice::Velocity => "velocity",
+        }
+    }
+}
+
+impl ReferenceChoice {
+    /// Its name in files and messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            ReferenceChoice::Relative => "relative",
+            ReferenceChoice::Output => "output",
+            ReferenceChoice::Motor => "motor",
+        }
+    }
+}
+
+impl From<strainwave_core::ripple::Reference> for ReferenceChoice {
+    fn from(r: strainwave_core::ripple::Reference) -> Self {
+        use strainwave_core::ripple::Reference;
+        match r {
+            Reference::Relative => Self::Relative,
+            Reference::Output => Self::Output,
+            Reference::Motor => Self::Motor,
+        }
+    }
 }
 
 impl From<ReferenceChoice> for strainwave_core::ripple::Reference {
@@ -262,18 +279,18 @@ impl JointConfig {
 
     /// The gear; errors name `gear.ratio` / `gear.fixed`.
     pub fn gear(&self) -> Result<Gear<f64>> {
-        Gear::new(self.gear.ratio, self.gear.fixed.into())
+        Gear::new(self.gear.ratio, self.gear.fixed)
             .map_err(|_| anyhow::anyhow!("`gear.ratio` must be positive, got {}", self.gear.ratio))
     }
 
-    /// The measurement noise variance of the `orders` model, N·m²: `noise_nm` squared, or
-    /// the older `r_nm2`; errors name the key the user wrote.
-    pub fn orders_noise_variance_nm2(&self) -> Result<f64> {
+    /// The measurement noise of the `orders` model, 1σ, N·m: `noise_nm`, or the square
+    /// root of the older variance key `r_nm2`; errors name the key the user wrote.
+    pub fn orders_noise_nm(&self) -> Result<f64> {
         match (self.filter.noise_nm, self.filter.r_nm2) {
             (Some(_), Some(_)) => bail!("`filter.noise_nm` and `filter.r_nm2` say the same thing; keep `noise_nm`"),
-            (Some(n), None) if n.is_finite() && n > 0.0 => Ok(n * n),
+            (Some(n), None) if n.is_finite() && n > 0.0 => Ok(n),
             (Some(n), None) => bail!("`filter.noise_nm` must be positive, got {n}"),
-            (None, Some(r)) if r.is_finite() && r > 0.0 => Ok(r),
+            (None, Some(r)) if r.is_finite() && r > 0.0 => Ok(r.sqrt()),
             (None, Some(r)) => bail!("`filter.r_nm2` must be positive, got {r}"),
             (None, None) => bail!("`filter.noise_nm` is needed by the orders model"),
         }
@@ -342,11 +359,12 @@ mod tests {
     #[test]
     fn one_name_for_the_measurement_noise() {
         let c = load(BASE).unwrap();
-        assert!((c.orders_noise_variance_nm2().unwrap() - 4e-4).abs() < 1e-18);
+        assert_eq!(c.orders_noise_nm().unwrap(), 0.02);
+        // The older variance key is the square of the noise, not an alias of it.
         let c = load(&BASE.replace("noise_nm = 0.02", "r_nm2 = 4e-4")).unwrap();
-        assert_eq!(c.orders_noise_variance_nm2().unwrap(), 4e-4);
+        assert!((c.orders_noise_nm().unwrap() - 0.02).abs() < 1e-17);
         let c = load(&BASE.replace("noise_nm = 0.02", "noise_nm = 0.02\nr_nm2 = 4e-4")).unwrap();
-        assert!(c.orders_noise_variance_nm2().unwrap_err().to_string().contains("keep `noise_nm`"));
+        assert!(c.orders_noise_nm().unwrap_err().to_string().contains("keep `noise_nm`"));
     }
 
     #[test]

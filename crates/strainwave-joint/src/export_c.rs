@@ -52,7 +52,7 @@ struct PlainOrder {
 #[derive(Debug, Clone, PartialEq)]
 struct PlainModel {
     orders: Vec<PlainOrder>,
-    r_nm2: f64,
+    noise_nm: f64,
     sample_rate_hz: f64,
     bias_q_nm2: Option<f64>,
     initial_variance_nm2: (f64, f64),
@@ -93,7 +93,7 @@ impl ModelVisitor for Extract<'_> {
             .collect();
         Ok(PlainModel {
             orders,
-            r_nm2: model.r_nm2(),
+            noise_nm: model.noise_nm(),
             sample_rate_hz: model.sample_rate_hz(),
             bias_q_nm2: model.bias_q_nm2(),
             initial_variance_nm2: model.initial_variance_nm2(),
@@ -182,7 +182,7 @@ pub fn export_c(cfg: &JointConfig, learned: Option<&Path>, name: &str, precision
     writeln!(o, "    .has_bias_state = {},", u8::from(model.bias_q_nm2.is_some()))?;
     w.real("gear_ratio", gear.ratio(), 4)?;
     w.real("sample_rate_hz", model.sample_rate_hz, 4)?;
-    w.real("r_nm2", model.r_nm2, 4)?;
+    w.real("noise_nm", model.noise_nm, 4)?;
     w.real("bias_q_nm2", model.bias_q_nm2.unwrap_or(0.0), 4)?;
     w.real("initial_oscillator_variance_nm2", model.initial_variance_nm2.0, 4)?;
     w.real("initial_bias_variance_nm2", model.initial_variance_nm2.1, 4)?;

@@ -30,8 +30,8 @@ mod model;
 mod stribeck;
 mod summary;
 pub use config::{
-    ArmConfig, Channels, ComplianceConfig, EncodersConfig, Fixed, FrictionConfig, GearConfig, KinematicConfig, Order,
-    SpeedChoice,
+    ArmConfig, Basis, Channels, ComplianceConfig, EncodersConfig, Fixed, FrictionConfig, GearConfig, HysteresisChoice,
+    KinematicConfig, Order, SpeedChoice, SpringChoice,
 };
 use holdout::holdout_scores;
 pub use holdout::Holdout;
@@ -92,18 +92,11 @@ fn plan_kinematic(
     notes: &mut Vec<String>,
 ) -> Result<(KinematicPlan, Option<f64>)> {
     let k = &cfg.kinematic;
-    let cv = match &k.order {
-        Order::Named(s) if s == "cv" => true,
-        Order::Named(s) => bail!("kinematic.order: `{s}` is neither a number nor \"cv\""),
-        Order::Fixed(_) => false,
-    };
+    let cv = k.order == Order::CrossValidated;
     let order = match k.order {
         Order::Fixed(o) => o,
-        Order::Named(_) => 0,
+        Order::CrossValidated => 0,
     };
-    if !matches!(k.basis.as_str(), "fourier" | "polynomial") {
-        bail!("kinematic.basis: `{}` is neither fourier nor polynomial", k.basis);
-    }
     let run = no_load.unwrap_or(loaded);
     let (link_span, motor_span) = (span(run.link_angle_rad), span(run.motor_angle_rad));
     let which = if no_load.is_some() { "no-load run" } else { "loaded run" };
@@ -122,7 +115,7 @@ fn plan_kinematic(
         return Ok((KinematicPlan::None, None));
     }
     let full_turn = link_span >= 0.95 * std::f64::consts::TAU;
-    if k.basis == "polynomial" {
+    if k.basis == Basis::Polynomial {
         let Some(nl) = no_load else {
             bail!("kinematic.basis = \"polynomial\" (in the output angle) needs --no-load: from a loaded run it is confounded with the load");
         };
@@ -178,7 +171,7 @@ fn plan_kinematic(
                     .into(),
             );
             if cv || order > 0 {
-                notes.push(format!("kinematic.order = {:?} not used: it needs --no-load", k.order));
+                notes.push(format!("kinematic.order = {} not used: it needs --no-load", k.order));
             }
             let hr = k.mesh_harmonics.unwrap_or(DEFAULT_LOADED_MESH_HARMONICS);
             if hr == 0 {
@@ -197,41 +190,30 @@ fn plan_kinematic(
 }
 
 fn kinematic_model(fit: &KinematicFit) -> KinematicModel {
-    let (basis, order, mesh, angle) = match fit.basis {
-        KinematicBasis::Polynomial { order } => ("polynomial", order, 0, MeshAngle::Relative),
+    let (basis, order, mesh, mesh_angle) = match fit.basis {
+        KinematicBasis::Polynomial { order } => (Basis::Polynomial, order, 0, MeshAngle::Relative),
         KinematicBasis::Fourier { output_harmonics, mesh_harmonics, mesh_angle } => {
-            ("fourier", output_harmonics, mesh_harmonics, mesh_angle)
+            (Basis::Fourier, output_harmonics, mesh_harmonics, mesh_angle)
         }
     };
-    let mesh_angle = match angle {
-        MeshAngle::Relative => "relative",
-        MeshAngle::Motor => "motor",
-    };
-    KinematicModel {
-        basis: basis.into(),
-        order,
-        mesh_harmonics: mesh,
-        mesh_angle: mesh_angle.into(),
-        coefficients: fit.coefficients.clone(),
-    }
+    KinematicModel { basis, order, mesh_harmonics: mesh, mesh_angle, coefficients: fit.coefficients.clone() }
 }
 
 fn compliance_options(cfg: &ArmConfig, windup_offset: bool) -> Result<ComplianceFitOptions> {
     let c = &cfg.compliance;
     let rated = cfg.gear.rated_torque_nm;
-    let form = match c.spring.as_str() {
-        "linear" => ComplianceForm::Linear,
-        "cubic" => ComplianceForm::Cubic,
-        "three-slope" => {
+    let form = match c.spring {
+        SpringChoice::Linear => ComplianceForm::Linear,
+        SpringChoice::Cubic => ComplianceForm::Cubic,
+        SpringChoice::ThreeSlope => {
             ComplianceForm::ThreeSlope { t1_nm: c.t1_nm.unwrap_or(0.25 * rated), t2_nm: c.t2_nm.unwrap_or(0.6 * rated) }
         }
-        "seed" => ComplianceForm::Seed { ratio: cfg.gear.ratio },
-        other => bail!("compliance.spring: `{other}` is not linear, cubic, three-slope or seed"),
+        SpringChoice::Hda => ComplianceForm::Seed { ratio: cfg.gear.ratio },
     };
     let mut opts = ComplianceFitOptions::new(form, rated);
-    opts.hysteresis = match c.hysteresis.as_str() {
-        "none" => HysteresisForm::None,
-        "plays" => {
+    opts.hysteresis = match c.hysteresis {
+        HysteresisChoice::None => HysteresisForm::None,
+        HysteresisChoice::Plays => {
             // Narrowest play: the torsion's resolution plus noise, peak to peak.
             let deadband = match &cfg.encoders {
                 Some(e) => {
@@ -243,7 +225,6 @@ fn compliance_options(cfg: &ArmConfig, windup_offset: bool) -> Result<Compliance
             };
             HysteresisForm::geometric_plays(deadband, 2.0, 6)
         }
-        other => bail!("compliance.hysteresis: `{other}` is neither plays nor none"),
     };
     opts.damping = c.damping;
     opts.decimation = c.decimation.unwrap_or(5).max(1);
@@ -460,8 +441,8 @@ pub fn identify(
     let summary = Summary {
         loaded: loaded.name(),
         no_load: no_load.map(|r| r.name()),
-        spring: cfg.compliance.spring.clone(),
-        hysteresis: cfg.compliance.hysteresis.clone(),
+        spring: cfg.compliance.spring.name().into(),
+        hysteresis: cfg.compliance.hysteresis.name().into(),
         kin,
         cv,
         fit,

@@ -34,10 +34,10 @@ use crate::config::{Fixed, JointConfig, PhaseChoice};
 pub struct JointIdentity {
     /// `gear.ratio`.
     pub ratio: f64,
-    /// `gear.fixed`: `circular_spline` or `flexspline`.
-    pub fixed: String,
+    /// `gear.fixed`: `circular_spline` or `flexspline` (alias `circular-spline`).
+    pub fixed: Fixed,
     /// `filter.phase`: `angle` or `velocity`.
-    pub phase: String,
+    pub phase: PhaseChoice,
     /// The config's orders, e.g. `2 relative`, `2 relative load-scaled`, `1 output`.
     pub orders: Vec<String>,
     /// The channels the coefficients depend on (the torque, and the motor and output
@@ -50,11 +50,7 @@ pub struct JointIdentity {
 
 /// The name of a reference angle in files and messages.
 pub fn reference_name(r: Reference) -> &'static str {
-    match r {
-        Reference::Relative => "relative",
-        Reference::Output => "output",
-        Reference::Motor => "motor",
-    }
+    crate::config::ReferenceChoice::from(r).name()
 }
 
 /// An order as one word group: `2 relative`, `2 relative load-scaled`.
@@ -89,17 +85,16 @@ fn fnv1a64(text: &str) -> u64 {
 impl JointIdentity {
     /// The identity of `cfg`'s joint. Errors are the config's own (its model cannot be built).
     pub fn of(cfg: &JointConfig) -> Result<Self> {
-        let fixed = match cfg.gear.fixed {
-            Fixed::CircularSpline => "circular_spline",
-            Fixed::Flexspline => "flexspline",
-        };
-        let phase = match cfg.filter.phase {
-            PhaseChoice::Angle => "angle",
-            PhaseChoice::Velocity => "velocity",
-        };
+        let (fixed, phase) = (cfg.gear.fixed, cfg.filter.phase);
         let orders = build_model(cfg, false, Orders)?;
         let mut channels = Vec::new();
-        let mut text = format!("gear.ratio = {:?}\ngear.fixed = {fixed}\nfilter.phase = {phase}\n", cfg.gear.ratio);
+        // The canonical text (and so the fingerprint) spells the choices as they always were.
+        let mut text = format!(
+            "gear.ratio = {:?}\ngear.fixed = {}\nfilter.phase = {}\n",
+            cfg.gear.ratio,
+            fixed.name(),
+            phase.name()
+        );
         for o in &orders {
             text.push_str(&format!("order = {o}\n"));
         }
@@ -115,8 +110,8 @@ impl JointIdentity {
         }
         Ok(Self {
             ratio: cfg.gear.ratio,
-            fixed: fixed.into(),
-            phase: phase.into(),
+            fixed,
+            phase,
             orders,
             channels,
             fingerprint: format!("{:016x}", fnv1a64(&text)),
@@ -131,10 +126,10 @@ impl JointIdentity {
             d.push(format!("gear.ratio {} in the file, {} in the config", file.ratio, self.ratio));
         }
         if self.fixed != file.fixed {
-            d.push(format!("gear.fixed {} in the file, {} in the config", file.fixed, self.fixed));
+            d.push(format!("gear.fixed {} in the file, {} in the config", file.fixed.name(), self.fixed.name()));
         }
         if self.phase != file.phase {
-            d.push(format!("filter.phase {} in the file, {} in the config", file.phase, self.phase));
+            d.push(format!("filter.phase {} in the file, {} in the config", file.phase.name(), self.phase.name()));
         }
         if self.orders != file.orders {
             d.push(format!(
@@ -171,6 +166,23 @@ mod tests {
         assert_eq!(fnv1a64(""), 0xcbf29ce484222325);
         assert_eq!(fnv1a64("a"), 0xaf63dc4c8601ec8c);
         assert_eq!(fnv1a64("foobar"), 0x85944171f73967e8);
+    }
+
+    #[test]
+    fn both_spellings_of_the_fixed_element_are_one_identity() {
+        let text = |fixed: &str| {
+            format!(
+                "ratio = 100.0\nfixed = \"{fixed}\"\nphase = \"angle\"\norders = []\nchannels = []\n\
+                 fingerprint = \"0\"\n"
+            )
+        };
+        let snake: JointIdentity = toml::from_str(&text("circular_spline")).unwrap();
+        let kebab: JointIdentity = toml::from_str(&text("circular-spline")).unwrap();
+        assert_eq!(snake, kebab);
+        assert_eq!(snake.fixed, Fixed::CircularSpline);
+        assert!(toml::to_string(&kebab).unwrap().contains("fixed = \"circular_spline\""));
+        let e = toml::from_str::<JointIdentity>(&text("ring")).unwrap_err().to_string();
+        assert!(e.contains("`circular_spline`") && e.contains("`flexspline`"), "{e}");
     }
 
     #[test]

@@ -197,7 +197,7 @@ impl<const M: usize> RunLearner for Learner<M> {
             let carries = !velocity && o.multiple().fract() == 0.0;
             let mut entry = match target.map(|t| &t.orders[i]) {
                 Some(old) => {
-                    let same = old.reference == reference_name(o.reference())
+                    let same = old.reference == crate::config::ReferenceChoice::from(o.reference())
                         && old.multiple == o.multiple()
                         && old.load_scaled == o.is_load_scaled();
                     if !same {
@@ -250,7 +250,7 @@ impl<const M: usize> RunLearner for Learner<M> {
                 d.threshold,
                 d.cycles
             );
-            let least = MIN_AMPLITUDE_OF_NOISE * self.model.r_nm2().sqrt();
+            let least = MIN_AMPLITUDE_OF_NOISE * self.model.noise_nm();
             if d.amplitude_nm() < least {
                 lines.push(format!(
                     "found {what}; not added: below {least:.4} N·m ({MIN_AMPLITUDE_OF_NOISE} × the noise)"
@@ -275,7 +275,7 @@ fn label(o: &Order<f64>) -> String {
 /// A file entry that holds only the model's prior (no run has added to it yet).
 fn new_entry(o: &Order<f64>, prior: &Gaussian2, discovered: bool) -> LearnedOrder {
     let mut entry = LearnedOrder {
-        reference: reference_name(o.reference()).into(),
+        reference: o.reference().into(),
         multiple: o.multiple(),
         load_scaled: o.is_load_scaled(),
         cos_nm: 0.0,
@@ -309,7 +309,7 @@ fn discovered_entry<const M: usize>(model: &RippleModel<f64, M>, d: &Discovery) 
         Gaussian2::isotropic([0.0; 2], 0.5 * d.amplitude_nm().powi(2) + widen)
     };
     let mut entry = LearnedOrder {
-        reference: reference_name(d.reference).into(),
+        reference: d.reference.into(),
         multiple: d.multiple,
         load_scaled: false,
         cos_nm: 0.0,

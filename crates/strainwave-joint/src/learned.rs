@@ -32,10 +32,10 @@ use std::path::Path;
 
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
-use strainwave_core::ripple::{Order, Reference, RippleModel, RippleState};
+use strainwave_core::ripple::{Order, RippleModel, RippleState};
 use strainwave_io::output::AtomicFile;
 
-use crate::config::JointConfig;
+use crate::config::{JointConfig, ReferenceChoice};
 use crate::identity::reference_name;
 use crate::identity::JointIdentity;
 use crate::merge::Gaussian2;
@@ -57,7 +57,7 @@ pub struct LearnedFile {
 #[serde(deny_unknown_fields)]
 pub struct LearnedOrder {
     /// `relative`, `output` or `motor`.
-    pub reference: String,
+    pub reference: ReferenceChoice,
     /// Multiple of the reference angle.
     pub multiple: f64,
     /// Whether the order is scaled by the load.
@@ -96,15 +96,6 @@ fn is_false(b: &bool) -> bool {
     !*b
 }
 
-fn reference_of(name: &str) -> Option<Reference> {
-    match name {
-        "relative" => Some(Reference::Relative),
-        "output" => Some(Reference::Output),
-        "motor" => Some(Reference::Motor),
-        _ => None,
-    }
-}
-
 impl LearnedOrder {
     /// The coefficients and their covariance.
     pub fn gaussian(&self) -> Gaussian2 {
@@ -125,7 +116,7 @@ impl LearnedOrder {
 
     /// `2 relative`, `2 relative load-scaled`.
     pub fn label(&self) -> String {
-        crate::identity::order_label(&self.reference, self.multiple, self.load_scaled)
+        crate::identity::order_label(self.reference.name(), self.multiple, self.load_scaled)
     }
 }
 
@@ -137,7 +128,7 @@ impl LearnedFile {
             .iter()
             .zip(state.learned_all())
             .map(|(o, (z, v))| LearnedOrder {
-                reference: reference_name(o.reference()).into(),
+                reference: o.reference().into(),
                 multiple: o.multiple(),
                 load_scaled: o.is_load_scaled(),
                 cos_nm: z[0],
@@ -171,14 +162,9 @@ impl LearnedFile {
     /// Reads a file and checks each order's values; errors name the file and the key.
     pub fn load(path: &Path) -> Result<Self> {
         let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
-        let file: Self = toml::from_str(&text).map_err(|e| {
-            anyhow::anyhow!("{}: {}", path.display(), strainwave_analysis::calibration::toml_error_line(&text, &e))
-        })?;
+        let file: Self = toml::from_str(&text).map_err(|e| crate::toml_error::one_line(path, &text, &e))?;
         for (i, o) in file.orders.iter().enumerate() {
             let at = |key: &str| format!("{}: `orders[{i}].{key}`", path.display());
-            if reference_of(&o.reference).is_none() {
-                bail!("{} is {:?}; expected relative, output or motor", at("reference"), o.reference);
-            }
             if !(o.multiple.is_finite() && o.multiple > 0.0) {
                 bail!("{} must be positive, got {}", at("multiple"), o.multiple);
             }
@@ -236,8 +222,7 @@ impl LearnedFile {
             .enumerate()
             .filter(|(_, o)| o.discovered)
             .map(|(i, o)| {
-                let reference = reference_of(&o.reference).unwrap_or_default();
-                Order::new(reference, o.multiple)
+                Order::new(o.reference.into(), o.multiple)
                     .and_then(|x| x.with_noise(o.q_per_sample_nm2.unwrap_or(0.0), o.q_per_rad_nm2.unwrap_or(0.0)))
                     .map_err(|e| anyhow::anyhow!("{}: `orders[{i}]`: {e}", path.display()))
             })
@@ -251,7 +236,7 @@ impl LearnedFile {
         }
         let mut priors = [([0.0; 2], 1.0); M];
         for (i, (o, l)) in model.orders().iter().zip(&self.orders).enumerate() {
-            let same = l.reference == reference_name(o.reference())
+            let same = l.reference == ReferenceChoice::from(o.reference())
                 && l.multiple == o.multiple()
                 && l.load_scaled == o.is_load_scaled();
             if !same {
@@ -259,7 +244,7 @@ impl LearnedFile {
                     "{}: `orders[{i}]` is {}× {}{}, the model's is {}× {}{}",
                     path.display(),
                     l.multiple,
-                    l.reference,
+                    l.reference.name(),
                     if l.load_scaled { " (load-scaled)" } else { "" },
                     o.multiple(),
                     reference_name(o.reference()),

@@ -207,7 +207,8 @@ pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
     // The smoothed torque's two filters (level, rate and the residual ripple of the
     // canceller's relative-angle orders): backward here, forward in the last pass.
     let multiples = residual_orders(model, speed.rad_per_s(model.sample_rate_hz()));
-    let (mut forward, mut backward) = RippleTorqueTrack::pair(multiples.len(), model.r_nm2(), model.sample_rate_hz());
+    let (mut forward, mut backward) =
+        RippleTorqueTrack::pair(multiples.len(), model.noise_nm(), model.sample_rate_hz());
     let n_state = forward.state_len();
     let state_values = RippleTorqueEstimate::values_len(n_state);
     let phasors = |relative_rad: f64| -> Vec<[f64; 2]> {

@@ -12,28 +12,8 @@ pub fn one_line(path: &Path, text: &str, e: &toml::de::Error) -> anyhow::Error {
     let before = text.get(..span.start).unwrap_or(text);
     let line = before.matches('\n').count() + 1;
     let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
-    let key = key_at(before).map_or(String::new(), |k| format!("`{k}`: "));
+    let key = strainwave_analysis::calibration::toml_key_at(before).map_or(String::new(), |k| format!("`{k}`: "));
     anyhow::anyhow!("{}: line {line}, column {column}: {key}{message}", path.display())
-}
-
-/// The dotted key whose value starts at the end of `before`: the table header above it
-/// joined with the key on its own line, when the line is a plain `key = value`.
-fn key_at(before: &str) -> Option<String> {
-    let mut lines = before.rsplit('\n');
-    let current = lines.next()?;
-    let (key, _) = current.split_once('=')?;
-    let key = key.trim().trim_matches('"');
-    if key.is_empty() || key.contains(['[', '{', ',']) {
-        return None;
-    }
-    let table = lines
-        .map(str::trim)
-        .find(|l| l.starts_with('[') && !l.starts_with("[["))
-        .map(|l| l.trim_start_matches('[').split(']').next().unwrap_or("").trim().to_string());
-    Some(match table {
-        Some(t) if !t.is_empty() => format!("{t}.{key}"),
-        _ => key.to_string(),
-    })
 }
 
 #[cfg(test)]

@@ -174,7 +174,11 @@ fn an_unmodelled_3x_line_is_discovered_and_the_error_comes_back_to_the_floor() {
     assert!(found[0].starts_with("discovered 3 relative: 0.29") || found[0].starts_with("discovered 3 relative: 0.30"));
     let file = LearnedFile::load(&learned).unwrap();
     let line = file.orders.last().unwrap();
-    assert!(line.discovered && line.reference == "relative" && line.multiple == 3.0);
+    assert!(
+        line.discovered
+            && line.reference == strainwave_joint::config::ReferenceChoice::Relative
+            && line.multiple == 3.0
+    );
     // 0.3 sin(3φ + 0.9) = 0.3 sin 0.9 cos 3φ + 0.3 cos 0.9 sin 3φ.
     assert!((line.cos_nm - 0.3 * 0.9f64.sin()).abs() < 0.02 && (line.sin_nm - 0.3 * 0.9f64.cos()).abs() < 0.02);
 

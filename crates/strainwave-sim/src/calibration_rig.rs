@@ -116,15 +116,7 @@ impl LockedWgProcedure {
         let bridge = ideal_bridge(p)?.displaced(&errs);
         let chain = SignalChain { amplifier_gain: p.amplifier_gain, adc_bits: p.adc_bits, adc_range_v: p.adc_range_v }
             .validated()?;
-        let gear = strainwave_core::gear::Gear::new(
-            s.gear.ratio,
-            match s.gear.fixed {
-                crate::scenario::FixedElementName::CircularSpline => {
-                    strainwave_core::gear::FixedElement::CircularSpline
-                }
-                crate::scenario::FixedElementName::Flexspline => strainwave_core::gear::FixedElement::Flexspline,
-            },
-        )?;
+        let gear = strainwave_core::gear::Gear::new(s.gear.ratio, s.gear.fixed)?;
         let fs_per_out = gear.flexspline_torque_from_output(1.0);
         let n_exp = self.positions_deg.len() * 2;
         let (t_lo, t_hi) = self.temperature_range_c;

@@ -9,10 +9,35 @@ use crate::error::SimError;
 pub(crate) fn parse_toml<T: DeserializeOwned>(text: &str) -> Result<T, SimError> {
     toml::from_str(text)
         // One line: the parser's message may run over several.
-        .map_err(|e| SimError::Parse {
-            message: e.message().trim().replace('\n', "; "),
-            location: toml_location(text, e.span()),
+        .map_err(|e| {
+            let message = e.message().trim().replace('\n', "; ");
+            // The key as the user wrote it (`sensor.layout`), when the error is a value's.
+            let key = e.span().and_then(|s| key_at(text.get(..s.start)?));
+            SimError::Parse {
+                message: key.map_or(message.clone(), |k| format!("`{k}`: {message}")),
+                location: toml_location(text, e.span()),
+            }
         })
+}
+
+/// The dotted key whose value starts at the end of `before`: the table header above it
+/// joined with the key on its own line, when the line is a plain `key = value` (as the
+/// joint crate's configuration errors name it).
+fn key_at(before: &str) -> Option<String> {
+    let mut lines = before.rsplit('\n');
+    let (key, _) = lines.next()?.split_once('=')?;
+    let key = key.trim().trim_matches('"');
+    if key.is_empty() || key.contains(['[', '{', ',']) {
+        return None;
+    }
+    let table = lines
+        .map(str::trim)
+        .find(|l| l.starts_with('['))
+        .map(|l| l.trim_start_matches('[').split(']').next().unwrap_or("").trim().to_string());
+    Some(match table {
+        Some(t) if !t.is_empty() => format!("{t}.{key}"),
+        _ => key.to_string(),
+    })
 }
 
 /// `line L, column C` of a byte offset (empty without one).

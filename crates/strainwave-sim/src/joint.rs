@@ -24,10 +24,10 @@
 //! low-frequency transmitted torque a controller needs.
 
 use strainwave_core::compliance::ThreeSlopeStiffness;
-use strainwave_core::gear::{FixedElement, Gear};
+use strainwave_core::gear::Gear;
 
 use crate::error::SimError;
-use crate::scenario::{FixedElementName, Scenario};
+use crate::scenario::Scenario;
 
 /// Mechanical state.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -93,11 +93,7 @@ fn smooth_sign(w: f64, eps: f64) -> f64 {
 impl JointModel {
     /// Builds the model from a validated scenario; `substep_s` sets the friction regularization.
     pub fn new(s: &Scenario, substep_s: f64) -> Result<Self, SimError> {
-        let fixed = match s.gear.fixed {
-            FixedElementName::CircularSpline => FixedElement::CircularSpline,
-            FixedElementName::Flexspline => FixedElement::Flexspline,
-        };
-        let gear = Gear::new(s.gear.ratio, fixed)?;
+        let gear = Gear::new(s.gear.ratio, s.gear.fixed)?;
         let stiffness = ThreeSlopeStiffness::new(
             s.gear.k1_nm_per_rad,
             s.gear.k2_nm_per_rad,

@@ -52,4 +52,23 @@ mod tests {
             assert_eq!(s, again, "{name}");
         }
     }
+
+    #[test]
+    fn snake_spellings_of_values_still_load() {
+        let text = preset_text("taghirad").unwrap();
+        assert!(text.contains("\"four-rosettes\"") && text.contains("\"small-strain\""));
+        let old =
+            text.replace("\"four-rosettes\"", "\"four_rosettes\"").replace("\"small-strain\"", "\"small_strain\"");
+        assert_eq!(Scenario::from_toml(&old).unwrap(), preset("taghirad").unwrap());
+        let old = text.replace("\"circular_spline\"", "\"circular-spline\"");
+        assert_eq!(Scenario::from_toml(&old).unwrap(), preset("taghirad").unwrap());
+    }
+
+    #[test]
+    fn an_unknown_value_names_its_key_and_the_accepted_ones() {
+        let text = preset_text("taghirad").unwrap().replace("\"four-rosettes\"", "\"six_rosettes\"");
+        let e = Scenario::from_toml(&text).unwrap_err().to_string();
+        assert!(e.starts_with("`sensor.layout`: unknown variant `six_rosettes`"), "{e}");
+        assert!(e.contains("`four-rosettes`") && e.contains("`eight-gauge-t`") && !e.contains('\n'), "{e}");
+    }
 }

@@ -54,7 +54,7 @@ pub struct Scenario {
 
 /// The angle an extra line is periodic in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
+#[serde(rename_all = "kebab-case")]
 pub enum LineReference {
     /// Relative wave generator–flexspline angle (counted in `true_ripple`).
     Relative,
@@ -79,15 +79,9 @@ pub struct ExtraLine {
     pub phase_rad: f64,
 }
 
-/// Which gear element is fixed, as written in TOML.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum FixedElementName {
-    /// Circular spline fixed, flexspline output.
-    CircularSpline,
-    /// Flexspline fixed, circular spline output.
-    Flexspline,
-}
+/// Which gear element is fixed, as written in TOML: the core's enum, spelled as in every
+/// configuration file (`circular_spline`, alias `circular-spline`, or `flexspline`).
+pub use strainwave_core::gear::FixedElement as FixedElementName;
 
 /// Gear parameters: ratio, configuration, catalogue stiffness, hysteresis, friction.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -179,20 +173,23 @@ pub struct MisalignmentParams {
 
 /// Gauge layout name.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
+#[serde(rename_all = "kebab-case")]
 pub enum LayoutName {
     /// Taghirad and Bélanger (1999): four rosettes.
+    #[serde(alias = "four_rosettes")]
     FourRosettes,
     /// the embedded-sensor article: eight gauges in four T pairs.
+    #[serde(alias = "eight_gauge_t")]
     EightGaugeT,
 }
 
 /// Bridge equation.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "snake_case")]
+#[serde(rename_all = "kebab-case")]
 pub enum BridgeModel {
     /// `U/E = (K/4)(ε1 − ε2 + ε3 − ε4)`: outputs add exactly.
     #[default]
+    #[serde(alias = "small_strain")]
     SmallStrain,
     /// The nonlinear bridge equation.
     Exact,
@@ -303,7 +300,7 @@ pub struct EncoderParams {
 
 /// One segment of the motion profile (motor-side speed, or open-loop current).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum MotionSegment {
     /// Linear ramp of the motor speed to `to_rad_s` (a reversal when the sign changes).
     Ramp {
@@ -337,7 +334,7 @@ pub enum MotionSegment {
 
 /// One component of the external torque on the load (they add).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum ExternalTorque {
     /// Step of `torque_nm` at `at_s` (negative steps remove load).
     Step {

@@ -10,7 +10,7 @@ use super::{check_columns, invalid, CalibrationError, ErrorMetrics, Extrapolatio
 
 /// The model form stored in a calibration file (`model = "…"`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
+#[serde(rename_all = "kebab-case")]
 pub enum ModelKind {
     /// `T = g V`: key `gain_nm_per_v`.
     Gain,
@@ -19,10 +19,32 @@ pub enum ModelKind {
     /// `T = α x + β` from sinusoidal-load data, speed-independent: same keys.
     Dynamic,
     /// Table: `speed_rad_s`, `alpha`, `beta_nm` (arrays of equal length), `extrapolation`.
+    #[serde(alias = "speed_table")]
     SpeedTable,
     /// Polynomials: `alpha`, `beta_nm` (coefficients lowest order first, per (rad/s)^k),
     /// `speed_range_rad_s = [min, max]`, `extrapolation`.
+    #[serde(alias = "speed_poly")]
     SpeedPoly,
+}
+
+impl std::str::FromStr for ModelKind {
+    type Err = String;
+
+    /// `gain`, `static`, `dynamic`, `speed-table` or `speed-poly` (the snake spellings are
+    /// accepted); the error lists them.
+    fn from_str(name: &str) -> Result<Self, String> {
+        use ModelKind::*;
+        let table = [
+            ("gain", Gain),
+            ("static", Static),
+            ("dynamic", Dynamic),
+            ("speed-table", SpeedTable),
+            ("speed-poly", SpeedPoly),
+            ("speed_table", SpeedTable),
+            ("speed_poly", SpeedPoly),
+        ];
+        crate::choice::parse(name, &table, 5)
+    }
 }
 
 impl ModelKind {
@@ -31,8 +53,8 @@ impl ModelKind {
             ModelKind::Gain => "gain",
             ModelKind::Static => "static",
             ModelKind::Dynamic => "dynamic",
-            ModelKind::SpeedTable => "speed_table",
-            ModelKind::SpeedPoly => "speed_poly",
+            ModelKind::SpeedTable => "speed-table",
+            ModelKind::SpeedPoly => "speed-poly",
         }
     }
 }
@@ -51,7 +73,7 @@ pub enum Coefficients {
 /// the model are refused. Example:
 ///
 /// ```toml
-/// model = "speed_table"          # gain | static | dynamic | speed_table | speed_poly
+/// model = "speed-table"          # gain | static | dynamic | speed-table | speed-poly
 /// extrapolation = "clamp"        # clamp | linear | reject (speed models only, required)
 /// speed_rad_s = [0.5, 2.0, 4.0]  # breakpoints, strictly increasing
 /// alpha = [1.55, 1.57, 1.60]
@@ -87,10 +109,10 @@ pub struct CalibrationFile {
     /// Gain, N·m/V (model `gain`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gain_nm_per_v: Option<f64>,
-    /// Table breakpoints, rad/s (model `speed_table`).
+    /// Table breakpoints, rad/s (model `speed-table`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub speed_rad_s: Option<Vec<f64>>,
-    /// `[min, max]` fitted speed range, rad/s (model `speed_poly`).
+    /// `[min, max]` fitted speed range, rad/s (model `speed-poly`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub speed_range_rad_s: Option<Vec<f64>>,
     /// α: a number (static, dynamic), table values or polynomial coefficients.
@@ -381,16 +403,39 @@ impl CalibrationFile {
     }
 }
 
-/// A TOML error on one line: `line L, column C: message` (the `toml` crate's own text
-/// draws the offending line over several).
+/// A TOML error on one line: `line L, column C: key `K`: message`, the key as the user
+/// wrote it when the error is a value's (the `toml` crate's own text draws the offending
+/// line over several).
 pub fn toml_error_line(text: &str, e: &toml::de::Error) -> String {
     let at = e.span().map_or(String::new(), |s| {
         let before = text.get(..s.start).unwrap_or(text);
         let line = before.matches('\n').count() + 1;
         let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
-        format!("line {line}, column {column}: ")
+        let key = toml_key_at(before).map_or(String::new(), |k| format!("`{k}`: "));
+        format!("line {line}, column {column}: {key}")
     });
     format!("{at}{}", e.message().trim().replace('\n', "; "))
+}
+
+/// The dotted key whose value starts at the end of `before` (the text up to an error's
+/// span): the table header above it joined with the key on its own line, when the line
+/// is a plain `key = value` (`filter.model`).
+pub fn toml_key_at(before: &str) -> Option<String> {
+    let mut lines = before.rsplit('\n');
+    let current = lines.next()?;
+    let (key, _) = current.split_once('=')?;
+    let key = key.trim().trim_matches('"');
+    if key.is_empty() || key.contains(['[', '{', ',']) {
+        return None;
+    }
+    let table = lines
+        .map(str::trim)
+        .find(|l| l.starts_with('[') && !l.starts_with("[["))
+        .map(|l| l.trim_start_matches('[').split(']').next().unwrap_or("").trim().to_string());
+    Some(match table {
+        Some(t) if !t.is_empty() => format!("{t}.{key}"),
+        _ => key.to_string(),
+    })
 }
 
 #[cfg(test)]
@@ -449,5 +494,11 @@ mod tests {
         assert!((c.apply(2.0, 7.0).unwrap() - (2.0 * 1.57 - 0.09)).abs() < 1e-5);
         let again = CalibrationFile::from_toml_str(&f.to_toml_string().unwrap()).unwrap();
         assert_eq!(again, f);
+        // Written kebab-case, as every value; the snake spelling (older files) still loads.
+        assert!(f.to_toml_string().unwrap().contains("model = \"speed-poly\""));
+        assert_eq!(CalibrationFile::from_toml_str(&text.replace("speed_poly", "speed-poly")).unwrap(), f);
+        let e = CalibrationFile::from_toml_str(&text.replace("speed_poly", "speed_spline")).unwrap_err().to_string();
+        assert!(e.contains("line 1, column 9: `model`: unknown variant `speed_spline`"), "{e}");
+        assert!(e.contains("`speed-table`") && !e.contains('\n'), "{e}");
     }
 }

@@ -56,7 +56,7 @@ mod speed;
 pub use affine::{fit_affine, AffineFit};
 pub use din::{din51309_figures, DinOptions, DinReport, DinStep, LoadSeries, SeriesStep};
 pub use error::CalibrationError;
-pub use file::{toml_error_line, CalibrationFile, Coefficients, Evaluation, ModelKind};
+pub use file::{toml_error_line, toml_key_at, CalibrationFile, Coefficients, Evaluation, ModelKind};
 pub use gain::{calibrate_gain, Experiment, ExperimentGain, GainCalibration, GainFit};
 pub use held::held_rows;
 pub use metrics::{error_metrics, ErrorMetrics};

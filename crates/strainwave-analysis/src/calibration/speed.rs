@@ -14,7 +14,7 @@ use crate::lstsq::{self, expansion_matrix};
 /// Extrapolation policy outside a speed table or fitted speed range (file key
 /// `extrapolation = "clamp" | "linear" | "reject"`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
+#[serde(rename_all = "kebab-case")]
 pub enum Extrapolation {
     /// Hold the end coefficients.
     Clamp,
@@ -22,6 +22,16 @@ pub enum Extrapolation {
     Linear,
     /// Refuse the sample.
     Reject,
+}
+
+impl std::str::FromStr for Extrapolation {
+    type Err = String;
+
+    /// `clamp`, `linear` or `reject`; the error lists them.
+    fn from_str(name: &str) -> Result<Self, String> {
+        let table = [("clamp", Self::Clamp), ("linear", Self::Linear), ("reject", Self::Reject)];
+        crate::choice::parse(name, &table, 3)
+    }
 }
 
 impl From<Extrapolation> for CoreExtrapolation {
@@ -108,7 +118,7 @@ pub struct SpeedFit {
 }
 
 impl SpeedFit {
-    /// The calibration file (`speed_table` or `speed_poly`).
+    /// The calibration file (`speed-table` or `speed-poly`).
     pub fn to_file(&self) -> CalibrationFile {
         let poly = self.model == ModelKind::SpeedPoly;
         CalibrationFile {

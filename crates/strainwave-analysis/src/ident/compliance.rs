@@ -42,7 +42,8 @@ pub enum ComplianceForm {
 }
 
 /// Fitted compliance parameters (plain values; SI units). Serialized as a TOML table
-/// tagged `form = "linear" | "cubic" | "three-slope" | "seed"`.
+/// tagged `form = "linear" | "cubic" | "three-slope" | "hda"` (older files: `"three_slope"`,
+/// `"seed"`, still read).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(tag = "form", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum ComplianceParams {
@@ -59,6 +60,7 @@ pub enum ComplianceParams {
         k3_nm_per_rad3: f64,
     },
     /// Three-slope stiffness.
+    #[serde(alias = "three_slope")]
     ThreeSlope {
         /// `K1`, N·m/rad.
         k1_nm_per_rad: f64,
@@ -71,7 +73,8 @@ pub enum ComplianceParams {
         /// `T2`, N·m.
         t2_nm: f64,
     },
-    /// HDA arm springs.
+    /// HDA arm springs (the arm's harmonic drive compliance law; `form = "hda"`).
+    #[serde(rename = "hda", alias = "seed")]
     Seed {
         /// `K_f0`, N·m/rad.
         flexspline_k0_nm_per_rad: f64,

@@ -113,7 +113,7 @@ impl TorqueEstimate {
 
 impl TorqueTrack {
     /// The forward filter: rate noise `q_nm2` (N·m² per sample³), measurement noise
-    /// `r_nm2`, restart above `step_nis`.
+    /// variance `r_nm2` (N·m²), restart above `step_nis`.
     pub fn forward(q_nm2: f64, r_nm2: f64, step_nis: f64) -> Self {
         Self { q_nm2, r_nm2, step_nis, direction: 1.0, mean: [0.0; 2], cov: [0.0; 3], started: false }
     }
@@ -123,9 +123,11 @@ impl TorqueTrack {
         Self { direction: -1.0, ..Self::forward(q_nm2, r_nm2, step_nis) }
     }
 
-    /// The forward and backward filters for measurement noise `r_nm2` at
-    /// `sample_rate_hz`, with [`SMOOTHED_TORQUE_BANDWIDTH_HZ`] and [`SMOOTHED_TORQUE_STEP_NIS`].
-    pub fn pair(r_nm2: f64, sample_rate_hz: f64) -> (Self, Self) {
+    /// The forward and backward filters for the measurement noise `noise_nm` (1σ, N·m,
+    /// as the canceller's) at `sample_rate_hz`, with [`SMOOTHED_TORQUE_BANDWIDTH_HZ`] and
+    /// [`SMOOTHED_TORQUE_STEP_NIS`].
+    pub fn pair(noise_nm: f64, sample_rate_hz: f64) -> (Self, Self) {
+        let r_nm2 = noise_nm * noise_nm;
         let q = Self::q_for_bandwidth(SMOOTHED_TORQUE_BANDWIDTH_HZ, sample_rate_hz, r_nm2);
         (Self::forward(q, r_nm2, SMOOTHED_TORQUE_STEP_NIS), Self::backward(q, r_nm2, SMOOTHED_TORQUE_STEP_NIS))
     }
@@ -275,14 +277,14 @@ pub(super) mod tests {
         y[1000] = f64::NAN;
         let mut cuts = vec![false; n];
         cuts[k1] = true;
-        let out = smooth_torque(&y, &cuts, TorqueTrack::pair(r_nm2, fs));
+        let out = smooth_torque(&y, &cuts, TorqueTrack::pair(r_nm2.sqrt(), fs));
         for k in (k0 - 20..k0 + 20).chain(k1 - 20..k1 + 20).chain(990..1010) {
             assert!((out[k].0 - truth[k]).abs() < 5.0 * out[k].1, "sample {k}: {:?} vs {}", out[k], truth[k]);
             assert!((out[k].0 - truth[k]).abs() < 0.04, "sample {k}: {:?} vs {}", out[k], truth[k]);
         }
         assert!(out[1000].0.is_finite() && out[1000].1 > out[999].1, "the gap is bridged with less certainty");
-        assert!(smooth_torque(&[], &[], TorqueTrack::pair(r_nm2, fs)).is_empty());
-        let none = smooth_torque(&[f64::NAN; 3], &[], TorqueTrack::pair(r_nm2, fs));
+        assert!(smooth_torque(&[], &[], TorqueTrack::pair(r_nm2.sqrt(), fs)).is_empty());
+        let none = smooth_torque(&[f64::NAN; 3], &[], TorqueTrack::pair(r_nm2.sqrt(), fs));
         assert!(none.iter().all(|(t, sd)| t.is_nan() && sd.is_nan()));
     }
 

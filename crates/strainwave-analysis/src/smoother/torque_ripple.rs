@@ -220,7 +220,7 @@ pub struct RippleTorqueTrack {
 impl RippleTorqueTrack {
     /// The forward filter with `orders` residual ripple orders (at most
     /// [`MAX_RIPPLE_ORDERS`]): torque rate noise `q_nm2`, ripple coefficient noise
-    /// `q_ripple_nm2`, measurement noise `r_nm2`, restart above `step_nis`.
+    /// `q_ripple_nm2`, measurement noise variance `r_nm2` (N·m²), restart above `step_nis`.
     pub fn forward(orders: usize, q_nm2: f64, q_ripple_nm2: f64, r_nm2: f64, step_nis: f64) -> Self {
         let n = 2 + 2 * orders.min(MAX_RIPPLE_ORDERS);
         Self { q_nm2, q_ripple_nm2, r_nm2, step_nis, direction: 1.0, state: RippleTorqueEstimate::none(n) }
@@ -231,10 +231,11 @@ impl RippleTorqueTrack {
         Self { direction: -1.0, ..Self::forward(orders, q_nm2, q_ripple_nm2, r_nm2, step_nis) }
     }
 
-    /// The forward and backward filters for measurement noise `r_nm2` at
-    /// `sample_rate_hz`, with the torque's and the residual ripple's bandwidths
-    /// ([`SMOOTHED_TORQUE_BANDWIDTH_HZ`], [`RESIDUAL_RIPPLE_BANDWIDTH_HZ`]).
-    pub fn pair(orders: usize, r_nm2: f64, sample_rate_hz: f64) -> (Self, Self) {
+    /// The forward and backward filters for the measurement noise `noise_nm` (1σ, N·m, as
+    /// the canceller's) at `sample_rate_hz`, with the torque's and the residual ripple's
+    /// bandwidths ([`SMOOTHED_TORQUE_BANDWIDTH_HZ`], [`RESIDUAL_RIPPLE_BANDWIDTH_HZ`]).
+    pub fn pair(orders: usize, noise_nm: f64, sample_rate_hz: f64) -> (Self, Self) {
+        let r_nm2 = noise_nm * noise_nm;
         let w = |hz: f64| std::f64::consts::TAU * hz / sample_rate_hz;
         let q = r_nm2 * w(SMOOTHED_TORQUE_BANDWIDTH_HZ).powi(4);
         let qr = r_nm2 * w(RESIDUAL_RIPPLE_BANDWIDTH_HZ).powi(2);
@@ -486,9 +487,9 @@ mod tests {
     #[test]
     fn without_orders_it_is_the_level_and_rate_smoother() {
         let (y, _, _) = series(3000);
-        let r = 0.0162f64.powi(2);
-        let a = smooth_torque(&y, &[], TorqueTrack::pair(r, 1000.0));
-        let b = smooth_torque_with_ripple(&y, &[], &[], RippleTorqueTrack::pair(0, r, 1000.0));
+        let noise = 0.0162;
+        let a = smooth_torque(&y, &[], TorqueTrack::pair(noise, 1000.0));
+        let b = smooth_torque_with_ripple(&y, &[], &[], RippleTorqueTrack::pair(0, noise, 1000.0));
         for (p, q) in a.iter().zip(&b) {
             // The same up to rounding (the information form inverts a 2 × 2 of condition 10¹⁰);
             // the band is the noise's share of the model's σ.
@@ -507,7 +508,7 @@ mod tests {
         let mut band = Vec::new();
         for _ in 0..draws {
             let y: Vec<f64> = (0..n).map(|_| sigma * g()).collect();
-            let out = smooth_torque_with_ripple(&y, &ph, &[], RippleTorqueTrack::pair(2, sigma * sigma, 1000.0));
+            let out = smooth_torque_with_ripple(&y, &ph, &[], RippleTorqueTrack::pair(2, sigma, 1000.0));
             for (s2, o) in sum2.iter_mut().zip(&out) {
                 *s2 += o.0 * o.0 / draws as f64;
             }
@@ -527,10 +528,10 @@ mod tests {
     #[test]
     fn residual_ripple_is_removed_and_counted() {
         let (y, truth, ph) = series(8000);
-        let r = 0.0162f64.powi(2);
-        let plain = smooth_torque(&y, &[], TorqueTrack::pair(r, 1000.0));
-        let with = smooth_torque_with_ripple(&y, &ph, &[], RippleTorqueTrack::pair(2, r, 1000.0));
-        let plain_band = smooth_torque_with_ripple(&y, &[], &[], RippleTorqueTrack::pair(0, r, 1000.0));
+        let noise = 0.0162;
+        let plain = smooth_torque(&y, &[], TorqueTrack::pair(noise, 1000.0));
+        let with = smooth_torque_with_ripple(&y, &ph, &[], RippleTorqueTrack::pair(2, noise, 1000.0));
+        let plain_band = smooth_torque_with_ripple(&y, &[], &[], RippleTorqueTrack::pair(0, noise, 1000.0));
         let err = |o: &[(f64, f64)]| rms((1000..8000).map(|k| o[k].0 - truth[k]));
         let cover =
             |o: &[(f64, f64)]| (1000..8000).filter(|&k| (o[k].0 - truth[k]).abs() <= o[k].1).count() as f64 / 7000.0;
@@ -566,7 +567,7 @@ mod tests {
     #[test]
     fn estimates_round_trip_through_values_and_bad_ones_are_refused() {
         let (y, _, ph) = series(500);
-        let mut t = RippleTorqueTrack::pair(2, 1e-4, 1000.0).0;
+        let mut t = RippleTorqueTrack::pair(2, 1e-2, 1000.0).0;
         for (v, p) in y.iter().zip(&ph) {
             t.push(*v, p, false);
         }

@@ -10,7 +10,8 @@ use strainwave_core::fusion::{
     AccelerometerModel, CrossoverOrder, OnlineCorrectedFusion, OnlineCorrectionConfig, TorsionShaftModel,
 };
 
-/// Column names in the recording.
+/// Column names in the recording (`[channels]`, as in the joint and arm configs;
+/// `[columns]` in older files).
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Columns {
@@ -119,17 +120,19 @@ impl Model {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BenchConfig {
-    /// Columns.
-    pub columns: Columns,
+    /// Columns (`[channels]`; `[columns]` is the older name).
+    #[serde(alias = "columns")]
+    pub channels: Columns,
     /// `J_S`, kg·m².
     pub stator_inertia_kg_m2: f64,
     /// `R`, m.
     pub radius_m: f64,
     /// Crossover, Hz.
     pub crossover_hz: f64,
-    /// Order of the complementary pair: 1 or 2.
-    #[serde(default = "default_order")]
-    pub order: u32,
+    /// Order of the complementary pair (the crossover's filters): 1 or 2 (`order` in
+    /// older files).
+    #[serde(default = "default_order", alias = "order")]
+    pub crossover_order: u32,
     /// Sample rate, Hz (default: from the time column).
     pub sample_rate_hz: Option<f64>,
     /// Mechanics for `corrected`.
@@ -154,19 +157,19 @@ impl BenchConfig {
                 bail!("{}: `{key}` must be positive, got {v}", path.display());
             }
         }
-        if !matches!(c.order, 1 | 2) {
-            bail!("{}: `order` must be 1 or 2, got {}", path.display(), c.order);
+        if !matches!(c.crossover_order, 1 | 2) {
+            bail!("{}: `crossover_order` must be 1 or 2, got {}", path.display(), c.crossover_order);
         }
-        let cols = &c.columns;
+        let cols = &c.channels;
         match (&cols.accel_1, &cols.accel_2, &cols.accel_torque) {
             (Some(_), Some(_), None) | (None, None, Some(_)) => {}
-            _ => bail!("{}: `columns` needs `accel_1` and `accel_2`, or `accel_torque`", path.display()),
+            _ => bail!("{}: `channels` needs `accel_1` and `accel_2`, or `accel_torque`", path.display()),
         }
         Ok(c)
     }
 
     pub(super) fn crossover_order(&self) -> CrossoverOrder {
-        if self.order == 1 {
+        if self.crossover_order == 1 {
             CrossoverOrder::First
         } else {
             CrossoverOrder::Second

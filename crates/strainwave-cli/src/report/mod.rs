@@ -1,5 +1,6 @@
 //! The HTML report and its SVG plots.
 
+pub mod calibration;
 pub mod health;
 pub mod heatmap;
 pub mod html;

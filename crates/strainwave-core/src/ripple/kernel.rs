@@ -1044,7 +1044,7 @@ pub(super) mod tests {
         ];
         (
             RippleModel::taghirad_6th_order(1000.0).unwrap(),
-            RippleModel::new(motor, 0.5, 1000.0).unwrap().with_bias_state(1e-3).unwrap(),
+            RippleModel::new(motor, 0.5f64.sqrt(), 1000.0).unwrap().with_bias_state(1e-3).unwrap(),
             RippleModel::full(1000.0, 0.05).unwrap(),
             RippleModel::taghirad_4th_order(1000.0).unwrap().with_phase_source(PhaseSource::Velocity),
         )

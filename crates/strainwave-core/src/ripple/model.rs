@@ -223,6 +223,9 @@ impl<T: Real> Default for Limits<T> {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RippleModel<T: Real, const M: usize> {
     pub(crate) orders: [Order<T>; M],
+    /// Measurement noise, 1σ, N·m (what the caller gave).
+    pub(crate) noise_nm: T,
+    /// Its variance `R = noise_nm²`, N·m² (what the filter uses).
     pub(crate) r_nm2: T,
     pub(crate) sample_rate_hz: T,
     pub(crate) bias_q_nm2: Option<T>,
@@ -235,8 +238,9 @@ pub struct RippleModel<T: Real, const M: usize> {
 }
 
 impl<T: Real, const M: usize> RippleModel<T, M> {
-    /// A bank of `orders`, measurement noise variance `R > 0` (N·m²) and the sample
-    /// rate. No bias state, initial variance 1 N·m² per oscillator, default limits.
+    /// A bank of `orders`, the measurement noise `noise_nm > 0` (1σ, N·m; the filter's
+    /// `R` is its square) and the sample rate. No bias state, initial variance 1 N·m² per
+    /// oscillator, default limits.
     ///
     /// ```
     /// use strainwave_core::ripple::{Order, Reference, RippleModel};
@@ -249,7 +253,7 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
     /// assert!(RippleModel::new(orders, 0.0, 1000.0).is_err());
     /// # Ok::<(), strainwave_core::Error>(())
     /// ```
-    pub fn new(orders: [Order<T>; M], r_nm2: T, sample_rate_hz: T) -> Result<Self, Error> {
+    pub fn new(orders: [Order<T>; M], noise_nm: T, sample_rate_hz: T) -> Result<Self, Error> {
         for o in &orders {
             positive(o.multiple, "multiple")?;
             non_negative(o.q_per_sample_nm2, "q_per_sample_nm2")?;
@@ -260,9 +264,12 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
                 positive(v, "prior variance_nm2")?;
             }
         }
+        let noise_nm = positive(noise_nm, "noise_nm")?;
         let mut m = Self {
             orders,
-            r_nm2: positive(r_nm2, "r_nm2")?,
+            noise_nm,
+            // A σ so small that its square underflows is refused as well.
+            r_nm2: positive(noise_nm * noise_nm, "noise_nm")?,
             sample_rate_hz: positive(sample_rate_hz, "sample_rate_hz")?,
             bias_q_nm2: None,
             p0_oscillator_nm2: T::ONE,
@@ -379,9 +386,9 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
     pub fn orders(&self) -> &[Order<T>; M] {
         &self.orders
     }
-    /// Measurement noise variance `R`, N·m².
-    pub fn r_nm2(&self) -> T {
-        self.r_nm2
+    /// Measurement noise, 1σ, N·m (the filter's `R` is its square).
+    pub fn noise_nm(&self) -> T {
+        self.noise_nm
     }
     /// Sample rate, Hz.
     pub fn sample_rate_hz(&self) -> T {

@@ -27,14 +27,14 @@ fn classic_limits<T: Real>() -> Limits<T> {
 
 impl<T: Real> RippleModel<T, 2> {
     /// The classic 4th-order model (Taghirad and Bélanger, 1999): 2× and 4× of the
-    /// reference angle, `Q = 10⁻³ I` per sample, `R = 1`, no bias state, no hold (as
+    /// reference angle, `Q = 10⁻³ I` per sample, `R = 1` (noise 1 N·m), no bias state, no hold (as
     /// published). The paper fed the motor angle; here it is the relative angle
     /// `φ = θ_wg − θ_fs` (wave generator minus flexspline) as `relative`.
     ///
     /// ```
     /// use strainwave_core::ripple::RippleModel;
     /// let m = RippleModel::<f64, 2>::taghirad_4th_order(1000.0).unwrap();
-    /// assert_eq!((m.state_len(), m.r_nm2()), (4, 1.0));
+    /// assert_eq!((m.state_len(), m.noise_nm()), (4, 1.0));
     /// ```
     pub fn taghirad_4th_order(sample_rate_hz: T) -> Result<Self, Error> {
         let orders = [classic_order(Reference::Relative, 2.0)?, classic_order(Reference::Relative, 4.0)?];
@@ -94,7 +94,7 @@ impl<T: Real> RippleModel<T, 3> {
             Order::new(Reference::Relative, c(4.0))?.with_noise(T::ZERO, ripple_q)?,
             Order::new(Reference::Output, T::ONE)?.with_noise(mis_q, T::ZERO)?,
         ];
-        RippleModel::new(orders, r, fs)?
+        RippleModel::new(orders, noise_nm, fs)?
             .with_bias_state(bias_q)?
             .with_initial_variance(c(OSCILLATOR_P0_NM2), c(BIAS_P0_NM2))
     }
@@ -182,7 +182,7 @@ fn full_with_bias<T: Real>(sample_rate_hz: T, noise_nm: T, bias_hz: f64) -> Resu
             .with_noise(T::ZERO, mis_q)?
             .with_prior([T::ZERO; 2], c(MISALIGNMENT_PRIOR_NM * MISALIGNMENT_PRIOR_NM))?,
     ];
-    RippleModel::new(orders, r, fs)?
+    RippleModel::new(orders, noise_nm, fs)?
         .with_bias_state(random_walk_q(c(bias_hz), fs, r)?)?
         .with_initial_variance(c(OSCILLATOR_P0_NM2), c(BIAS_P0_NM2))
 }

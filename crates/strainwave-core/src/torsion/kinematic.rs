@@ -97,8 +97,11 @@ impl<T: Real, const D: usize> KinematicError<T> for KinematicPolynomial<T, D> {
     }
 }
 
-/// Which fast angle the mesh harmonics of [`KinematicFourier`] follow.
+/// Which fast angle the mesh harmonics of [`KinematicFourier`] follow (with the `serde`
+/// feature, `"relative"` or `"motor"` in a model file).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "kebab-case"))]
 pub enum MeshAngle {
     /// Relative angle `φ = θ_wg − θ_fs`: errors that travel with the flexspline teeth (docs/physics.md §1).
     #[default]

@@ -3,20 +3,13 @@
 
 use anyhow::Result;
 use serde::{Deserialize, Serialize};
-use strainwave_core::gear::{FixedElement, Gear};
+use strainwave_core::gear::Gear;
 use strainwave_core::torsion::EncoderConfig;
 use strainwave_io::Channel;
 
-/// Which element is fixed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "kebab-case")]
-pub enum Fixed {
-    /// Circular spline fixed (usual robot joint).
-    #[default]
-    CircularSpline,
-    /// Flexspline fixed.
-    Flexspline,
-}
+/// Which element is fixed: the core's [`FixedElement`], spelled as in every
+/// configuration file (`circular_spline`, alias `circular-spline`, or `flexspline`).
+pub use strainwave_core::gear::FixedElement as Fixed;
 
 /// The gear.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -34,11 +27,7 @@ pub struct GearConfig {
 impl GearConfig {
     /// The core's gear.
     pub fn gear(&self) -> Result<Gear<f64>> {
-        let fixed = match self.fixed {
-            Fixed::CircularSpline => FixedElement::CircularSpline,
-            Fixed::Flexspline => FixedElement::Flexspline,
-        };
-        Gear::new(self.ratio, fixed).map_err(|e| anyhow::anyhow!("gear: {e}"))
+        Gear::new(self.ratio, self.fixed).map_err(|e| anyhow::anyhow!("gear: {e}"))
     }
 }
 
@@ -119,13 +108,70 @@ pub struct Channels {
 }
 
 /// Order of the kinematic basis: a number or `"cv"` (chosen by 5-fold cross-validation).
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(untagged)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Order {
     /// Fixed.
     Fixed(usize),
     /// `"cv"`.
-    Named(String),
+    CrossValidated,
+}
+
+impl std::fmt::Display for Order {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Order::Fixed(n) => write!(f, "{n}"),
+            Order::CrossValidated => f.write_str("\"cv\""),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for Order {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        struct V;
+        impl serde::de::Visitor<'_> for V {
+            type Value = Order;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("a number or `cv`")
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> std::result::Result<Order, E> {
+                usize::try_from(v)
+                    .map(Order::Fixed)
+                    .map_err(|_| E::invalid_value(serde::de::Unexpected::Signed(v), &self))
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> std::result::Result<Order, E> {
+                usize::try_from(v)
+                    .map(Order::Fixed)
+                    .map_err(|_| E::invalid_value(serde::de::Unexpected::Unsigned(v), &self))
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> std::result::Result<Order, E> {
+                match v {
+                    "cv" => Ok(Order::CrossValidated),
+                    _ => Err(E::invalid_value(serde::de::Unexpected::Str(v), &self)),
+                }
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// `kinematic.basis`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Basis {
+    /// Fourier series in the output and mesh angles.
+    Fourier,
+    /// Polynomial in the output angle.
+    Polynomial,
+}
+
+impl Basis {
+    /// Its name in files and messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            Basis::Fourier => "fourier",
+            Basis::Polynomial => "polynomial",
+        }
+    }
 }
 
 /// Kinematic-error model choice.
@@ -133,7 +179,7 @@ pub enum Order {
 #[serde(deny_unknown_fields)]
 pub struct KinematicConfig {
     /// `fourier` or `polynomial`.
-    pub basis: String,
+    pub basis: Basis,
     /// Output harmonics (Fourier) or power (polynomial), or `"cv"`.
     pub order: Order,
     /// Mesh harmonics of a Fourier basis with a fixed order, or of a kinematic error
@@ -142,12 +188,62 @@ pub struct KinematicConfig {
     pub mesh_harmonics: Option<usize>,
 }
 
+/// `compliance.spring`: the spring law fitted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SpringChoice {
+    /// Linear stiffness.
+    Linear,
+    /// Linear plus cubic stiffness.
+    Cubic,
+    /// Three slopes with break torques `t1_nm`, `t2_nm`.
+    #[serde(alias = "three_slope")]
+    ThreeSlope,
+    /// The arm's harmonic drive compliance law (flexspline and wave generator springs);
+    /// `seed` is its older name.
+    #[serde(alias = "seed")]
+    Hda,
+}
+
+impl SpringChoice {
+    /// Its name in files and messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            SpringChoice::Linear => "linear",
+            SpringChoice::Cubic => "cubic",
+            SpringChoice::ThreeSlope => "three-slope",
+            SpringChoice::Hda => "hda",
+        }
+    }
+}
+
+/// `compliance.hysteresis`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum HysteresisChoice {
+    /// Play operators (default).
+    #[default]
+    Plays,
+    /// None.
+    None,
+}
+
+impl HysteresisChoice {
+    /// Its name in files and messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            HysteresisChoice::Plays => "plays",
+            HysteresisChoice::None => "none",
+        }
+    }
+}
+
 /// Compliance model choice.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ComplianceConfig {
-    /// `linear`, `cubic`, `three-slope` or `seed`.
-    pub spring: String,
+    /// `linear`, `cubic`, `three-slope` or `hda`.
+    pub spring: SpringChoice,
     /// Three-slope break torques, N·m (default 25 % and 60 % of rated).
     #[serde(default)]
     pub t1_nm: Option<f64>,
@@ -155,8 +251,8 @@ pub struct ComplianceConfig {
     #[serde(default)]
     pub t2_nm: Option<f64>,
     /// `plays` (default) or `none`.
-    #[serde(default = "default_hysteresis")]
-    pub hysteresis: String,
+    #[serde(default)]
+    pub hysteresis: HysteresisChoice,
     /// Fit structural damping.
     #[serde(default = "yes")]
     pub damping: bool,
@@ -232,9 +328,6 @@ fn span() -> usize {
     4
 }
 
-fn default_hysteresis() -> String {
-    "plays".into()
-}
 fn yes() -> bool {
     true
 }
@@ -265,7 +358,7 @@ pub struct ArmConfig {
 impl ArmConfig {
     /// Whether the compliance fit is one linear least-squares solve (no iteration).
     pub fn linear_fit(&self) -> bool {
-        self.compliance.hysteresis == "none" && self.compliance.spring == "linear"
+        self.compliance.hysteresis == HysteresisChoice::None && self.compliance.spring == SpringChoice::Linear
     }
 
     /// Refuses keys that the chosen models and runs would not use: a setting that is
@@ -276,7 +369,7 @@ impl ArmConfig {
             unused("channels.time", "when sample_rate_hz is given (the rate comes from one of them)")?;
         }
         let c = &self.compliance;
-        if c.spring != "three-slope" && (c.t1_nm.is_some() || c.t2_nm.is_some()) {
+        if c.spring != SpringChoice::ThreeSlope && (c.t1_nm.is_some() || c.t2_nm.is_some()) {
             unused("compliance.t1_nm / t2_nm", "unless spring = \"three-slope\"")?;
         }
         if self.linear_fit() && c.decimation.is_some() {
@@ -285,16 +378,70 @@ impl ArmConfig {
         if self.linear_fit() && c.max_iterations.is_some() {
             unused("compliance.max_iterations", "with a linear spring and no hysteresis (one least-squares solve)")?;
         }
-        if c.hysteresis != "plays" && self.encoders.as_ref().is_some_and(|e| e.noise_counts.is_some()) {
+        if c.hysteresis != HysteresisChoice::Plays && self.encoders.as_ref().is_some_and(|e| e.noise_counts.is_some()) {
             unused("encoders.noise_counts", "without hysteresis = \"plays\" (it sets the narrowest play)")?;
         }
         let k = &self.kinematic;
-        if has_no_load && matches!(&k.order, Order::Named(s) if s == "cv") && k.mesh_harmonics.is_some() {
+        if has_no_load && k.order == Order::CrossValidated && k.mesh_harmonics.is_some() {
             unused("kinematic.mesh_harmonics", "with order = \"cv\" (cross-validation chooses it)")?;
         }
-        if k.basis == "polynomial" && k.mesh_harmonics.is_some() {
+        if k.basis == Basis::Polynomial && k.mesh_harmonics.is_some() {
             unused("kinematic.mesh_harmonics", "with basis = \"polynomial\"")?;
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const ARM: &str = "[gear]\nratio = 100.0\nrated_torque_nm = 40.0\nfixed = \"circular_spline\"\n\
+        [channels]\nmotor = \"m\"\nlink = \"l\"\n\
+        [kinematic]\nbasis = \"fourier\"\norder = \"cv\"\n\
+        [compliance]\nspring = \"hda\"\nhysteresis = \"plays\"\n";
+
+    fn parse(text: &str) -> std::result::Result<ArmConfig, String> {
+        toml::from_str(text)
+            .map_err(|e| crate::toml_error::one_line(std::path::Path::new("arm.toml"), text, &e).to_string())
+    }
+
+    #[test]
+    fn every_spelling_of_a_choice_loads() {
+        for (from, to) in [
+            ("\"circular_spline\"", "\"circular-spline\""),
+            ("\"circular_spline\"", "\"flexspline\""),
+            ("\"hda\"", "\"seed\""),
+            ("\"hda\"", "\"three-slope\""),
+            ("\"hda\"", "\"three_slope\""),
+            ("\"cv\"", "3"),
+        ] {
+            let c = parse(&ARM.replacen(from, to, 1)).unwrap_or_else(|e| panic!("{to}: {e}"));
+            assert_eq!(c.gear.fixed == Fixed::Flexspline, to == "\"flexspline\"");
+        }
+        let c = parse(ARM).unwrap();
+        assert_eq!(c.gear.fixed, Fixed::CircularSpline);
+        assert_eq!((c.compliance.spring, c.kinematic.order), (SpringChoice::Hda, Order::CrossValidated));
+        let c = parse(&ARM.replace("\"hda\"", "\"seed\"")).unwrap();
+        assert_eq!(c.compliance.spring, SpringChoice::Hda);
+        let c = parse(&ARM.replace("\"circular_spline\"", "\"circular-spline\"")).unwrap();
+        assert_eq!(c.gear.fixed, Fixed::CircularSpline);
+    }
+
+    #[test]
+    fn an_unknown_value_lists_the_accepted_ones() {
+        for (from, to, key, accepted) in [
+            ("\"circular_spline\"", "\"ring\"", "gear.fixed", &["`circular_spline`", "`flexspline`"][..]),
+            ("\"hda\"", "\"quartic\"", "compliance.spring", &["`linear`", "`cubic`", "`three-slope`", "`hda`"]),
+            ("\"plays\"", "\"dahl\"", "compliance.hysteresis", &["`plays` or `none`"]),
+            ("\"fourier\"", "\"spline\"", "kinematic.basis", &["`fourier` or `polynomial`"]),
+            ("\"cv\"", "\"auto\"", "kinematic.order", &["a number or `cv`"]),
+        ] {
+            let e = parse(&ARM.replacen(from, to, 1)).unwrap_err();
+            assert!(e.starts_with("arm.toml: line "), "{e}");
+            assert!(e.contains(&format!("`{key}`: ")), "{e}");
+            assert!(accepted.iter().all(|a| e.contains(a)), "{e}");
+            assert!(!e.contains('\n'), "{e}");
+        }
     }
 }

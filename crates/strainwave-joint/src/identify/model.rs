@@ -10,7 +10,7 @@ use strainwave_analysis::ident::{
 };
 use strainwave_core::torsion::MeshAngle;
 
-use super::config::{Channels, EncodersConfig, GearConfig};
+use super::config::{Basis, Channels, EncodersConfig, GearConfig};
 
 /// Fitted spring parameters, as written to the model file.
 pub type Spring = ComplianceParams;
@@ -23,14 +23,14 @@ pub type Hysteresis = FittedHysteresis;
 #[serde(deny_unknown_fields)]
 pub struct KinematicModel {
     /// `fourier` or `polynomial`.
-    pub basis: String,
+    pub basis: Basis,
     /// Output harmonics or polynomial order.
     pub order: usize,
     /// Mesh harmonics, Fourier only.
     pub mesh_harmonics: usize,
     /// The mesh angle of the harmonics: `relative` (WG relative to the output) or `motor`.
-    #[serde(default = "relative")]
-    pub mesh_angle: String,
+    #[serde(default)]
+    pub mesh_angle: MeshAngle,
     /// Coefficients in the basis order, rad.
     pub coefficients: Vec<f64>,
 }
@@ -76,10 +76,6 @@ pub struct ModelFile {
     pub friction: Option<FrictionParams>,
 }
 
-fn relative() -> String {
-    "relative".into()
-}
-
 impl ModelFile {
     /// Reads a model file.
     pub fn load(path: &Path) -> Result<Self> {
@@ -90,18 +86,13 @@ impl ModelFile {
     /// The library's kinematic fit.
     pub fn kinematic_fit(&self) -> Result<KinematicFit> {
         let k = &self.kinematic;
-        let basis = match k.basis.as_str() {
-            "fourier" => KinematicBasis::Fourier {
+        let basis = match k.basis {
+            Basis::Fourier => KinematicBasis::Fourier {
                 output_harmonics: k.order,
                 mesh_harmonics: k.mesh_harmonics,
-                mesh_angle: match k.mesh_angle.as_str() {
-                    "relative" => MeshAngle::Relative,
-                    "motor" => MeshAngle::Motor,
-                    other => bail!("kinematic.mesh_angle: `{other}` is neither relative nor motor"),
-                },
+                mesh_angle: k.mesh_angle,
             },
-            "polynomial" => KinematicBasis::Polynomial { order: k.order },
-            other => bail!("kinematic.basis: `{other}` is neither fourier nor polynomial"),
+            Basis::Polynomial => KinematicBasis::Polynomial { order: k.order },
         };
         if k.coefficients.len() != basis.n_terms() {
             bail!("kinematic.coefficients: {} values, the basis has {}", k.coefficients.len(), basis.n_terms());

@@ -4,12 +4,14 @@ use super::*;
 
 /// What the motor does.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum MotorCommand {
     /// PID holds the motor at its starting angle.
+    #[serde(alias = "hold_position")]
     HoldPosition,
     /// PID tracks a link-angle ramp at `link_speed_rad_s` (reached with a 1 s raised-cosine
     /// acceleration), reversing over 2 s from `reverse_at_s`.
+    #[serde(alias = "position_ramp")]
     PositionRamp {
         /// Link speed of the reference, rad/s.
         link_speed_rad_s: f64,
@@ -17,11 +19,13 @@ pub enum MotorCommand {
         reverse_at_s: f64,
     },
     /// Constant open-loop motor torque (N·m at the motor shaft) from t = 0.
+    #[serde(alias = "constant_torque")]
     ConstantTorque {
         /// Motor torque, N·m.
         motor_torque_nm: f64,
     },
     /// Open-loop motor torque step.
+    #[serde(alias = "torque_step")]
     TorqueStep {
         /// Motor torque after the step, N·m.
         motor_torque_nm: f64,
@@ -29,6 +33,7 @@ pub enum MotorCommand {
         at_s: f64,
     },
     /// Open-loop sinusoidal motor torque.
+    #[serde(alias = "torque_sine")]
     TorqueSine {
         /// Amplitude, N·m.
         amplitude_nm: f64,
@@ -39,7 +44,7 @@ pub enum MotorCommand {
 
 /// A hand pushing on the link (components add).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum HandTorque {
     /// Raised-cosine step to `torque_nm` over `rise_s` from `at_s`, back to 0 from `release_s`.
     Step {

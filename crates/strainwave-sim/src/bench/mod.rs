@@ -146,8 +146,9 @@ pub struct DutParams {
 pub struct TorsionSensorParams {
     /// Range `±range_nm`; readings clip there, N·m.
     pub range_nm: f64,
-    /// White noise per sample, N·m rms.
-    pub noise_nm_rms: f64,
+    /// White noise per sample, 1σ (rms), N·m (`noise_nm_rms` in older files).
+    #[serde(alias = "noise_nm_rms")]
+    pub noise_nm: f64,
 }
 
 /// A vibration of the housing that both accelerometers see with opposite signs (it
@@ -197,7 +198,7 @@ pub struct EncoderParams {
 
 /// Log or linear frequency law of a sweep.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
+#[serde(rename_all = "kebab-case")]
 pub enum SweepSpacing {
     /// `f(t) = f0 (f1/f0)^(t/T)`.
     Log,
@@ -207,9 +208,10 @@ pub enum SweepSpacing {
 
 /// What the drive does.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum BenchProfile {
     /// Speed-controlled ramp (paper §IV): a PI speed loop sets `i_q`, `i_d` is held.
+    #[serde(alias = "speed_ramp")]
     SpeedRamp {
         /// Start speed, rpm (≥ 0).
         from_rpm: f64,
@@ -225,6 +227,7 @@ pub enum BenchProfile {
     /// Current injection at standstill (paper §V): `i_q = I cos φ(t)`, `i_d = 0`, in the
     /// rotor frame (ideal current loop), the frequency swept from `from_hz` to `to_hz` over
     /// the run.
+    #[serde(alias = "current_sweep")]
     CurrentSweep {
         /// `I`, A.
         amplitude_a: f64,
@@ -301,7 +304,7 @@ impl BenchScenario {
             fin(c.phase_rad, "dut.cogging.phase_rad")?;
         }
         pos(self.torsion_sensor.range_nm, "torsion_sensor.range_nm")?;
-        nonneg(self.torsion_sensor.noise_nm_rms, "torsion_sensor.noise_nm_rms")?;
+        nonneg(self.torsion_sensor.noise_nm, "torsion_sensor.noise_nm")?;
         let a = &self.accelerometers;
         pos(a.radius_m, "accelerometers.radius_m")?;
         pos(a.range_m_s2, "accelerometers.range_m_s2")?;

@@ -226,7 +226,7 @@ impl BenchSimulator {
         // Measurements.
         let s = &self.scenario;
         let ts_range = s.torsion_sensor.range_nm;
-        let ts_raw = shaft + s.torsion_sensor.noise_nm_rms * self.rng.normal();
+        let ts_raw = shaft + s.torsion_sensor.noise_nm * self.rng.normal();
         let ts = ts_raw.clamp(-ts_range, ts_range);
         self.clipped_torsion += u64::from(ts != ts_raw);
         let a = &s.accelerometers;

@@ -246,3 +246,11 @@ fn integrator_converges_against_a_finer_step() {
         }
     }
 }
+
+#[test]
+fn older_spellings_of_the_profile_and_the_noise_still_load() {
+    let text = preset_text("kit-bench").unwrap();
+    assert!(text.contains("kind = \"speed-ramp\""));
+    let old = text.replace("\"speed-ramp\"", "\"speed_ramp\"").replace("noise_nm =", "noise_nm_rms =");
+    assert_eq!(BenchScenario::from_toml(&old).unwrap(), BenchScenario::from_toml(text).unwrap());
+}

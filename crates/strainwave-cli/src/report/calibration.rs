@@ -1,6 +1,6 @@
-//! The printed and plotted report of `calibrate` (also used by the demo): text tables
-//! of the fits, the DIN figures, the fit-and-residual plots. Formatting only; the
-//! numbers come from `strainwave_analysis::calibration`.
+//! The printed and plotted calibration report that `calibrate` and the demo share: the
+//! experiments' rows, text tables of the fits, the DIN figures, the fit-and-residual
+//! plots. Formatting only; the numbers come from `strainwave_analysis::calibration`.
 
 use std::fmt::Write as _;
 
@@ -10,9 +10,29 @@ use strainwave_analysis::calibration::{
     ErrorMetrics, Extrapolation, GainCalibration, GainFit, LoadSeries, SpeedFit,
 };
 
-use super::ExperimentRows;
 use crate::report::plot::{LinePlot, Series};
 use crate::report::text::text_table;
+
+/// One experiment's rows, every value finite.
+#[derive(Debug, Clone, Default)]
+pub struct ExperimentRows {
+    /// Label for reports and errors.
+    pub label: String,
+    /// Reference torque, N·m.
+    pub reference: Vec<f64>,
+    /// Sensor reading.
+    pub sensor: Vec<f64>,
+    /// Speed, rad/s (when asked for).
+    pub speed: Vec<f64>,
+    /// Time, s (for `--held`).
+    pub time: Vec<f64>,
+    /// Mounting position, degrees (for `--din`).
+    pub mounting: Vec<f64>,
+    /// The file the rows come from, for messages (empty: no file).
+    pub file: String,
+    /// The data row (1-based, as users count) of each entry in the file (empty: none).
+    pub file_rows: Vec<u64>,
+}
 
 /// Columns of the error table.
 pub const METRICS_HEADER: [&str; 6] = ["fit", "rows", "max |e| N·m", "RMS N·m", "mean e N·m", "RMS % FS"];

@@ -343,7 +343,7 @@ fn campbell_section() -> Result<(String, String)> {
 
 #[cfg(test)]
 mod tests {
-    /// `cargo test --release -p strainwave-cli --bin strainwave demo_bench -- --nocapture`
+    /// `cargo test --release -p strainwave-cli --bin strainwave cmd_demo::bench -- --nocapture`
     #[test]
     fn section_prints_the_figures() {
         let t0 = std::time::Instant::now();

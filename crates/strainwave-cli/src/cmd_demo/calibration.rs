@@ -13,7 +13,7 @@ use strainwave_analysis::calibration::{
 use strainwave_sim::calibration_rig::{LockedWgProcedure, COLUMNS};
 use strainwave_sim::{presets, simulate};
 
-use crate::cmd_calibrate::{din_groups, din_series, fit_plots, ExperimentRows};
+use crate::report::calibration::{din_groups, din_series, fit_plots, ExperimentRows};
 use crate::report::html::table;
 use crate::report::plot::LinePlot;
 use crate::report::text::text_table;
@@ -227,7 +227,7 @@ fn paper_row(s: &(&str, f64, f64, f64, f64, f64)) -> Vec<String> {
 
 #[cfg(test)]
 mod tests {
-    /// `cargo test --release -p strainwave-cli --bin strainwave demo_calibration -- --nocapture`
+    /// `cargo test --release -p strainwave-cli --bin strainwave cmd_demo::calibration -- --nocapture`
     #[test]
     fn section_prints_the_tables() {
         let (text, html, plots) = super::section().unwrap();
