@@ -15,6 +15,7 @@ pub mod pmsm;
 pub mod real;
 pub mod ripple;
 pub mod torsion;
+pub mod tuning;
 
 pub use error::Error;
 pub use real::Real;

@@ -53,8 +53,9 @@ mod model;
 mod presets;
 mod snapshot;
 mod trig;
-pub mod tuning;
 
+/// The tuning formulas, also at this path.
+pub use crate::tuning;
 pub use bank::{BankInput, BankOutput, RippleBank};
 pub use filter::{step, step_traced, RippleState, RotatingGaussian, StepTrace};
 pub use io::{OrderStatus, ReferenceValues, RippleInput, RippleOutput, StepFlags};

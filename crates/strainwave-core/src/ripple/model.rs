@@ -283,7 +283,7 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
     }
 
     /// Adds the torque/bias random-walk state `b(k+1) = b(k) + w_b`, `E w_b² = q_b` (N·m²
-    /// per sample; see [`tuning::random_walk_q`](super::tuning::random_walk_q)).
+    /// per sample; see [`tuning::random_walk_q`](crate::tuning::random_walk_q)).
     ///
     /// ```
     /// use strainwave_core::ripple::RippleModel;

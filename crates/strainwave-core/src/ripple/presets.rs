@@ -2,8 +2,8 @@
 //! and the product defaults.
 
 use super::model::{Limits, Order, Reference, RippleModel};
-use super::tuning::{oscillator_q, per_radian, random_walk_q, slow_line_q};
 use crate::error::{positive, Error};
+use crate::tuning::{oscillator_q, per_radian, random_walk_q, slow_line_q};
 use crate::Real;
 
 /// The classic noise: `Q = 10⁻³ I` per sample, `R = 1` (N·m², at 1 kHz).
@@ -69,7 +69,7 @@ impl<T: Real> RippleModel<T, 3> {
     /// - ripple orders: noise per radian of phase, 1 Hz −3 dB half-width when the line
     ///   is at 20 Hz (`1 Hz · √(f_line / 20 Hz)` at other speeds, none at standstill),
     ///   fast enough to follow ripple amplitude that grows with load;
-    /// - misalignment: per-sample noise from [`tuning::slow_line_q`](super::tuning::slow_line_q)
+    /// - misalignment: per-sample noise from [`tuning::slow_line_q`](crate::tuning::slow_line_q)
     ///   for ≈ 5 output revolutions per e-fold at any speed: its line sits far inside
     ///   the bias bandwidth, where this keeps load from leaking into it;
     /// - initial variances 1 N·m² (oscillator components) and 10⁴ N·m² (bias);

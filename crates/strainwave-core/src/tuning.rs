@@ -1,4 +1,5 @@
-//! From a tracking bandwidth in Hz to process noise, and back.
+//! From a tracking bandwidth in Hz to process noise, and back: the canceller's oscillators
+//! and random walks (`ripple::tuning` is this module too).
 //!
 //! An oscillator's steady-state prediction filter is a resonator with unit gain at its
 //! line; its −3 dB half-width `B` sets `δ = 2π B / fs`, `p = 2 R δ / (1 − 2δ)` and
@@ -30,7 +31,7 @@ fn check3<T: Real>(a: T, an: &'static str, fs: T, r: T) -> Result<(f64, f64, f64
 /// (`q = p² / (2 (R + p))`, `p = 2 R δ / (1 − 2δ)`, `δ = 2π B / fs`; ≈ `2 R δ²`).
 ///
 /// ```
-/// use strainwave_core::ripple::tuning::{oscillator_bandwidth_hz, oscillator_q};
+/// use strainwave_core::tuning::{oscillator_bandwidth_hz, oscillator_q};
 /// let q = oscillator_q(3.48_f64, 1000.0, 1.0).unwrap(); // ≈ the classic 1e-3 at R = 1
 /// assert!((q - 1e-3).abs() < 1e-5);
 /// assert!((oscillator_bandwidth_hz(q, 1000.0, 1.0).unwrap() - 3.48).abs() < 1e-9);
@@ -57,7 +58,7 @@ pub fn oscillator_bandwidth_hz<T: Real>(q_nm2: T, sample_rate_hz: T, r_nm2: T) -
 /// `√(f_line)`, and an oscillator at standstill receives no noise.
 ///
 /// ```
-/// use strainwave_core::ripple::tuning::per_radian;
+/// use strainwave_core::tuning::per_radian;
 /// let q_rad = per_radian(1e-3_f64, 50.0, 1000.0).unwrap();
 /// assert!((q_rad * (std::f64::consts::TAU * 50.0 / 1000.0) - 1e-3).abs() < 1e-15);
 /// ```
@@ -71,7 +72,7 @@ pub fn per_radian<T: Real>(q_per_sample_nm2: T, line_frequency_hz: T, sample_rat
 /// Exact bias random-walk noise for a first-order −3 dB bandwidth `B`, N·m² per sample.
 ///
 /// ```
-/// use strainwave_core::ripple::tuning::{random_walk_bandwidth_hz, random_walk_q};
+/// use strainwave_core::tuning::{random_walk_bandwidth_hz, random_walk_q};
 /// let q = random_walk_q(5.0_f64, 1000.0, 0.01).unwrap();
 /// assert!((random_walk_bandwidth_hz(q, 1000.0, 0.01).unwrap() - 5.0).abs() < 1e-9);
 /// ```
@@ -109,7 +110,7 @@ pub fn random_walk_bandwidth_hz<T: Real>(q_nm2: T, sample_rate_hz: T, r_nm2: T) 
 /// `√(q / q_b)` of the load's rate of change per line radian), so slower is cleaner.
 ///
 /// ```
-/// use strainwave_core::ripple::tuning::slow_line_q;
+/// use strainwave_core::tuning::slow_line_q;
 /// let q = slow_line_q(5.0_f64, 6e-5).unwrap();
 /// assert!((q - 2.0 * 6e-5 / (std::f64::consts::TAU * 5.0).powi(2)).abs() < 1e-18);
 /// ```
@@ -167,7 +168,7 @@ fn closed_loop(q: f64, r: f64, a: f64) -> Result<[[f64; 2]; 2], Error> {
 /// half-width in Hz: `B = δ fs / 2π`. `line_hz` is the line frequency.
 ///
 /// ```
-/// use strainwave_core::ripple::tuning::{oscillator_bandwidth_hz, oscillator_pole_bandwidth_hz};
+/// use strainwave_core::tuning::{oscillator_bandwidth_hz, oscillator_pole_bandwidth_hz};
 /// let exact = oscillator_pole_bandwidth_hz(1e-3_f64, 1.0, 50.0, 1000.0).unwrap();
 /// let approx = oscillator_bandwidth_hz(1e-3_f64, 1000.0, 1.0).unwrap();
 /// assert!((exact / approx - 1.0).abs() < 0.02);
@@ -188,7 +189,7 @@ pub fn oscillator_pole_bandwidth_hz<T: Real>(q_nm2: T, r_nm2: T, line_hz: T, sam
 /// points sit about `B` either side (slightly asymmetric: the prediction form leads).
 ///
 /// ```
-/// use strainwave_core::ripple::tuning::{oscillator_q, oscillator_response};
+/// use strainwave_core::tuning::{oscillator_q, oscillator_response};
 /// let q = oscillator_q(2.0_f64, 1000.0, 1.0).unwrap();
 /// let at_line = oscillator_response(q, 1.0, 100.0, 100.0, 1000.0).unwrap();
 /// assert!((at_line - 1.0).abs() < 1e-6);
@@ -218,7 +219,7 @@ pub fn oscillator_response<T: Real>(q_nm2: T, r_nm2: T, line_hz: T, f_hz: T, sam
 /// closed form of [`oscillator_q`] drifts.
 ///
 /// ```
-/// use strainwave_core::ripple::tuning::{oscillator_pole_bandwidth_hz, oscillator_q_calibrated};
+/// use strainwave_core::tuning::{oscillator_pole_bandwidth_hz, oscillator_q_calibrated};
 /// let q = oscillator_q_calibrated(2.0_f64, 20.0, 1000.0, 1.0).unwrap();
 /// let b = oscillator_pole_bandwidth_hz(q, 1.0, 20.0, 1000.0).unwrap();
 /// assert!((b - 2.0).abs() < 1e-6);
