@@ -45,7 +45,7 @@ pub struct GearConfig {
 }
 
 /// `gear.fixed`: which element is fixed (the other one is the output): the core's
-/// [`FixedElement`], spelled as in every configuration file (`circular_spline`, alias
+/// [`FixedElement`](strainwave_core::gear::FixedElement), spelled as in every configuration file (`circular_spline`, alias
 /// `circular-spline`, or `flexspline`).
 pub use strainwave_core::gear::FixedElement as Fixed;
 

@@ -7,7 +7,7 @@ use strainwave_core::gear::Gear;
 use strainwave_core::torsion::EncoderConfig;
 use strainwave_io::Channel;
 
-/// Which element is fixed: the core's [`FixedElement`], spelled as in every
+/// Which element is fixed: the core's [`FixedElement`](strainwave_core::gear::FixedElement), spelled as in every
 /// configuration file (`circular_spline`, alias `circular-spline`, or `flexspline`).
 pub use strainwave_core::gear::FixedElement as Fixed;
 
