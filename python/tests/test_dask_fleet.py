@@ -10,7 +10,6 @@ sw = pytest.importorskip("strainwave", reason="pip install ./python (./scripts/t
 distributed = pytest.importorskip("distributed", reason="pip install 'dask[distributed]'")
 dd = pytest.importorskip("dask.dataframe", reason="pip install 'dask[dataframe]'")
 import strainwave.dask  # noqa: E402
-from dask import delayed  # noqa: E402
 
 CONFIG = ROOT / "examples" / "joint-taghirad.toml"
 SEEDS = [11, 12, 13, 14]
@@ -65,8 +64,9 @@ def test_filter_many_returns_frames(client, fleet):
 
 def test_filter_many_over_a_partitioned_dataframe(client, fleet):
     recs, outs = fleet
-    parts = [sw.read_recording(r) for r in recs]
-    ddf = dd.from_delayed([delayed(p) for p in parts], meta=parts[0].iloc[:0])
+    # One partition per recording, each read on its worker.
+    meta = sw.read_recording(recs[0]).iloc[:0]
+    ddf = dd.from_map(sw.read_recording, [str(r) for r in recs], meta=meta)
     assert ddf.npartitions == len(recs)
     got = strainwave.dask.filter_many(ddf, CONFIG).compute()
     want = pd.concat([sw.read_recording(o) for o in outs])

@@ -11,74 +11,15 @@
 #![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 
 use super::bank::{BankInput, BankOutput, RippleBank};
-use super::filter::{RotatingGaussian, StepTrace};
 use super::io::{OrderStatus, StepFlags};
-use super::model::{Limits, Order, PhaseSource, RippleModel};
+use super::model::{PhaseSource, RippleModel};
+use super::trace::{RotatingGaussian, StepTrace};
 use super::trig::{phasor_power_with, sin_cos_with, wrap_angle as wrap, Doubling};
 use crate::lanes::{Lanes as L, Mask};
 use crate::Real;
 
 /// Weight of the newest increment in the running mean that decides holding (1/16).
 const HOLD_AVERAGE: f64 = 1.0 / 16.0;
-
-/// What the kernel precomputes from a model (refreshed whenever a builder changes it).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct Plan<T: Real, const M: usize> {
-    /// Nominal sample interval, s.
-    pub(crate) dt_s: T,
-    /// A sample interval above this is a time gap, s.
-    pub(crate) max_gap_s: T,
-    /// An order whose phase increment `|a|` passes this is switched off, rad per sample.
-    pub(crate) off_above_rad: T,
-    /// An order off comes back below this, rad per sample.
-    pub(crate) on_below_rad: T,
-    /// An order whose mean increment is below this is held, rad per sample.
-    pub(crate) hold_below_rad: T,
-    /// Whether some order uses each reference.
-    pub(crate) uses: [bool; 3],
-    /// The largest and smallest multiple of the orders on each reference (1 if none):
-    /// every order's line is within the limits when these two are.
-    pub(crate) widest: [T; 3],
-    pub(crate) narrowest: [T; 3],
-    /// The reference index of each order.
-    pub(crate) reference: [usize; M],
-    /// Whole multiple `n ≤ 16` of each order, or 0 (fractional or larger: own phase).
-    pub(crate) power: [u8; M],
-    /// Initial (and reset) variance of each order: its prior's, or the model's.
-    pub(crate) p0_nm2: [T; M],
-}
-
-impl<T: Real, const M: usize> Plan<T, M> {
-    /// The plan of a model with these orders, sample rate, limits and initial variance.
-    pub(crate) fn new(orders: &[Order<T>; M], sample_rate_hz: T, lim: &Limits<T>, p0_oscillator_nm2: T) -> Self {
-        let off_above_rad = lim.nyquist_fraction * T::TAU;
-        let mut plan = Self {
-            dt_s: T::ONE / sample_rate_hz,
-            max_gap_s: lim.max_gap_periods / sample_rate_hz,
-            off_above_rad,
-            on_below_rad: off_above_rad * T::from_f64(0.9),
-            hold_below_rad: lim.hold_below_hz * T::TAU / sample_rate_hz,
-            uses: [false; 3],
-            widest: [T::ONE; 3],
-            narrowest: [T::ONE; 3],
-            reference: [0; M],
-            power: [0; M],
-            p0_nm2: [p0_oscillator_nm2; M],
-        };
-        for (i, o) in orders.iter().enumerate() {
-            let r = o.reference.index();
-            let first = !plan.uses[r];
-            plan.widest[r] = if first { o.multiple } else { plan.widest[r].max(o.multiple) };
-            plan.narrowest[r] = if first { o.multiple } else { plan.narrowest[r].min(o.multiple) };
-            plan.uses[r] = true;
-            plan.reference[i] = r;
-            let n = o.multiple.to_f64();
-            plan.power[i] = if n == libm::round(n) && (1.0..=16.0).contains(&n) { n as u8 } else { 0 };
-            plan.p0_nm2[i] = o.prior_variance_nm2.unwrap_or(p0_oscillator_nm2);
-        }
-        plan
-    }
-}
 
 /// Steps `J` joints sharing `model` by one sample, writing their results into `out`
 /// (a buffer the caller keeps: nothing is copied per sample). A joint whose covariance

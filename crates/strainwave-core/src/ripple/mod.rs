@@ -52,12 +52,14 @@ pub mod kernel;
 mod model;
 mod presets;
 mod snapshot;
+mod trace;
 mod trig;
 
 /// The tuning formulas, also at this path.
 pub use crate::tuning;
 pub use bank::{BankInput, BankOutput, RippleBank};
-pub use filter::{step, step_traced, RippleState, RotatingGaussian, StepTrace};
+pub use filter::{step, step_traced, RippleState};
 pub use io::{OrderStatus, ReferenceValues, RippleInput, RippleOutput, StepFlags};
 pub use kernel::step_many;
 pub use model::{Limits, Order, PhaseSource, Reference, RippleModel};
+pub use trace::{RotatingGaussian, StepTrace};

@@ -1,4 +1,5 @@
-//! The immutable error model of the canceller: orders, noise, limits.
+//! The immutable error model of the canceller: orders, noise, limits; and the plan the
+//! step precomputes from them (private, refreshed by every builder).
 //!
 //! ```text
 //! x_i(k+1) = Φ_i(k) x_i(k) + w_i(k),   Φ_i(k) = [[cos a_i, sin a_i], [−sin a_i, cos a_i]]
@@ -12,7 +13,6 @@
 
 use core::cmp::Ordering;
 
-use super::kernel::Plan;
 use crate::error::{finite, non_negative, positive, Error};
 use crate::Real;
 
@@ -417,5 +417,64 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
     /// State dimension: `2M`, plus 1 with the bias state.
     pub fn state_len(&self) -> usize {
         2 * M + usize::from(self.bias_q_nm2.is_some())
+    }
+}
+
+/// What the kernel precomputes from a model (refreshed whenever a builder changes it).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Plan<T: Real, const M: usize> {
+    /// Nominal sample interval, s.
+    pub(crate) dt_s: T,
+    /// A sample interval above this is a time gap, s.
+    pub(crate) max_gap_s: T,
+    /// An order whose phase increment `|a|` passes this is switched off, rad per sample.
+    pub(crate) off_above_rad: T,
+    /// An order off comes back below this, rad per sample.
+    pub(crate) on_below_rad: T,
+    /// An order whose mean increment is below this is held, rad per sample.
+    pub(crate) hold_below_rad: T,
+    /// Whether some order uses each reference.
+    pub(crate) uses: [bool; 3],
+    /// The largest and smallest multiple of the orders on each reference (1 if none):
+    /// every order's line is within the limits when these two are.
+    pub(crate) widest: [T; 3],
+    pub(crate) narrowest: [T; 3],
+    /// The reference index of each order.
+    pub(crate) reference: [usize; M],
+    /// Whole multiple `n ≤ 16` of each order, or 0 (fractional or larger: own phase).
+    pub(crate) power: [u8; M],
+    /// Initial (and reset) variance of each order: its prior's, or the model's.
+    pub(crate) p0_nm2: [T; M],
+}
+
+impl<T: Real, const M: usize> Plan<T, M> {
+    /// The plan of a model with these orders, sample rate, limits and initial variance.
+    pub(crate) fn new(orders: &[Order<T>; M], sample_rate_hz: T, lim: &Limits<T>, p0_oscillator_nm2: T) -> Self {
+        let off_above_rad = lim.nyquist_fraction * T::TAU;
+        let mut plan = Self {
+            dt_s: T::ONE / sample_rate_hz,
+            max_gap_s: lim.max_gap_periods / sample_rate_hz,
+            off_above_rad,
+            on_below_rad: off_above_rad * T::from_f64(0.9),
+            hold_below_rad: lim.hold_below_hz * T::TAU / sample_rate_hz,
+            uses: [false; 3],
+            widest: [T::ONE; 3],
+            narrowest: [T::ONE; 3],
+            reference: [0; M],
+            power: [0; M],
+            p0_nm2: [p0_oscillator_nm2; M],
+        };
+        for (i, o) in orders.iter().enumerate() {
+            let r = o.reference.index();
+            let first = !plan.uses[r];
+            plan.widest[r] = if first { o.multiple } else { plan.widest[r].max(o.multiple) };
+            plan.narrowest[r] = if first { o.multiple } else { plan.narrowest[r].min(o.multiple) };
+            plan.uses[r] = true;
+            plan.reference[i] = r;
+            let n = o.multiple.to_f64();
+            plan.power[i] = if n == libm::round(n) && (1.0..=16.0).contains(&n) { n as u8 } else { 0 };
+            plan.p0_nm2[i] = o.prior_variance_nm2.unwrap_or(p0_oscillator_nm2);
+        }
+        plan
     }
 }
