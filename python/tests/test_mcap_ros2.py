@@ -10,17 +10,12 @@ and the warning that names the skipped topic and schema.
 import csv
 import json
 import math
-import os
-import shutil
-import subprocess
-from pathlib import Path
 
 import pytest
 
 mcap_writer = pytest.importorskip("mcap.writer", reason="pip install mcap")
 ros2_writer = pytest.importorskip("mcap_ros2.writer", reason="pip install mcap-ros2-support")
 
-ROOT = Path(__file__).resolve().parents[2]
 
 JOINT_STATE_DEF = """std_msgs/Header header
 string[] name
@@ -54,9 +49,7 @@ def status_doc(k):
 
 
 @pytest.fixture(scope="module")
-def converted(tmp_path_factory):
-    if shutil.which("cargo") is None:
-        pytest.skip("cargo not found")
+def converted(tmp_path_factory, cli):
     tmp = tmp_path_factory.mktemp("mcap")
     log = tmp / "ros2.mcap"
     expected = []  # (log_time_ns, {column: value})
@@ -105,9 +98,7 @@ def converted(tmp_path_factory):
 
     out = tmp / "ros2.csv"
     # One row per message at its log time (the default aligns topics on one clock).
-    cmd = ["cargo", "run", "-q", "-p", "strainwave-cli", "--", "convert", "--in", str(log), "--out", str(out)]
-    cmd += ["--align", "none", "--time", "log"]
-    res = subprocess.run(cmd, cwd=ROOT, env=os.environ.copy(), capture_output=True, text=True, timeout=1800)
+    res = cli("convert", "--in", log, "--out", out, "--align", "none", "--time", "log")
     if res.returncode != 0:
         pytest.fail(f"strainwave convert failed ({res.returncode}):\n{res.stderr}")
     with open(out, newline="") as f:

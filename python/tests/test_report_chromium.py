@@ -29,11 +29,9 @@ import struct
 import subprocess
 import tempfile
 import zlib
-from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
 WINDOW = (1280, 900)
 PROBE_ID = "strainwave-probe"
 
@@ -194,14 +192,11 @@ def png_size_and_ink(path):
 
 
 @pytest.fixture(scope="module")
-def report(tmp_path_factory):
+def report(tmp_path_factory, cli):
     if chromium_binary() is None:
         pytest.skip("chromium not installed (apt-get install -y chromium)")
-    if shutil.which("cargo") is None:
-        pytest.skip("cargo not found")
     out = tmp_path_factory.mktemp("demo")
-    cmd = ["cargo", "run", "-q", "-p", "strainwave-cli", "--", "demo", "--out", str(out)]
-    res = subprocess.run(cmd, cwd=ROOT, env=os.environ.copy(), capture_output=True, text=True, timeout=1800)
+    res = cli("demo", "--out", out)
     if res.returncode != 0:
         pytest.fail(f"strainwave demo failed ({res.returncode}):\n{res.stderr}")
     path = out / "report.html"
