@@ -155,13 +155,13 @@ fn passes<T: Real, const M: usize, const J: usize, const F: bool, const BIAS: bo
     let r = &input.references;
     let refs = [L(r.relative), L(r.output), L(r.motor)];
     let y = L(input.torque_nm) - L(input.expected_torque_nm);
-    if is_common::<T, M, J, F>(model, bank, refs, y, dt, dt_ok) {
+    if let Some(steps) = is_common::<T, M, J, F>(model, bank, refs, y, dt, dt_ok) {
         #[cfg(test)]
         tests::count_common();
-        let (noted, _) = decide::<T, M, J, F, true>(model, bank, refs, y, dt, dt_ok);
+        let (noted, _) = decide::<T, M, J, F, true>(model, bank, refs, y, dt, dt_ok, steps);
         rest::<T, M, J, F, BIAS, TRACE, true>(model, bank, input, noted, None, out, trace);
     } else {
-        let (noted, d) = decide::<T, M, J, F, false>(model, bank, refs, y, dt, dt_ok);
+        let (noted, d) = decide::<T, M, J, F, false>(model, bank, refs, y, dt, dt_ok, [None; 3]);
         rest::<T, M, J, F, BIAS, TRACE, false>(model, bank, input, noted, Some(&d), out, trace);
     }
 }
@@ -221,8 +221,10 @@ struct Sample<T: Real, const J: usize> {
 /// The decisions of a sample for every joint: valid input, gaps, jumps, each order's
 /// increment, process noise and status, and what the time update does with it; the
 /// references' phases and last values. `COMMON`: the sample is common (see
-/// [`is_common`]), so that its decisions are constants.
+/// [`is_common`]), so that its decisions are constants; `steps` then holds each used
+/// reference's increment and running mean, as the test found them.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn decide<T: Real, const M: usize, const J: usize, const F: bool, const COMMON: bool>(
     model: &RippleModel<T, M>,
     bank: &mut RippleBank<T, M, J>,
@@ -230,6 +232,7 @@ fn decide<T: Real, const M: usize, const J: usize, const F: bool, const COMMON: 
     y: L<T, J>,
     dt: T,
     dt_ok: bool,
+    steps: [Option<Step<T, J>>; 3],
 ) -> (Noted<T, M, J>, Decided<T, M, J>) {
     let (plan, lim, orders) = (&model.plan, &model.limits, &model.orders);
     // The sample: skipped (a used reference or `dt` not finite: the state stays as it
@@ -255,16 +258,13 @@ fn decide<T: Real, const M: usize, const J: usize, const F: bool, const COMMON: 
     let inflation = counted.select(L::splat(lim.covariance_inflation), zero);
     let sample = Sample { skip, counted, gap, meas_ok, pending, n_samples, n_noise, total_dt, inflation };
 
-    // Each reference some order uses (written out: its values stay in registers).
-    let unused = (zero, Mask::splat(false), zero);
-    let each = |r: usize, bank: &mut RippleBank<T, M, J>| {
+    // Each reference some order uses.
+    let mut per_ref = [(zero, Mask::splat(false), zero); 3];
+    for r in 0..3 {
         if plan.uses[r] {
-            reference::<T, M, J, F, COMMON>(model, bank, r, refs[r], &sample)
-        } else {
-            unused
+            per_ref[r] = reference::<T, M, J, F, COMMON>(model, bank, r, refs[r], &sample, steps[r]);
         }
-    };
-    let per_ref = [each(0, bank), each(1, bank), each(2, bank)];
+    }
     let (delta, jump, mean) = (per_ref.map(|p| p.0), per_ref.map(|p| p.1), per_ref.map(|p| p.2));
     let any_jump = jump[0] | jump[1] | jump[2];
     // After a jump or a gap the next increment sets a new baseline.
@@ -325,10 +325,13 @@ fn decide<T: Real, const M: usize, const J: usize, const F: bool, const COMMON: 
     (noted, dec)
 }
 
+/// A reference's increment over the sample and its running mean after it (rad).
+type Step<T, const J: usize> = (L<T, J>, L<T, J>);
+
 /// Whether the sample is common for every joint: the measurement and the references
 /// are usable, it follows a sample taken (none pending) within the gap limit, no
 /// reference jumps, and every order was active and stays so. Tested before anything is
-/// written, with [`decide`]'s numbers.
+/// written, with [`decide`]'s numbers; if common, each used reference's [`Step`].
 #[inline(always)]
 fn is_common<T: Real, const M: usize, const J: usize, const F: bool>(
     model: &RippleModel<T, M>,
@@ -337,28 +340,33 @@ fn is_common<T: Real, const M: usize, const J: usize, const F: bool>(
     y: L<T, J>,
     dt: T,
     dt_ok: bool,
-) -> bool {
+) -> Option<[Option<Step<T, J>>; 3]> {
     #[cfg(test)]
     if tests::general_only() {
-        return false;
+        return None;
     }
     if !(dt_ok && dt <= model.plan.max_gap_s) {
-        return false;
+        return None;
     }
     // A non-finite reference gives a NaN increment, which fails the step limit. Each
     // reference is written out, so that its values stay in registers.
-    let ok = y.finite() & L(bank.pending_samples).equals(T::ZERO) & Mask::of(|l| bank.has_last[l]);
-    let settled = |r: usize, ok: Mask<T, J>| settled::<T, M, J, F>(model, bank, r, refs[r], dt, ok);
-    let mut ok = settled(2, settled(1, settled(0, ok)));
+    let mut ok = y.finite() & L(bank.pending_samples).equals(T::ZERO) & Mask::of(|l| bank.has_last[l]);
+    let mut steps = [None; 3];
+    for r in 0..3 {
+        if model.plan.uses[r] {
+            let (fine, step) = settled::<T, M, J, F>(model, bank, r, refs[r], dt);
+            (ok, steps[r]) = (ok & fine, Some(step));
+        }
+    }
     for i in 0..M {
         ok = ok & Mask::of(|l| bank.status[i][l] == OrderStatus::Active);
     }
-    ok.all()
+    ok.all().then_some(steps)
 }
 
 /// Where the common sample's reference `r` at `v` (increment over `dt`) is settled: it
 /// does not jump, and each order's line `|n Δθ|` is within the limits (the widest's below
-/// the switch-off, the narrowest's mean above the hold), and `ok`.
+/// the switch-off, the narrowest's mean above the hold); its [`Step`].
 #[inline(always)]
 fn settled<T: Real, const M: usize, const J: usize, const F: bool>(
     model: &RippleModel<T, M>,
@@ -366,12 +374,8 @@ fn settled<T: Real, const M: usize, const J: usize, const F: bool>(
     r: usize,
     v: L<T, J>,
     dt: T,
-    ok: Mask<T, J>,
-) -> Mask<T, J> {
+) -> (Mask<T, J>, Step<T, J>) {
     let (plan, lim) = (&model.plan, &model.limits);
-    if !plan.uses[r] {
-        return ok;
-    }
     let d = increment(model, v, L(bank.last[r]), L::splat(dt));
     let m = mean_increment::<T, J, F>(L(bank.mean_delta[r]), d);
     let steady =
@@ -380,7 +384,7 @@ fn settled<T: Real, const M: usize, const J: usize, const F: bool>(
         & steady
         & (d.abs() * plan.widest[r]).at_most(plan.off_above_rad)
         & !(m.abs() * plan.narrowest[r]).less(plan.hold_below_rad);
-    ok & fine
+    (fine, (d, m))
 }
 
 /// A reference's increment from `last` to `v`: `wrap_π(θ(k) − θ(k−1))` of angles, or
@@ -409,6 +413,7 @@ fn mean_increment<T: Real, const J: usize, const F: bool>(m: L<T, J>, d: L<T, J>
 
 /// Reference `r` at `v`: its increment `Δθ = wrap_π(θ(k) − θ(k−1))` or `(ω(k−1) + ω(k))/2
 /// · dt`, jump, and running mean of the increment per sample; its phase and last values.
+/// `known`: the increment and mean, found already (the common sample).
 #[inline(always)]
 fn reference<T: Real, const M: usize, const J: usize, const F: bool, const COMMON: bool>(
     model: &RippleModel<T, M>,
@@ -416,12 +421,16 @@ fn reference<T: Real, const M: usize, const J: usize, const F: bool, const COMMO
     r: usize,
     v: L<T, J>,
     sample: &Sample<T, J>,
+    known: Option<Step<T, J>>,
 ) -> (L<T, J>, Mask<T, J>, L<T, J>) {
     let lim = &model.limits;
     let Sample { skip, counted, pending, n_samples, total_dt, .. } = *sample;
     let angle_input = model.phase_source == PhaseSource::Angle;
     let last = L(bank.last[r]);
-    let d = increment(model, v, last, total_dt);
+    let d = match known {
+        Some((d, _)) => d,
+        None => increment(model, v, last, total_dt),
+    };
     // A glitch: an increment too large, or too different from the last one.
     let last_delta = L(bank.last_delta[r]);
     let changed = !(d - last_delta * n_samples).abs().at_most(lim.max_step_change_rad);
@@ -432,7 +441,10 @@ fn reference<T: Real, const M: usize, const J: usize, const F: bool, const COMMO
     // State written where the mask holds (in the common sample it always does).
     let write = |mask: Mask<T, J>, old: L<T, J>, new: L<T, J>| if COMMON { new.0 } else { mask.update(old, new).0 };
     let m = L(bank.mean_delta[r]);
-    let mean = mean_increment::<T, J, F>(m, per_sample);
+    let mean = match known {
+        Some((_, mean)) => mean,
+        None => mean_increment::<T, J, F>(m, per_sample),
+    };
     bank.mean_delta[r] = write(accept, m, mean);
     bank.last_delta[r] = write(accept, last_delta, per_sample);
     let delta = counted.select(d, L::splat(T::ZERO));
@@ -474,22 +486,18 @@ fn phasors<T: Real, const M: usize, const J: usize, const F: bool>(
     let load = load.finite().select(load, L::splat(T::ZERO));
     let mut base = [(L::splat(T::ONE), L::splat(T::ZERO)); 3];
     for r in 0..3 {
-        if !plan.uses[r] {
-            continue;
+        if plan.uses[r] {
+            base[r] = sin_cos_with::<T, F, J>(L(bank.psi[r])).pair();
         }
-        base[r] = each_lane(L(bank.psi[r]), L(bank.psi[r]), |psi, _| sin_cos_with::<T, F>(psi));
     }
     for i in 0..M {
         let (c, s) = pick(&base, plan.reference[i]);
         let (mut c, mut s) = match plan.power[i] {
             1 => (c, s),
-            2 => each_lane(c, s, |c, s| Doubling::new(c, s).doubled::<F>()),
-            4 => each_lane(c, s, |c, s| Doubling::new(c, s).doubled::<F>().doubled::<F>()),
-            0 => each_lane(L(bank.order_psi[i]), L(bank.order_psi[i]), |psi, _| sin_cos_with::<T, F>(psi)),
-            n => each_lane(c, s, |c, s| {
-                let (c, s) = phasor_power_with::<T, F>(c, s, n);
-                Doubling::new(c, s)
-            }),
+            2 => Doubling::new(c, s).doubled::<F>().pair(),
+            4 => Doubling::new(c, s).doubled::<F>().doubled::<F>().pair(),
+            0 => sin_cos_with::<T, F, J>(L(bank.order_psi[i])).pair(),
+            n => phasor_power_with::<T, F, J>(c, s, n).pair(),
         };
         if model.orders[i].load_scaled {
             (c, s) = (c * load, s * load);
@@ -768,17 +776,6 @@ pub(super) fn healthy<T: Real, const M: usize, const J: usize>(
         (total, least[0].min(least[1]))
     };
     total.finite() & zero.at_most(low) & zero.less(s_var)
-}
-
-/// The phasor `f(a, b)` of each lane of `a` and `b`, as cosine and sine lanes.
-#[inline(always)]
-fn each_lane<T: Real, const J: usize>(a: L<T, J>, b: L<T, J>, f: impl Fn(T, T) -> Doubling<T>) -> (L<T, J>, L<T, J>) {
-    let (mut co, mut si) = (a, b);
-    for l in 0..J {
-        let p = f(a.0[l], b.0[l]);
-        (co.0[l], si.0[l]) = (p.c, p.s);
-    }
-    (co, si)
 }
 
 /// `P_ij h_j` (two entries of `g_i`), from the upper blocks of the symmetric P, the

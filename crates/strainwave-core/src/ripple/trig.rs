@@ -11,11 +11,15 @@
 //! ```
 //!
 //! Error below 4e-18 (f64) and 1e-9 (f32) on |h| ≤ π/4, times at most 4 after the
-//! doublings. No branch and no table, so a bank's lane loop vectorizes. Whole multiples
-//! of a reference angle come from its phasor by doubling ([`Doubling::doubled`], which
-//! carries the phasor's exact double along: one multiply–add per doubling).
+//! doublings. No branch and no table: every function works on lanes, so that a bank's
+//! joints, or one joint's references side by side, take one vector evaluation. Whole
+//! multiples of a reference angle come from its phasor by doubling
+//! ([`Doubling::doubled`], which carries the phasor's exact double along: one
+//! multiply–add per doubling).
 
-use crate::lanes::{madd, Lanes};
+#[cfg(test)]
+use crate::lanes::madd;
+use crate::lanes::Lanes as L;
 use crate::Real;
 
 /// Whether the scalar is single precision (decides the series length; constant-folded).
@@ -56,39 +60,39 @@ const COS_F32: [f64; 5] = [1.0, -0.499999997251031, 0.04166662332373906, -0.0013
 /// Estrin evaluation of `Σ c[k] x^k` for 5 to 8 coefficients: pairs `c[2k] + c[2k+1] x`
 /// combined with `x²` and `x⁴`, a dependency chain of 4 multiply–adds instead of 7.
 #[inline(always)]
-fn estrin<T: Real, const N: usize, const F: bool>(c: &[f64; N], x: T) -> T {
-    let k = |i: usize| T::from_f64(c.get(i).copied().unwrap_or(0.0));
-    let (x2, pair) = (x * x, |i: usize| madd::<T, F>(k(i), k(i + 1), x));
+fn estrin<T: Real, const N: usize, const F: bool, const K: usize>(c: &[f64; N], x: L<T, K>) -> L<T, K> {
+    let k = |i: usize| L::splat(T::from_f64(c.get(i).copied().unwrap_or(0.0)));
+    let (x2, pair) = (x * x, |i: usize| k(i).madd::<F>(k(i + 1), x));
     let x4 = x2 * x2;
-    let low = madd::<T, F>(pair(0), x2, pair(2));
+    let low = pair(0).madd::<F>(x2, pair(2));
     let high = match N {
         5 => k(4),
         6 => pair(4),
-        7 => madd::<T, F>(pair(4), x2, k(6)),
-        _ => madd::<T, F>(pair(4), x2, pair(6)),
+        7 => pair(4).madd::<F>(x2, k(6)),
+        _ => pair(4).madd::<F>(x2, pair(6)),
     };
-    madd::<T, F>(low, x4, high)
+    low.madd::<F>(x4, high)
 }
 
 /// The phasor `(cos a, sin a)` for `|a| ≤ π` (beyond: clamped to `±π`, NaN to `−π`, so
 /// always a finite unit vector) with its double, its multiply–adds
 /// fused in the build `F` (see [`madd`]).
 #[inline(always)]
-pub(super) fn sin_cos_with<T: Real, const F: bool>(a: T) -> Doubling<T> {
-    phasor_of_wrapped::<T, F>(a.clamp(-T::PI, T::PI))
+pub(super) fn sin_cos_with<T: Real, const F: bool, const K: usize>(a: L<T, K>) -> Doubling<T, K> {
+    phasor_of_wrapped::<T, F, K>(a.max(L::splat(-T::PI)).min(L::splat(T::PI)))
 }
 
 /// `(cos a, sin a)` and their doubles for `|a| ≤ π` (not checked: the caller's angle
 /// is wrapped), bit for bit [`sin_cos_with`] there.
 #[inline(always)]
-pub(super) fn phasor_of_wrapped<T: Real, const F: bool>(a: T) -> Doubling<T> {
+pub(super) fn phasor_of_wrapped<T: Real, const F: bool, const K: usize>(a: L<T, K>) -> Doubling<T, K> {
     // Polynomials in u = a² = 16 h²: coefficient k scaled by 16^-k, exactly, so every
     // partial sum is the one in h² scaled by a power of two, and the result the same.
     let u = a * a;
     let (ps, pc) = if is_single::<T>() {
-        (estrin::<T, 5, F>(&SIN_F32_IN_U, u), estrin::<T, 5, F>(&COS_F32_IN_U, u))
+        (estrin::<T, 5, F, K>(&SIN_F32_IN_U, u), estrin::<T, 5, F, K>(&COS_F32_IN_U, u))
     } else {
-        (estrin::<T, 7, F>(&SIN_IN_U, u), estrin::<T, 8, F>(&COS_IN_U, u))
+        (estrin::<T, 7, F, K>(&SIN_IN_U, u), estrin::<T, 8, F, K>(&COS_IN_U, u))
     };
     // sin h = h P(h²) with h = a/4, and 2 sin h = (a/2) P: both products exact scalings.
     let quarter = Doubling { c: pc, s: a * T::from_f64(0.25) * ps, c2: pc + pc, s2: a * T::HALF * ps };
@@ -118,26 +122,32 @@ const fn scaled<const N: usize>(c: [f64; N]) -> [f64; N] {
     out
 }
 
-/// A phasor `(cos x, sin x)` with its double `(2 cos x, 2 sin x)`.
+/// Phasors `(cos x, sin x)` with their doubles `(2 cos x, 2 sin x)`, one per lane.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct Doubling<T> {
-    pub(super) c: T,
-    pub(super) s: T,
-    c2: T,
-    s2: T,
+pub(super) struct Doubling<T: Real, const K: usize> {
+    pub(super) c: L<T, K>,
+    pub(super) s: L<T, K>,
+    c2: L<T, K>,
+    s2: L<T, K>,
 }
 
-impl<T: Real> Doubling<T> {
+impl<T: Real, const K: usize> Doubling<T, K> {
     /// `(c, s)` and its double (exact).
     #[inline(always)]
-    pub(super) fn new(c: T, s: T) -> Self {
+    pub(super) fn new(c: L<T, K>, s: L<T, K>) -> Self {
         Self { c, s, c2: c + c, s2: s + s }
     }
 
-    /// `[cos, sin, 2 cos, 2 sin]`.
+    /// `(cos, sin)`.
+    #[inline(always)]
+    pub(super) fn pair(self) -> (L<T, K>, L<T, K>) {
+        (self.c, self.s)
+    }
+
+    /// Lane 0's `[cos, sin, 2 cos, 2 sin]`.
     #[cfg(test)]
     fn parts(self) -> [T; 4] {
-        [self.c, self.s, self.c2, self.s2]
+        [self.c.0[0], self.s.0[0], self.c2.0[0], self.s2.0[0]]
     }
 
     /// The angle doubled: `sin 2x = (2 sin x) cos x`, `cos 2x = 1 − (2 sin x) sin x`, and
@@ -146,9 +156,9 @@ impl<T: Real> Doubling<T> {
     #[inline(always)]
     pub(super) fn doubled<const F: bool>(self) -> Self {
         Self {
-            c: madd::<T, F>(T::ONE, -self.s2, self.s),
+            c: L::splat(T::ONE).madd::<F>(-self.s2, self.s),
             s: self.s2 * self.c,
-            c2: madd::<T, F>(T::TWO, -self.s2, self.s2),
+            c2: L::splat(T::TWO).madd::<F>(-self.s2, self.s2),
             s2: self.s2 * self.c2,
         }
     }
@@ -157,13 +167,14 @@ impl<T: Real> Doubling<T> {
 /// `(cos nψ, sin nψ)` from `(cos ψ, sin ψ)` for a whole `n ≥ 1`, by binary powers:
 /// squarings by angle doubling, products by complex multiplication.
 #[inline(always)]
-pub(super) fn phasor_power_with<T: Real, const F: bool>(c: T, s: T, n: u8) -> (T, T) {
-    let sq = |(c, s): (T, T)| {
+pub(super) fn phasor_power_with<T: Real, const F: bool, const K: usize>(c: L<T, K>, s: L<T, K>, n: u8) -> Doubling<T, K> {
+    type Pair<T, const K: usize> = (L<T, K>, L<T, K>);
+    let sq = |(c, s): Pair<T, K>| {
         let d = Doubling::new(c, s).doubled::<F>();
         (d.c, d.s)
     };
-    let mul = |(a, b): (T, T), (c, d): (T, T)| (madd::<T, F>(a * c, -b, d), madd::<T, F>(a * d, b, c));
-    let (mut acc, mut base, mut k) = ((T::ONE, T::ZERO), (c, s), n);
+    let mul = |(a, b): Pair<T, K>, (c, d): Pair<T, K>| ((a * c).madd::<F>(-b, d), (a * d).madd::<F>(b, c));
+    let (mut acc, mut base, mut k) = ((L::splat(T::ONE), L::splat(T::ZERO)), (c, s), n);
     while k > 0 {
         if k & 1 == 1 {
             acc = mul(acc, base);
@@ -171,7 +182,7 @@ pub(super) fn phasor_power_with<T: Real, const F: bool>(c: T, s: T, n: u8) -> (T
         base = sq(base);
         k >>= 1;
     }
-    acc
+    Doubling::new(acc.0, acc.1)
 }
 
 /// Wraps angles into `[−π, π]` (to within a rounding of `π`): `x − 2π k` with `k` the
@@ -179,7 +190,7 @@ pub(super) fn phasor_power_with<T: Real, const F: bool>(c: T, s: T, n: u8) -> (T
 /// fraction (exact below 2⁵¹ turns in f64, 2²² in f32). No branch, so a bank vectorizes.
 /// Non-finite inputs come back non-finite.
 #[inline(always)]
-pub(super) fn wrap_angle<T: Real, const J: usize>(x: Lanes<T, J>) -> Lanes<T, J> {
+pub(super) fn wrap_angle<T: Real, const J: usize>(x: L<T, J>) -> L<T, J> {
     let big = T::from_f64(1.5) / T::EPSILON;
     let turns = x * T::from_f64(1.0 / core::f64::consts::TAU);
     x - ((turns + big) - big) * T::TAU
@@ -194,8 +205,8 @@ mod tests {
     ///
     /// Accurate to a few ulp of 1 (absolute) over the whole range.
     fn sin_cos_small<T: Real>(a: T) -> (T, T) {
-        let p = sin_cos_with::<T, false>(a);
-        (p.s, p.c)
+        let p = sin_cos_with::<T, false, 1>(L([a]));
+        (p.s.0[0], p.c.0[0])
     }
 
     const TOL_F64: f64 = 2e-15;
@@ -237,14 +248,14 @@ mod tests {
             let a = T::from_f64(-core::f64::consts::PI + core::f64::consts::TAU * k as f64 / (n - 1) as f64);
             let a = a.clamp(-T::PI, T::PI);
             let h = a * T::from_f64(0.25);
-            let h2 = h * h;
+            let h2 = L([h * h]);
             let quarter = if is_single::<T>() {
-                (estrin::<T, 5, F>(&COS_F32, h2), h * estrin::<T, 5, F>(&SIN_F32, h2))
+                (estrin::<T, 5, F, 1>(&COS_F32, h2).0[0], h * estrin::<T, 5, F, 1>(&SIN_F32, h2).0[0])
             } else {
-                (estrin::<T, 8, F>(&COS, h2), h * estrin::<T, 7, F>(&SIN, h2))
+                (estrin::<T, 8, F, 1>(&COS, h2).0[0], h * estrin::<T, 7, F, 1>(&SIN, h2).0[0])
             };
             let mut want = plain_double(plain_double(quarter));
-            let mut d = phasor_of_wrapped::<T, F>(a);
+            let mut d = phasor_of_wrapped::<T, F, 1>(L([a]));
             for _ in 0..3 {
                 let [c, s, c2, s2] = d.parts();
                 assert_eq!((c, s), want, "{a:?}");
@@ -272,7 +283,7 @@ mod tests {
             for v in [v, -v] {
                 for k in -3..=3 {
                     let x = v + T::from_f64(f64::from(k)) * ulp(v).max(T::EPSILON);
-                    let w = wrap_angle(Lanes([x])).0[0];
+                    let w = wrap_angle(L([x])).0[0];
                     assert!(w.abs() <= bound, "{x:?} wraps to {w:?}");
                 }
             }
@@ -289,7 +300,8 @@ mod tests {
     fn phasor_powers_match_multiple_angles() {
         for &psi in &[0.3_f64, -2.9, 3.1, 1.0] {
             for n in [1u8, 2, 3, 4, 5, 7, 12] {
-                let (c, s) = phasor_power_with::<f64, false>(psi.cos(), psi.sin(), n);
+                let p = phasor_power_with::<f64, false, 1>(L([psi.cos()]), L([psi.sin()]), n);
+                let (c, s) = (p.c.0[0], p.s.0[0]);
                 let want = psi * n as f64;
                 assert!((c - want.cos()).abs() < 1e-13 && (s - want.sin()).abs() < 1e-13, "{psi} × {n}");
             }
@@ -299,11 +311,11 @@ mod tests {
     #[test]
     fn wrap_angle_covers_near_and_far() {
         for &x in &[0.0_f64, 3.5, -3.5, 6.2, -9.0, 1e6, -1e6, 100.0] {
-            let w = wrap_angle(Lanes([x])).0[0];
+            let w = wrap_angle(L([x])).0[0];
             assert!(w.abs() <= core::f64::consts::PI + 1e-12, "{x} → {w}");
             assert!(((x - w) / core::f64::consts::TAU - ((x - w) / core::f64::consts::TAU).round()).abs() < 1e-9);
         }
-        let wrap = |x: f64| wrap_angle(Lanes([x])).0[0];
+        let wrap = |x: f64| wrap_angle(L([x])).0[0];
         assert!(wrap(f64::NAN).is_nan() && !wrap(f64::INFINITY).is_finite());
     }
 }
