@@ -688,8 +688,7 @@ fn update<
     !healthy(BIAS, bank, s_var)
 }
 
-/// Measurement update `ẑ += g e / S`, `P −= g gᵀ / S` (upper blocks; each product
-/// `g_i g_j` times `1/S`, so that it waits on the division for one multiply–add), with
+/// Measurement update `ẑ += k e`, `P −= k gᵀ` with the gain `k = g / S` (upper blocks), with
 /// the update row `h`, gains `g` and `gb` (bias), the innovation used, `1/S` (0 on a
 /// load step) and the load steps. Variances never fall below their exact lower bound
 /// `P_ii R / S`.
@@ -710,16 +709,16 @@ fn update_state<T: Real, const M: usize, const J: usize, const F: bool, const BI
         bank.z[i][1] = L(bank.z[i][1]).madd::<F>(k1, e_used).0;
         let blk = &mut bank.p[i][i];
         let [v0, v1] = prior.diag[i];
-        blk[0][0] = v0.madd::<F>(-(g0 * g0), inv).max(v0 * floor).0;
-        blk[1][1] = v1.madd::<F>(-(g1 * g1), inv).max(v1 * floor).0;
-        let off = L(blk[0][1]).madd::<F>(-(g0 * g1), inv).0;
+        blk[0][0] = v0.madd::<F>(-k0, g0).max(v0 * floor).0;
+        blk[1][1] = v1.madd::<F>(-k1, g1).max(v1 * floor).0;
+        let off = L(blk[0][1]).madd::<F>(-k0, g1).0;
         (blk[0][1], blk[1][0]) = (off, off);
         for j in i + 1..M {
             let [gj0, gj1] = g[j];
             let b = &mut bank.p[i][j];
-            for (r, gr) in [g0, g1].into_iter().enumerate() {
-                b[r][0] = L(b[r][0]).madd::<F>(-(gr * gj0), inv).0;
-                b[r][1] = L(b[r][1]).madd::<F>(-(gr * gj1), inv).0;
+            for (r, kr) in [k0, k1].into_iter().enumerate() {
+                b[r][0] = L(b[r][0]).madd::<F>(-kr, gj0).0;
+                b[r][1] = L(b[r][1]).madd::<F>(-kr, gj1).0;
             }
         }
         if BIAS {
