@@ -348,8 +348,7 @@ fn is_common<T: Real, const M: usize, const J: usize, const F: bool>(
     if !(dt_ok && dt <= model.plan.max_gap_s) {
         return None;
     }
-    // A non-finite reference gives a NaN increment, which fails the step limit. Each
-    // reference is written out, so that its values stay in registers.
+    // A non-finite reference gives a NaN increment, which fails the step limit.
     let mut ok = y.finite() & L(bank.pending_samples).equals(T::ZERO) & Mask::of(|l| bank.has_last[l]);
     let mut steps = [None; 3];
     for r in 0..3 {

@@ -12,13 +12,10 @@
 //!
 //! Error below 4e-18 (f64) and 1e-9 (f32) on |h| ≤ π/4, times at most 4 after the
 //! doublings. No branch and no table: every function works on lanes, so that a bank's
-//! joints, or one joint's references side by side, take one vector evaluation. Whole
-//! multiples of a reference angle come from its phasor by doubling
-//! ([`Doubling::doubled`], which carries the phasor's exact double along: one
-//! multiply–add per doubling).
+//! joints take one vector evaluation. Whole multiples of a reference angle come from its
+//! phasor by doubling ([`Doubling::doubled`], which carries the phasor's exact double
+//! along: one multiply–add per doubling).
 
-#[cfg(test)]
-use crate::lanes::madd;
 use crate::lanes::Lanes as L;
 use crate::Real;
 
@@ -167,7 +164,11 @@ impl<T: Real, const K: usize> Doubling<T, K> {
 /// `(cos nψ, sin nψ)` from `(cos ψ, sin ψ)` for a whole `n ≥ 1`, by binary powers:
 /// squarings by angle doubling, products by complex multiplication.
 #[inline(always)]
-pub(super) fn phasor_power_with<T: Real, const F: bool, const K: usize>(c: L<T, K>, s: L<T, K>, n: u8) -> Doubling<T, K> {
+pub(super) fn phasor_power_with<T: Real, const F: bool, const K: usize>(
+    c: L<T, K>,
+    s: L<T, K>,
+    n: u8,
+) -> Doubling<T, K> {
     type Pair<T, const K: usize> = (L<T, K>, L<T, K>);
     let sq = |(c, s): Pair<T, K>| {
         let d = Doubling::new(c, s).doubled::<F>();
@@ -199,6 +200,7 @@ pub(super) fn wrap_angle<T: Real, const J: usize>(x: L<T, J>) -> L<T, J> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::lanes::madd;
 
     /// `(sin a, cos a)` for `|a| ≤ π`; arguments beyond are clamped to `±π` (NaN to `−π`),
     /// so the result is always a finite unit vector.
