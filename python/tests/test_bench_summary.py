@@ -39,6 +39,21 @@ def test_fastest_percentile_median_and_per_element(tmp_path):
     assert "ripple/one" not in res.stdout
 
 
+def test_speedup_against_each_sibling(tmp_path):
+    # strainwave 10/20 ns, the dense filter 25/30 ns; one iteration per sample.
+    write_bench(tmp_path, "sw", "ripple/6-state/f64/strainwave", [10.0, 20.0], [1.0, 1.0], 15.0)
+    write_bench(tmp_path, "dense", "ripple/6-state/f64/nalgebra-dense", [25.0, 30.0], [1.0, 1.0], 30.0)
+    write_bench(tmp_path, "alone", "ripple/4-state/f64/adskalman", [5.0], [1.0], 5.0)
+    res = run(tmp_path, "ripple")
+    assert res.returncode == 0, res.stderr
+    lines = [ln for ln in res.stdout.splitlines() if ln.endswith("x") and "ripple/" in ln]
+    assert len(lines) == 1, res.stdout
+    name, *figures = lines[0].split()
+    assert name == "ripple/6-state/f64/nalgebra-dense"
+    # fastest 25/10, p10 25/10, median 30/20, slope 30/15.
+    assert figures == ["2.50x", "2.50x", "1.50x", "2.00x"]
+
+
 def test_no_results_is_an_error(tmp_path):
     res = run(tmp_path)
     assert res.returncode == 1
