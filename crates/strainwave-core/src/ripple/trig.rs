@@ -73,8 +73,10 @@ fn estrin<T: Real, const N: usize, const F: bool, const K: usize>(c: &[f64; N], 
 
 /// The phasor `(cos a, sin a)` for `|a| ≤ π` (beyond: clamped to `±π`, NaN to `−π`, so
 /// always a finite unit vector) with its double, its multiply–adds
-/// fused in the build `F` (see [`madd`]).
-#[inline(always)]
+/// fused in the build `F` (see [`madd`]). Inlined everywhere but on 32-bit ARM, where the
+/// compiler decides: with software double precision (Cortex-M4F) each inlined copy is
+/// large, and the firmware library holds one step per order count.
+#[cfg_attr(not(target_arch = "arm"), inline(always))]
 pub(super) fn sin_cos_with<T: Real, const F: bool, const K: usize>(a: L<T, K>) -> Doubling<T, K> {
     phasor_of_wrapped::<T, F, K>(a.max(L::splat(-T::PI)).min(L::splat(T::PI)))
 }
