@@ -282,6 +282,19 @@ pub fn order_slice(
     if !(order.is_finite() && order > 0.0) {
         return Err(invalid("order", format!("must be positive, got {order}")));
     }
+    // Above the Nyquist frequency at the slowest turning sample, the order aliases in
+    // every block: nothing of it can be measured.
+    let slowest_rpm = speed_rpm.iter().copied().filter(|v| *v > 0.0).fold(f64::INFINITY, f64::min);
+    let nyquist_hz = 0.5 * sample_rate_hz;
+    if slowest_rpm.is_finite() && order * slowest_rpm / 60.0 >= nyquist_hz {
+        return Err(invalid(
+            "order",
+            format!(
+                "above the Nyquist frequency ({nyquist_hz} Hz) at every speed of the recording \
+                 (slowest {slowest_rpm:.3} rpm)"
+            ),
+        ));
+    }
     let b = cfg.revs_per_block;
     if !(b.is_finite() && b >= 1.0) {
         return Err(invalid("revs_per_block", format!("must be at least 1, got {b}")));
@@ -384,5 +397,19 @@ mod tests {
             order_slice(&bad, &vec![600.0; 1000], 1000.0, 1.0, &OrderSliceConfig::default()),
             Err(AnalysisError::NonFinite { index: 5, .. })
         ));
+    }
+
+    #[test]
+    fn an_order_above_nyquist_at_every_speed_is_refused_one_below_at_some_is_not() {
+        // 600 → 1200 rpm at 1 kHz: Nyquist 500 Hz is order 50 at 600 rpm, 25 at 1200 rpm.
+        let v: Vec<f64> = (0..20_000).map(|k| 600.0 + 600.0 * k as f64 / 20_000.0).collect();
+        let x = vec![0.0; v.len()];
+        let cfg = OrderSliceConfig::default();
+        for order in [50.0, 1e300] {
+            let e = order_slice(&x, &v, 1000.0, order, &cfg).unwrap_err();
+            assert!(matches!(e, AnalysisError::Invalid { what: "order", .. }), "{e}");
+            assert!(e.to_string().contains("Nyquist"), "{e}");
+        }
+        assert!(order_slice(&x, &v, 1000.0, 40.0, &cfg).is_ok());
     }
 }

@@ -265,10 +265,12 @@ fn pooled(exps: &[ExperimentRows]) -> ExperimentRows {
 
 /// Runs `calibrate`.
 pub fn run(a: &Args) -> Result<()> {
-    for out in a.out.iter().chain(&a.plot).chain(&a.summary_json) {
-        strainwave_io::output::refuse_input_as_output(out, a.inputs.iter().map(|p| p.as_path()))
-            .with_context(|| format!("{}", out.display()))?;
+    let outputs = [("--out", &a.out), ("--summary-json", &a.summary_json), ("--plot", &a.plot)];
+    let outputs = outputs.into_iter().filter_map(|(flag, p)| Some((flag, p.as_deref()?)));
+    for (_, out) in outputs.clone() {
+        strainwave_io::output::refuse_input_as_output(out, a.inputs.iter().map(|p| p.as_path()))?;
     }
+    strainwave_io::output::refuse_shared_outputs(outputs)?;
     let speed_model = matches!(a.model, Model::SpeedTable | Model::SpeedPoly);
     if a.model != Model::Gain && a.with_offset {
         bail!("--with-offset applies to --model gain (static and dynamic models always fit an offset)");

@@ -63,7 +63,11 @@ pub fn run(a: &Args) -> Result<()> {
         strainwave_io::output::refuse_input_as_output(svg, [a.config.as_path()])?;
     }
     let text = std::fs::read_to_string(&a.config).with_context(|| format!("{}", a.config.display()))?;
-    let cfg = DesignConfig::from_toml(&text).with_context(|| format!("config {}", a.config.display()))?;
+    // Parsed here rather than by `DesignConfig::from_toml` so that a type error names the
+    // file, line and key as the other configuration readers do.
+    let cfg: DesignConfig =
+        toml::from_str(&text).map_err(|e| strainwave_joint::toml_error::one_line(&a.config, &text, &e))?;
+    cfg.validate().with_context(|| format!("config {}", a.config.display()))?;
     let r = cfg.evaluate().with_context(|| format!("config {}", a.config.display()))?;
     let mut out = render(&r, r.full_scale_nm);
     let _ = writeln!(

@@ -64,11 +64,8 @@ pub fn run(a: &Args) -> Result<()> {
     for out in a.out.iter().chain(&a.learn) {
         strainwave_io::output::refuse_input_as_output(out, inputs.iter().copied().chain([a.config.as_path()]))?;
     }
-    if let (Some(out), Some(learn)) = (&a.out, &a.learn) {
-        if strainwave_io::output::same_file(out, learn) || out == learn {
-            bail!("{}: --out and --learn name the same file", out.display());
-        }
-    }
+    let outputs = [("--out", &a.out), ("--learn", &a.learn)];
+    strainwave_io::output::refuse_shared_outputs(outputs.into_iter().filter_map(|(f, p)| Some((f, p.as_deref()?))))?;
     let cfg = JointConfig::load(&a.config)?;
     let last = a.input.len() - 1;
     for (i, input) in a.input.iter().enumerate() {

@@ -51,7 +51,12 @@ pub struct Args {
 pub fn run(a: &Args) -> Result<()> {
     let mut inputs = vec![a.loaded.as_path(), a.config.as_path()];
     inputs.extend(a.no_load.as_deref());
-    strainwave_io::output::refuse_input_as_output(&a.out, inputs)?;
+    for out in std::iter::once(&a.out).chain(&a.summary_json) {
+        strainwave_io::output::refuse_input_as_output(out, inputs.iter().copied())?;
+    }
+    strainwave_io::output::refuse_shared_outputs(
+        [("--out", a.out.as_path())].into_iter().chain(a.summary_json.as_deref().map(|p| ("--summary-json", p))),
+    )?;
     let opts = IdentifyOptions { holdout: a.holdout, lenient: a.lenient };
     let cfg = load_config(&a.config, a.no_load.is_some(), &opts)?;
     let found = identify(&cfg, RunInput::File(&a.loaded), a.no_load.as_deref().map(RunInput::File), &opts)?;

@@ -45,6 +45,16 @@ fn bin(s: &strainwave_analysis::campbell::OrderSlice, width: f64, nbins: usize) 
     acc.into_iter().map(|(a, c, si, n)| (n > 0).then(|| (a / n as f64, si.atan2(c)))).collect()
 }
 
+/// `x` in the shorter of its plain and exponent forms (`6`, `1e300`), as a user writes it.
+fn compact(x: f64) -> String {
+    let (plain, exponent) = (format!("{x}"), format!("{x:e}"));
+    if exponent.len() < plain.len() {
+        exponent
+    } else {
+        plain
+    }
+}
+
 /// Runs `orders`.
 pub fn run(a: &Args) -> Result<()> {
     strainwave_io::output::refuse_input_as_output(&a.out, [a.source.input.as_path()])?;
@@ -59,9 +69,10 @@ pub fn run(a: &Args) -> Result<()> {
     let mut slices = Vec::new();
     for &o in &a.orders {
         if !(o.is_finite() && o > 0.0) {
-            bail!("--order: must be positive, got {o}");
+            bail!("--order: must be positive, got {}", compact(o));
         }
-        slices.push(order_slice(x, &speed, fs, o, &cfg).map_err(|e| anyhow::anyhow!("--order {o}: {e}"))?);
+        let slice = order_slice(x, &speed, fs, o, &cfg).map_err(|e| anyhow::anyhow!("--order {}: {e}", compact(o)))?;
+        slices.push(slice);
     }
     let nbins = crate::recording_args::speed_bins(&speed, a.speed_bin, &a.speed.speed, &a.source.input)?;
     let binned: Vec<_> = slices.iter().map(|s| bin(s, a.speed_bin, nbins)).collect();

@@ -26,9 +26,14 @@ impl SignalArgs {
         Ok((t, fs))
     }
 
-    /// The signal column of `t` (read by [`Self::read`]).
+    /// The signal column of `t` (read by [`Self::read`]); an error naming the first row
+    /// (1-based, data rows) whose value is not finite.
     pub fn signal<'a>(&self, t: &'a Table) -> Result<&'a [f64]> {
-        column(t, &self.signal, "--signal", &self.input)
+        let x = column(t, &self.signal, "--signal", &self.input)?;
+        if let Some(i) = x.iter().position(|v| !v.is_finite()) {
+            bail!("{}: row {}, column `{}`: {} is not finite", self.input.display(), i + 1, self.signal, x[i]);
+        }
+        Ok(x)
     }
 }
 

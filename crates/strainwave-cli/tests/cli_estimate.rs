@@ -68,6 +68,59 @@ fn identify_then_estimate_tracks_true_link_torque() {
     assert!(rms < RMS_BOUND_NM, "rms {rms} N·m ≥ {RMS_BOUND_NM}");
 }
 
+/// A model file as `identify` writes it, linear spring, no encoders section.
+const MODEL: &str = r#"sample_rate_hz = 1000.0
+torque_range_nm = 50.0
+[gear]
+ratio = 100.0
+rated_torque_nm = 40.0
+[channels]
+motor = "motor_angle"
+link = "link_angle"
+[kinematic]
+basis = "fourier"
+order = 1
+mesh_harmonics = 0
+coefficients = [0.0, 0.0, 0.0]
+[compliance]
+damping_nm_s_per_rad = 0.0
+windup_offset_rad = 0.0
+rated_torque_nm = 40.0
+spring = { form = "linear", k_nm_per_rad = 1.0e4 }
+hysteresis = { kind = "none" }
+"#;
+
+#[test]
+fn a_bad_model_value_is_an_error_naming_the_file_and_key_before_any_row() {
+    let d = dir("bad-model");
+    let input = d.join("in.csv");
+    std::fs::write(&input, "time,motor_angle,link_angle\n0,0,0\n0.001,0,0\n").unwrap();
+    let cases = [
+        ("torque_range_nm = 50.0", "torque_range_nm = 0.0", "`torque_range_nm`"),
+        ("windup_offset_rad = 0.0", "windup_offset_rad = nan", "`compliance.windup_offset_rad`"),
+        ("ratio = 100.0", "ratio = -1.0", "`ratio`"),
+        ("sample_rate_hz = 1000.0", "sample_rate_hz = 0.0", "`sample_rate_hz`"),
+    ];
+    for (from, to, key) in cases {
+        let model = d.join("model.toml");
+        std::fs::write(&model, MODEL.replacen(from, to, 1)).unwrap();
+        let out = bin()
+            .args(["estimate", "--config"])
+            .arg(&model)
+            .arg("--in")
+            .arg(&input)
+            .arg("--out")
+            .arg(d.join("out.csv"))
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{to}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+        assert!(err.contains("model.toml") && err.contains(key), "{to}: {err}");
+        assert!(!err.contains("in.csv"), "{to}: blames the data: {err}");
+    }
+}
+
 #[test]
 fn missing_encoder_column_is_a_one_line_error() {
     let d = dir("missing");

@@ -257,6 +257,27 @@ fn settings_that_would_be_ignored_are_refused() {
 }
 
 #[test]
+fn a_bad_gear_value_is_an_error_naming_the_config_and_key_before_the_fit() {
+    let d = dir("bad-gear");
+    for (edit, expect) in [
+        (("rated_torque_nm = 100.0", "rated_torque_nm = -1.0"), "gear.rated_torque_nm: must be positive"),
+        (("rated_torque_nm = 100.0", "rated_torque_nm = nan"), "gear.rated_torque_nm: must be positive"),
+    ] {
+        let cfg = config_with(&d, 3, &[edit]);
+        let (o, model, _) = identify(&d, &cfg, &log("validate"), &["--quiet"]);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{e}");
+        assert!(e.contains("joint3-edited.toml") && e.contains(expect), "{edit:?}: {e}");
+        assert!(!model.exists());
+    }
+    let plays = ("hysteresis = \"none\"", "hysteresis = \"plays\"");
+    let cfg = config_with(&d, 3, &[plays, ("[encoders]", "[encoders]\nnoise_counts = nan")]);
+    let (o, _, _) = identify(&d, &cfg, &log("validate"), &["--quiet"]);
+    let e = stderr(&o);
+    assert!(e.contains("joint3-edited.toml") && e.contains("encoders.noise_counts: must be positive"), "{e}");
+}
+
+#[test]
 fn an_unconverged_fit_exits_1_unless_allowed() {
     let d = dir("lm");
     let cfg = config_with(&d, 3, &[("hysteresis = \"none\"", "hysteresis = \"plays\"\nmax_iterations = 1")]);

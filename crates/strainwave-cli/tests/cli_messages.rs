@@ -1,4 +1,4 @@
-//! User-facing errors of `fuse` and `identify`: one line, naming the file the problem is
+//! User-facing errors of `fuse`, `identify` and `design`: one line, naming the file the problem is
 //! in (the config for its keys, the recording for its rows, counted from 1) and the key
 //! or column as the user wrote it.
 
@@ -196,4 +196,19 @@ fn an_unknown_choice_lists_the_accepted_ones() {
     let e = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{e}");
     assert!(!e.contains("panicked"), "{e}");
+}
+
+#[test]
+fn design_names_the_file_line_and_key_of_a_wrong_type() {
+    let d = tmp("design");
+    let text = std::fs::read_to_string("../../examples/sensor-taghirad.toml").unwrap();
+    for (prefix, to, key) in
+        [("seed = ", "seed = nan", "`monte_carlo.seed`"), ("layout = ", "layout = 0", "`sensor.layout`")]
+    {
+        assert!(text.lines().any(|l| l.starts_with(prefix)), "{prefix}");
+        let edited: Vec<&str> = text.lines().map(|l| if l.starts_with(prefix) { to } else { l }).collect();
+        let cfg = d.join("sensor.toml");
+        std::fs::write(&cfg, edited.join("\n")).unwrap();
+        error(&["design", "--config", s(&cfg)], &["sensor.toml: line ", key]);
+    }
 }

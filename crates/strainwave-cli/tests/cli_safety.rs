@@ -120,6 +120,27 @@ fn an_output_naming_an_input_is_refused_and_the_input_kept() {
 }
 
 #[test]
+fn a_second_output_naming_an_input_or_the_first_output_is_refused() {
+    let d = tmp("second");
+    let rec = d.join("rec.csv");
+    recording(&rec, 64, |_, _| {});
+    let before = std::fs::read(&rec).unwrap();
+    let (model, cal) = (d.join("m.toml"), d.join("cal.toml"));
+    let identify = |summary: &Path| {
+        let arm = "../../examples/arm-hda.toml";
+        run(&["identify", "--config", arm, "--loaded", s(&rec), "--out", s(&model), "--summary-json", s(summary)])
+    };
+    assert_error(&identify(&rec), &["is also an input", "rec.csv"]);
+    assert_error(&identify(&d.join(".").join("m.toml")), &["named by both --out and --summary-json"]);
+    let calibrate = ["calibrate", "--in", s(&rec), "--reference", "signal", "--sensor", "signal", "--out", s(&cal)];
+    assert_error(&run(&[&calibrate[..], &["--plot", s(&cal)]].concat()), &["named by both --out and --plot"]);
+    let filter = ["filter", "--config", "../../examples/joint-taghirad.toml", "--in", s(&rec)];
+    assert_error(&run(&[&filter[..], &["--out", s(&cal), "--learn", s(&cal)]].concat()), &["--out and --learn"]);
+    assert_eq!(std::fs::read(&rec).unwrap(), before);
+    assert_eq!(names(&d), ["rec.csv"]);
+}
+
+#[test]
 fn report_to_standard_output_creates_no_file_named_dash() {
     let d = tmp("dash");
     let rec = d.join("rec.csv");
@@ -272,6 +293,28 @@ fn a_crafted_mcap_record_length_is_an_error_not_a_panic() {
 }
 
 #[test]
+fn a_signal_sample_that_is_not_finite_is_an_error_naming_file_row_and_column() {
+    let d = tmp("signal");
+    let rec = d.join("inf.csv");
+    recording(&rec, 8192, |k, r| {
+        if k == 389 {
+            r[1] = f64::INFINITY;
+        }
+    });
+    let out = d.join("o.svg");
+    let base = ["--in", s(&rec), "--signal", "signal", "--out", s(&out)];
+    let speed = ["--speed", "speed"];
+    for args in [
+        [&["spectrogram", "--nperseg", "256"][..], &base].concat(),
+        [&["campbell", "--nperseg", "512"][..], &base, &speed].concat(),
+        [&["orders", "--order", "6"][..], &base, &speed].concat(),
+    ] {
+        assert_error(&run(&args), &["inf.csv: row 390, column `signal`", "not finite"]);
+    }
+    assert!(!out.exists());
+}
+
+#[test]
 fn one_glitched_speed_sample_or_a_tiny_speed_bin_is_an_error_naming_it() {
     let d = tmp("campbell");
     let rec = d.join("glitch.csv");
@@ -286,6 +329,11 @@ fn one_glitched_speed_sample_or_a_tiny_speed_bin_is_an_error_naming_it() {
     assert_error(&campbell(&[]), &["row 4001", "`speed`", "--speed-bin"]);
     let orders = run(&[&["orders", "--order", "6"][..], &base].concat());
     assert_error(&orders, &["row 4001", "`speed`"]);
+    // An order that aliases at every speed (600 rpm, 1 kHz: above order 50).
+    let clean600 = d.join("clean600.csv");
+    recording(&clean600, 8192, |_, _| {});
+    let alias = ["orders", "--in", s(&clean600), "--signal", "signal", "--speed", "speed", "--out", s(&out)];
+    assert_error(&run(&[&alias[..], &["--order", "1e300"]].concat()), &["--order 1e300", "Nyquist"]);
     let clean = d.join("clean.csv");
     recording(&clean, 8192, |_, _| {});
     let o = run(&[

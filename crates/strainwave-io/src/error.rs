@@ -143,6 +143,16 @@ pub enum IoError {
         /// Name.
         column: String,
     },
+    /// Two outputs of one run would be written to one file.
+    #[error("{path}: named by both {first} and {second}; give each output its own file")]
+    OutputsShareFile {
+        /// The path (as the second flag gave it).
+        path: PathBuf,
+        /// The flag that named it first.
+        first: String,
+        /// The flag that named it again.
+        second: String,
+    },
     /// The output would replace an input.
     #[error("{output}: is also an input ({input}); write the output to another file")]
     OutputIsInput {

@@ -274,6 +274,25 @@ pub fn refuse_input_as_output<'a>(output: &Path, inputs: impl IntoIterator<Item 
     Ok(())
 }
 
+/// Refuses two outputs of one run that name one file, existing or not (`(flag, path)`
+/// pairs; standard output may be named more than once).
+pub fn refuse_shared_outputs<'a>(outputs: impl IntoIterator<Item = (&'a str, &'a Path)>) -> Result<(), IoError> {
+    let outputs: Vec<(&str, &Path)> = outputs.into_iter().filter(|(_, p)| !is_stdout(p)).collect();
+    let absolute = |p: &Path| std::path::absolute(p).ok();
+    for (k, &(second, path)) in outputs.iter().enumerate() {
+        for &(first, earlier) in &outputs[..k] {
+            if earlier == path || same_file(earlier, path) || absolute(earlier) == absolute(path) {
+                return Err(IoError::OutputsShareFile {
+                    path: path.to_path_buf(),
+                    first: first.to_string(),
+                    second: second.to_string(),
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -337,6 +356,20 @@ mod tests {
         assert_eq!(std::fs::metadata(a.temp_path()).unwrap().permissions().mode() & 0o777, 0o600);
         a.commit().unwrap();
         assert_eq!(std::fs::metadata(&p).unwrap().permissions().mode() & 0o777, 0o640);
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn two_outputs_naming_one_file_are_refused_existing_or_not() {
+        let d = dir("shared");
+        let (a, b) = (d.join("m.toml"), d.join("s.json"));
+        let again = d.join(".").join("m.toml");
+        let e = refuse_shared_outputs([("--out", a.as_path()), ("--summary-json", again.as_path())])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("named by both --out and --summary-json"), "{e}");
+        assert!(refuse_shared_outputs([("--out", a.as_path()), ("--summary-json", b.as_path())]).is_ok());
+        assert!(refuse_shared_outputs([("--out", Path::new("-")), ("--plot", Path::new("-"))]).is_ok());
         std::fs::remove_dir_all(&d).unwrap();
     }
 

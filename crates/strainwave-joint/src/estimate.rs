@@ -76,21 +76,26 @@ impl Estimator {
     /// errors name the file.
     pub fn load(config: &Path) -> Result<Self> {
         let model = ModelFile::load(config)?;
+        let est = Self::build(&model).with_context(|| format!("{}", config.display()))?;
+        Ok(Self { model, config: config.display().to_string(), est })
+    }
+
+    /// The estimator of a model read from its file.
+    fn build(model: &ModelFile) -> Result<FittedEstimator<KinematicFit>> {
+        model.check_numbers()?;
         let gear = model.gear.gear()?;
         let kin = model.kinematic_fit()?;
         let fit = model.compliance_fit();
         let fs = model.sample_rate_hz;
-        let est = match &model.encoders {
+        Ok(match &model.encoders {
             Some(enc) => {
-                refuse_count_scaling(&model.channels.motor, "motor")
-                    .with_context(|| format!("{}", config.display()))?;
-                refuse_count_scaling(&model.channels.link, "link").with_context(|| format!("{}", config.display()))?;
+                refuse_count_scaling(&model.channels.motor, "motor")?;
+                refuse_count_scaling(&model.channels.link, "link")?;
                 let (m, l) = enc.configs()?;
                 fit.estimator_for_counts(gear, m, l, kin, fs)?
             }
             None => fit.estimator(gear, kin, fs)?,
-        };
-        Ok(Self { model, config: config.display().to_string(), est })
+        })
     }
 
     /// The model.

@@ -268,6 +268,7 @@ fn check_config(cfg: &ArmConfig, windup_offset: bool) -> Result<()> {
     }
     if let Some(e) = &cfg.encoders {
         e.configs()?;
+        e.check_noise()?;
         load::refuse_count_scaling(&cfg.channels.motor, "motor")?;
         load::refuse_count_scaling(&cfg.channels.link, "link")?;
     }

@@ -25,8 +25,13 @@ pub struct GearConfig {
 }
 
 impl GearConfig {
-    /// The core's gear.
+    /// The core's gear; an error naming the key when the ratio or rated torque is not
+    /// positive.
     pub fn gear(&self) -> Result<Gear<f64>> {
+        let rated = self.rated_torque_nm;
+        if !(rated.is_finite() && rated > 0.0) {
+            anyhow::bail!("gear.rated_torque_nm: must be positive, got {rated}");
+        }
         Gear::new(self.ratio, self.fixed).map_err(|e| anyhow::anyhow!("gear: {e}"))
     }
 }
@@ -83,6 +88,14 @@ impl EncodersConfig {
             mk(self.motor_counts_per_rev, self.motor_offset_counts, self.motor_direction, "motor")?,
             mk(self.link_counts_per_rev, self.link_offset_counts, self.link_direction, "link")?,
         ))
+    }
+
+    /// The interpolation noise given, if any, checked: positive.
+    pub fn check_noise(&self) -> Result<()> {
+        match self.noise_counts {
+            Some(n) if !(n.is_finite() && n > 0.0) => anyhow::bail!("encoders.noise_counts: must be positive, got {n}"),
+            _ => Ok(()),
+        }
     }
 
     /// The interpolation noise, counts rms.

@@ -83,6 +83,31 @@ impl ModelFile {
         toml::from_str(&text).map_err(|e| crate::toml_error::one_line(path, &text, &e))
     }
 
+    /// The model's plain numbers, by their keys: the sample rate, torque range and rated
+    /// torque positive, the windup offset and damping finite.
+    pub fn check_numbers(&self) -> Result<()> {
+        let c = &self.compliance;
+        let positive = [
+            ("sample_rate_hz", self.sample_rate_hz),
+            ("torque_range_nm", self.torque_range_nm),
+            ("compliance.rated_torque_nm", c.rated_torque_nm),
+        ];
+        for (key, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                bail!("`{key}` must be positive, got {v}");
+            }
+        }
+        for (key, v) in [
+            ("compliance.windup_offset_rad", c.windup_offset_rad),
+            ("compliance.damping_nm_s_per_rad", c.damping_nm_s_per_rad),
+        ] {
+            if !v.is_finite() {
+                bail!("`{key}` must be finite, got {v}");
+            }
+        }
+        Ok(())
+    }
+
     /// The library's kinematic fit.
     pub fn kinematic_fit(&self) -> Result<KinematicFit> {
         let k = &self.kinematic;
