@@ -24,8 +24,12 @@ mod config;
 use check::{design_summary, Check};
 pub use config::{BenchConfig, Columns, Model, MAX_FIR_TAPS};
 
-fn column(cols: &[String], name: &str, path: &str) -> Result<usize> {
-    cols.iter().position(|c| c == name).with_context(|| format!("{path}: no column `{name}`"))
+/// The index of column `name` of `path`, which `key` (the config key or option that
+/// names it) asked for.
+fn column(cols: &[String], name: &str, key: &str, path: &str) -> Result<usize> {
+    cols.iter()
+        .position(|c| c == name)
+        .with_context(|| format!("{path}: no column `{name}` ({key}); columns: {}", cols.join(", ")))
 }
 
 /// The sample rate from the first two times (data rows 1 and 2 of column `name`).
@@ -186,11 +190,14 @@ impl Idx {
     fn new(cfg: &BenchConfig, cols: &[String], path: &str) -> Result<Self> {
         let c = &cfg.channels;
         let accel = match (&c.accel_1, &c.accel_2, &c.accel_torque) {
-            (Some(a1), Some(a2), _) => Ok((column(cols, a1, path)?, column(cols, a2, path)?)),
-            (_, _, Some(t)) => Err(column(cols, t, path)?),
+            (Some(a1), Some(a2), _) => {
+                Ok((column(cols, a1, "channels.accel_1", path)?, column(cols, a2, "channels.accel_2", path)?))
+            }
+            (_, _, Some(t)) => Err(column(cols, t, "channels.accel_torque", path)?),
             _ => unreachable!("checked on load"),
         };
-        Ok(Self { time: column(cols, &c.time, path)?, torsion: column(cols, &c.torsion, path)?, accel })
+        let time = column(cols, &c.time, "channels.time", path)?;
+        Ok(Self { time, torsion: column(cols, &c.torsion, "channels.torsion", path)?, accel })
     }
 
     fn accel_torque(&self, pair: &AccelerometerPair<f64>, row: &[f64]) -> f64 {
@@ -223,19 +230,22 @@ impl Job<'_> {
         let (cfg, pair, config, method) = (self.cfg, self.pair, self.config, self.method.name());
         let cols = rdr.columns().to_vec();
         let idx = Idx::new(cfg, &cols, self.input)?;
-        let reference = self.reference.map(|r| column(&cols, r, self.input)).transpose()?;
+        let reference = self.reference.map(|r| column(&cols, r, "--reference", self.input)).transpose()?;
         // The first two rows give the sample rate; they are held back and written first.
         let mut first = Vec::new();
         let mut second = Vec::new();
         if !rdr.read_row(&mut first)? || !rdr.read_row(&mut second)? {
             bail!("{}: needs at least 2 samples", self.input);
         }
-        let fs = match cfg.sample_rate_hz {
-            Some(fs) => fs,
-            None => rate_from_time(first[idx.time], second[idx.time], &cfg.channels.time, self.input)?,
+        let (fs, fs_from) = match cfg.sample_rate_hz {
+            Some(fs) => (fs, "`sample_rate_hz`".to_string()),
+            None => (
+                rate_from_time(first[idx.time], second[idx.time], &cfg.channels.time, self.input)?,
+                format!("{}: rows 1–2, column `{}`", self.input, cfg.channels.time),
+            ),
         };
         let mut fusion = if self.method == Method::OnlineCorrected {
-            let f = cfg.model(method, config)?.online(cfg.stator_inertia_kg_m2, fs, config)?;
+            let f = cfg.model(method, config)?.online(cfg.stator_inertia_kg_m2, (fs, &fs_from), config)?;
             say(&design_summary(&f, cfg.model(method, config)?.paths(cfg.stator_inertia_kg_m2, config)?)?)?;
             Online::Corrected(f, OnlineFusionState::default())
         } else {
@@ -299,7 +309,7 @@ impl Job<'_> {
     ) -> Result<u64> {
         let (cfg, pair, config, method) = (self.cfg, self.pair, self.config, self.method.name());
         let idx = Idx::new(cfg, &table.columns, self.input)?;
-        let reference = self.reference.map(|r| column(&table.columns, r, self.input)).transpose()?;
+        let reference = self.reference.map(|r| column(&table.columns, r, "--reference", self.input)).transpose()?;
         let n = table.rows();
         if n < 2 {
             bail!("{}: needs at least 2 samples", self.input);

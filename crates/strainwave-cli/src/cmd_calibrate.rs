@@ -160,7 +160,7 @@ fn column<'a>(t: &'a strainwave_io::Table, path: &Path, name: &str, option: &str
 fn load(a: &Args, need_speed: bool, mounting: Option<&str>) -> Result<Vec<ExperimentRows>> {
     let mut out = Vec::new();
     for path in &a.inputs {
-        let t = strainwave_io::read_all(path).with_context(|| format!("reading --in {}", path.display()))?;
+        let t = strainwave_io::read_all(path)?;
         if t.rows() == 0 {
             bail!("{}: no data rows", path.display());
         }
@@ -368,6 +368,20 @@ pub fn run(a: &Args) -> Result<()> {
             f.to_file()
         }
     };
+    if let Some(m) = file.metrics.as_ref().filter(|m| !(m.rms_error_nm.is_finite() && m.mean_error_nm.is_finite())) {
+        // Finite values whose squares overflow: name the row of the largest one.
+        let size = |k: usize| all.reference[k].abs().max(all.sensor[k].abs());
+        let k = (0..all.reference.len()).max_by(|&i, &j| size(i).total_cmp(&size(j))).unwrap_or(m.max_abs_row);
+        let at = rows::locate(&exps, k).map_or(format!("row {}", k + 1), |(f, r)| format!("{f}: row {r}"));
+        bail!(
+            "{at}: the fit's error figures are not finite with `{}` = {:?} and `{}` = {:?} (values this large overflow; \
+             check the columns' scale)",
+            a.reference,
+            all.reference[k],
+            a.sensor,
+            all.sensor[k]
+        );
+    }
     if a.din {
         let (series, labels) = din_series(&exps)?;
         let resolution = a.resolution.or_else(|| quantization_step(&all.sensor));

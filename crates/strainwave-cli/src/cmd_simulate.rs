@@ -121,8 +121,12 @@ pub fn run(a: &Args) -> Result<()> {
     }
     let scenario = load_scenario(a.preset.as_deref(), a.scenario.as_deref(), a.duration, a.seed)?;
     let Some(out) = a.out.as_deref() else { bail!("--out FILE is required") };
+    // What the twin builds from the scenario (its sensor) is checked as it is built: an
+    // error there names the scenario file.
+    let source =
+        || a.scenario.as_deref().map_or_else(|| "scenario".to_string(), |p| format!("scenario {}", p.display()));
     if a.procedure.is_some() {
-        let run = strainwave_sim::calibration_rig::LockedWgProcedure::default().run(&scenario)?;
+        let run = strainwave_sim::calibration_rig::LockedWgProcedure::default().run(&scenario).with_context(source)?;
         let mut w = RecordingWriter::create(out, strainwave_sim::calibration_rig::COLUMNS)?;
         for r in &run.rows {
             w.write_row(r)?;
@@ -141,7 +145,7 @@ pub fn run(a: &Args) -> Result<()> {
         }
         return Ok(());
     }
-    let mut sim = Simulator::new(&scenario)?;
+    let mut sim = Simulator::new(&scenario).with_context(source)?;
     let columns = sim.columns();
     let mut w = RecordingWriter::create(out, &columns)?;
     let mut row = Vec::with_capacity(columns.len());

@@ -123,6 +123,8 @@ fn bad_scenarios_are_one_line_errors_naming_the_key() {
         ("inertia_kg_m2 = 1.0", "inertia_kg_m2 = -1.0", "load.inertia_kg_m2"),
         ("inertia_kg_m2 = 3.3e-5", "inertia_kg_m2 = 0.0", "motor.inertia_kg_m2"),
         ("sample_rate_hz = 1000.0", "sample_rate_hz = 150.0", "sample_rate_hz"),
+        // Checked as the twin builds its sensor: still the file and the section named.
+        ("outer_radius_m = 0.020", "outer_radius_m = 1e308", "bad.toml: `sensor` leaves the bridge with no torque"),
     ];
     for (from, to, needle) in cases {
         let f = scenario_with(&d, from, to);

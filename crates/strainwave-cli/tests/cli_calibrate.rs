@@ -252,6 +252,22 @@ fn nan_row_and_missing_column_are_named() {
 }
 
 #[test]
+fn a_finite_value_too_large_to_square_is_named_by_its_input_row() {
+    let d = tmp("huge");
+    let p = d.join("huge.csv");
+    let mut text = String::from("torque,volts\n");
+    for k in 0..100 {
+        let torque = if k == 49 { "1e308".to_string() } else { k.to_string() };
+        text += &format!("{torque},{}\n", 0.15 * k as f64);
+    }
+    std::fs::write(&p, text).unwrap();
+    let cal = d.join("cal.toml");
+    let e = user_error(&["calibrate", "--in", s(&p), "--reference", "torque", "--sensor", "volts", "--out", s(&cal)]);
+    assert!(e.contains("huge.csv: row 50") && e.contains("`torque` = 1e308") && !e.contains("cal.toml"), "{e}");
+    assert!(!cal.exists());
+}
+
+#[test]
 fn speeds_outside_the_table_reject_or_clamp() {
     let d = tmp("speed");
     let p = d.join("speeds.csv");

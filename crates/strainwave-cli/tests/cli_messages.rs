@@ -60,6 +60,10 @@ fn fuse_names_the_config_for_its_keys() {
             &["bench.toml: ", "`crossover_hz`", "Nyquist"],
         );
     }
+    // A steady-torque corner too small for the section to be computed.
+    let (tiny, _) = bench(&d, |t| t.replace("static_corner_hz = 0.05", "static_corner_hz = 1e-320"));
+    let needles = ["bench.toml: [model]: `static_corner_hz` is out of range"];
+    error(&["fuse", "--config", s(&tiny), "--in", s(&rec), "--out", s(&out)], &needles);
     // TOML syntax: file, line and column on one line.
     std::fs::write(&cfg, "radius_m = [\n").unwrap();
     error(&["fuse", "--config", s(&cfg), "--in", s(&rec), "--out", s(&out)], &["bench.toml: line 2, column"]);
@@ -95,6 +99,14 @@ fn fuse_names_the_recording_and_its_row_from_one() {
     error(
         &["fuse", "--config", s(&cfg), "--in", s(&same), "--method", "complementary", "--out", s(&out)],
         &["same.csv: row 2, column `time`"],
+    );
+    // A second time stamp 1e15 s on: the online fusion's design fails at that rate, and
+    // the message says the rate came from the recording's first two times.
+    let slow = d.join("slow.csv");
+    edit_lines(&rec, &slow, |k, l| if k == 2 { l.replacen(l.split(',').next().unwrap(), "1e15", 1) } else { l.into() });
+    error(
+        &["fuse", "--config", s(&cfg), "--in", s(&slow), "--out", s(&out)],
+        &["1e-15 Hz sampling, from ", "slow.csv: rows 1–2, column `time`"],
     );
     // An input that already has the output's column.
     let fused = d.join("fused.csv");

@@ -102,7 +102,11 @@ impl TorqueSensor {
             .validated()?;
         let s_fs = bridge.sensitivity_v_per_nm(&field);
         if !s_fs.is_finite() || s_fs == 0.0 {
-            return Err(SimError::invalid("sensor.placement", "leaves the bridge with no torque sensitivity".into()));
+            return Err(SimError::invalid(
+                "sensor",
+                "leaves the bridge with no torque sensitivity (check its dimensions, shear modulus and placement)"
+                    .into(),
+            ));
         }
         let gain_nm_per_v = 1.0 / (s_fs * fs_per_out * p.amplifier_gain);
         Ok(Self {

@@ -99,11 +99,11 @@ impl Model {
         Ok((ts, acc))
     }
 
-    /// The online corrected fusion at `fs`.
+    /// The online corrected fusion at `fs` (`fs_from` says where that rate comes from).
     pub(super) fn online(
         &self,
         stator_inertia_kg_m2: f64,
-        fs: f64,
+        (fs, fs_from): (f64, &str),
         config: &str,
     ) -> Result<OnlineCorrectedFusion<f64>> {
         let (ts, acc) = self.paths(stator_inertia_kg_m2, config)?;
@@ -111,7 +111,7 @@ impl Model {
             OnlineCorrectionConfig { crossover_hz: self.online_crossover_hz, static_corner_hz: self.static_corner_hz };
         OnlineCorrectedFusion::new(&ts, &acc, &cfg, fs).map_err(|e| {
             let e = e.to_string().replace("`crossover_hz`", "`online_crossover_hz`");
-            anyhow::anyhow!("{config}: [model]: {e} (at {fs} Hz sampling)")
+            anyhow::anyhow!("{config}: [model]: {e} (at {fs:?} Hz sampling, from {fs_from})")
         })
     }
 }

@@ -147,7 +147,8 @@ fn pole_radius<T: Real>(q: &Biquad<T>) -> f64 {
 impl<T: Real> OnlineCorrectedFusion<T> {
     /// Designs the fusion from the torsion-shaft model (`Γ` as in `G_TS`, the shaft
     /// sees `2Γ`), the housing model and `cfg`. Errors: `crossover_hz` not in
-    /// `(0, 0.45 fs)` → `OutOfRange("crossover_hz")`; a negative `static_corner_hz`.
+    /// `(0, 0.45 fs)` → `OutOfRange("crossover_hz")`; a `static_corner_hz` negative, at or
+    /// above a tenth of the crossover, or positive but below `1e-9 fs`.
     ///
     /// ```
     /// use strainwave_core::fusion::{AccelerometerModel, OnlineCorrectedFusion, OnlineCorrectionConfig, TorsionShaftModel};
@@ -173,7 +174,10 @@ impl<T: Real> OnlineCorrectedFusion<T> {
             return Err(Error::OutOfRange("crossover_hz"));
         }
         let corner = non_negative(cfg.static_corner_hz, "static_corner_hz")?.to_f64();
-        if corner >= 0.1 * fc {
+        // 0 switches the steady correction off; a corner below a billionth of the sample
+        // rate (a time constant of hours) leaves the section's pole and zero at 1 in
+        // rounding, and its output not finite.
+        if corner >= 0.1 * fc || (corner > 0.0 && corner < 1e-9 * fs) {
             return Err(Error::OutOfRange("static_corner_hz"));
         }
         // Re-validate the models (their fields are public).
@@ -341,6 +345,12 @@ mod tests {
         let mut c = OnlineCorrectionConfig::kit();
         c.static_corner_hz = -1.0;
         assert_eq!(OnlineCorrectedFusion::new(&ts, &acc, &c, 20_000.0), Err(Error::OutOfRange("static_corner_hz")));
+        for tiny in [1e-320, 1e-6] {
+            c.static_corner_hz = tiny;
+            assert_eq!(OnlineCorrectedFusion::new(&ts, &acc, &c, 20_000.0), Err(Error::OutOfRange("static_corner_hz")));
+        }
+        c.static_corner_hz = 1e-4;
+        assert!(OnlineCorrectedFusion::new(&ts, &acc, &c, 20_000.0).is_ok());
         c = OnlineCorrectionConfig::kit();
         c.crossover_hz = f64::NAN;
         assert_eq!(OnlineCorrectedFusion::new(&ts, &acc, &c, 20_000.0), Err(Error::NonPositive("crossover_hz")));
