@@ -145,7 +145,10 @@ fn bad_input_is_a_one_line_error_naming_it() {
     let mut src = rows();
     src.columns[2] = "accel_torque".into();
     let e = run(Method::Complementary, &mut src, None).unwrap_err();
-    assert_eq!(strainwave_joint::one_line(&e), "bench.csv: no column `accel`");
+    assert_eq!(
+        strainwave_joint::one_line(&e),
+        "bench.csv: no column `accel` (channels.accel_torque); columns: time, torsion, accel_torque"
+    );
 
     let mut src = rows();
     src.rows[7][0] = src.rows[6][0];
