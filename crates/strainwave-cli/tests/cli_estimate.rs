@@ -125,30 +125,7 @@ fn a_bad_model_value_is_an_error_naming_the_file_and_key_before_any_row() {
 fn missing_encoder_column_is_a_one_line_error() {
     let d = dir("missing");
     let model = d.join("model.toml");
-    std::fs::write(
-        &model,
-        r#"sample_rate_hz = 1000.0
-torque_range_nm = 50.0
-[gear]
-ratio = 100.0
-rated_torque_nm = 40.0
-[channels]
-motor = "motor_angle"
-link = "link_angle"
-[kinematic]
-basis = "fourier"
-order = 1
-mesh_harmonics = 0
-coefficients = [0.0, 0.0, 0.0]
-[compliance]
-damping_nm_s_per_rad = 0.0
-windup_offset_rad = 0.0
-rated_torque_nm = 40.0
-spring = { form = "linear", k_nm_per_rad = 1.0e4 }
-hysteresis = { kind = "none" }
-"#,
-    )
-    .unwrap();
+    std::fs::write(&model, MODEL).unwrap();
     let input = d.join("in.csv");
     std::fs::write(&input, "time,motor_angle,other\n0,0,0\n0.001,0,0\n").unwrap();
     let out = bin()
