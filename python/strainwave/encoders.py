@@ -72,7 +72,7 @@ def identify(
     ``loaded`` (with a reference torque) and ``no_load`` are DataFrames or recording files
     with the columns the arm configuration's ``[channels]`` name. ``out=FILE`` writes the
     model file as the command line does; ``holdout=K`` scores the model on K blocks
-    (``--holdout``), ``lenient=True`` skips rows with non-finite values (``--lenient``),
+    (``--holdout``), ``lenient=True`` skips rows with non-finite values or impossible reference torques (``--lenient``),
     ``allow_unconverged=True`` keeps a model whose fit did not converge. Errors name
     ``input_name`` / ``no_load_name`` (default: the file, else ``<DataFrame>``).
 

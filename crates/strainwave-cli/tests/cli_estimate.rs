@@ -90,6 +90,9 @@ spring = { form = "linear", k_nm_per_rad = 1.0e4 }
 hysteresis = { kind = "none" }
 "#;
 
+/// [`MODEL`]'s hysteresis line.
+const HYSTERESIS: &str = r#"hysteresis = { kind = "none" }"#;
+
 #[test]
 fn a_bad_model_value_is_an_error_naming_the_file_and_key_before_any_row() {
     let d = dir("bad-model");
@@ -98,8 +101,25 @@ fn a_bad_model_value_is_an_error_naming_the_file_and_key_before_any_row() {
     let cases = [
         ("torque_range_nm = 50.0", "torque_range_nm = 0.0", "`torque_range_nm`"),
         ("windup_offset_rad = 0.0", "windup_offset_rad = nan", "`compliance.windup_offset_rad`"),
-        ("ratio = 100.0", "ratio = -1.0", "`ratio`"),
+        ("ratio = 100.0", "ratio = -1.0", "gear.ratio"),
         ("sample_rate_hz = 1000.0", "sample_rate_hz = 0.0", "`sample_rate_hz`"),
+        ("coefficients = [0.0, 0.0, 0.0]", "coefficients = [0.0, nan, 0.0]", "`kinematic.coefficients` value 2"),
+        ("k_nm_per_rad = 1.0e4", "k_nm_per_rad = -1.0e4", "compliance.spring: `k_nm_per_rad`"),
+        (
+            HYSTERESIS,
+            "hysteresis = { kind = \"dahl\", half_width_rad = -1e-4, memory_rad = 1e-4, deadband_rad = 0.0 }",
+            "compliance.hysteresis: `half_width_rad`",
+        ),
+        (
+            HYSTERESIS,
+            "hysteresis = { kind = \"plays\", half_widths_rad = [-1e-4], weights_rad = [1e-4] }",
+            "compliance.hysteresis: `half_widths_rad`",
+        ),
+        (
+            HYSTERESIS,
+            "hysteresis = { kind = \"plays\", half_widths_rad = [1e-4], weights_rad = [] }",
+            "`compliance.hysteresis.weights_rad`: 0 values",
+        ),
     ];
     for (from, to, key) in cases {
         let model = d.join("model.toml");

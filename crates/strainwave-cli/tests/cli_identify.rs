@@ -208,9 +208,46 @@ fn a_non_finite_count_names_its_row_or_is_skipped_with_lenient() {
     let (o, _, summary) = identify(&d, &example(3), &bad, &["--quiet", "--lenient"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let s = json(&summary);
-    assert_eq!(s["rows_skipped_non_finite"], 1);
+    assert_eq!(s["rows_skipped"], 1);
     assert_eq!(s["first_skipped_data_row"], 7);
     assert_eq!(s["rows"], 1831);
+}
+
+/// One corrupt reference reading (finite, but no gear carries it) would take over the
+/// least-squares fit and give a model of absurd numbers: refused by row, or skipped.
+#[test]
+fn an_impossible_reference_torque_names_its_row_or_is_skipped_with_lenient() {
+    let d = dir("huge");
+    let bad = log_with(&d, 50, "joint_torque_current_3", "1e308");
+    let (o, model, _) = identify(&d, &example(3), &bad, &["--quiet"]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(e.contains("edited.csv: data row 50: column `joint_torque_current_3`"), "{e}");
+    assert!(e.contains("1e308 N·m, beyond 100 × gear.rated_torque_nm"), "{e}");
+    assert!(!model.exists());
+    let (o, model, summary) = identify(&d, &example(3), &bad, &["--quiet", "--lenient"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let s = json(&summary);
+    assert_eq!((s["rows_skipped"].as_u64(), s["first_skipped_data_row"].as_u64()), (Some(1), Some(50)));
+    let k = s["compliance"]["parameters"][0]["value"].as_f64().unwrap();
+    assert!(k > 1e3 && k < 1e7, "stiffness {k} N·m/rad");
+    assert!(std::fs::read_to_string(model).unwrap().contains("k_nm_per_rad"));
+}
+
+#[test]
+fn an_impossible_gear_ratio_is_refused_by_its_key() {
+    let d = dir("ratio");
+    for ratio in ["1e308", "0.5"] {
+        let cfg = config_with(&d, 3, &[("ratio = 101.0", &format!("ratio = {ratio}"))]);
+        let (o, model, _) = identify(&d, &cfg, &log("validate"), &["--quiet"]);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{e}");
+        assert!(
+            e.contains(&format!("joint3-edited.toml: gear.ratio: must be between 1 and 10000, got {ratio}")),
+            "{e}"
+        );
+        assert!(!model.exists());
+    }
 }
 
 #[test]

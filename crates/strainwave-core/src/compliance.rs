@@ -103,7 +103,7 @@ impl<T: Real> ThreeSlopeStiffness<T> {
 
     /// A single linear stiffness (all three slopes equal).
     pub fn linear(k_nm_per_rad: T) -> Result<Self, Error> {
-        positive(k_nm_per_rad, "stiffness_nm_per_rad")?;
+        positive(k_nm_per_rad, "k_nm_per_rad")?;
         Ok(Self {
             k1_nm_per_rad: k_nm_per_rad,
             k2_nm_per_rad: k_nm_per_rad,

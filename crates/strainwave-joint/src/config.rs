@@ -279,8 +279,11 @@ impl JointConfig {
 
     /// The gear; errors name `gear.ratio` / `gear.fixed`.
     pub fn gear(&self) -> Result<Gear<f64>> {
-        Gear::new(self.gear.ratio, self.gear.fixed)
-            .map_err(|_| anyhow::anyhow!("`gear.ratio` must be positive, got {}", self.gear.ratio))
+        let (ratio, range) = (self.gear.ratio, crate::identify::RATIO_RANGE);
+        if !range.contains(&ratio) {
+            bail!("`gear.ratio` must be between {} and {}, got {ratio:?}", range.start(), range.end());
+        }
+        Gear::new(ratio, self.gear.fixed).map_err(|e| anyhow::anyhow!("`gear.ratio`: {e}"))
     }
 
     /// The measurement noise of the `orders` model, 1σ, N·m: `noise_nm`, or the square

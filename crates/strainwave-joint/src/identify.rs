@@ -31,7 +31,7 @@ mod stribeck;
 mod summary;
 pub use config::{
     ArmConfig, Basis, Channels, ComplianceConfig, EncodersConfig, Fixed, FrictionConfig, GearConfig, HysteresisChoice,
-    KinematicConfig, Order, SpeedChoice, SpringChoice,
+    KinematicConfig, Order, SpeedChoice, SpringChoice, RATIO_RANGE,
 };
 use holdout::holdout_scores;
 pub use holdout::Holdout;

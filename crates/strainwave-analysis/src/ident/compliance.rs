@@ -127,7 +127,7 @@ impl Compliance<f64> for AnyCompliance {
 impl ComplianceParams {
     /// The core model.
     pub fn model(&self) -> Result<AnyCompliance, AnalysisError> {
-        let core = |e: strainwave_core::Error| invalid("compliance parameters", e.to_string());
+        let core = |e: strainwave_core::Error| invalid("compliance.spring", e.to_string());
         Ok(match *self {
             ComplianceParams::Linear { k_nm_per_rad } => {
                 AnyCompliance::ThreeSlope(ThreeSlopeStiffness::linear(k_nm_per_rad).map_err(core)?)
@@ -322,28 +322,34 @@ impl ComplianceFit {
         kinematic: K,
         sample_rate_hz: f64,
     ) -> Result<FittedEstimator<K>, AnalysisError> {
-        let core = |e: strainwave_core::Error| invalid("estimator", e.to_string());
+        // Each error is labelled with the model file's key of what failed.
+        let keyed = |what: &'static str| move |e: strainwave_core::Error| invalid(what, e.to_string());
         let mut est = TorsionEstimator::new(
             gear,
             motor_encoder,
             link_encoder,
             WithOffset { inner: kinematic, offset_rad: self.windup_offset_rad },
             self.params.model()?,
-            TorqueSolver::for_rated_torque(self.rated_torque_nm).map_err(core)?,
+            TorqueSolver::for_rated_torque(self.rated_torque_nm).map_err(keyed("compliance"))?,
         );
         match &self.hysteresis {
             FittedHysteresis::None => {}
             FittedHysteresis::Dahl { half_width_rad, memory_rad, deadband_rad } => {
                 est = est
-                    .with_hysteresis(Hysteresis::new(*half_width_rad, *memory_rad).map_err(core)?, *deadband_rad)
-                    .map_err(core)?;
+                    .with_hysteresis(
+                        Hysteresis::new(*half_width_rad, *memory_rad).map_err(keyed("compliance.hysteresis"))?,
+                        *deadband_rad,
+                    )
+                    .map_err(keyed("compliance.hysteresis"))?;
             }
             FittedHysteresis::Plays { half_widths_rad, weights_rad } => {
-                est = est.with_play_hysteresis(PlayHysteresis::new(half_widths_rad, weights_rad).map_err(core)?);
+                est = est.with_play_hysteresis(
+                    PlayHysteresis::new(half_widths_rad, weights_rad).map_err(keyed("compliance.hysteresis"))?,
+                );
             }
         }
         if self.damping_nm_s_per_rad != 0.0 {
-            est = est.with_damping(self.damping_nm_s_per_rad, sample_rate_hz).map_err(core)?;
+            est = est.with_damping(self.damping_nm_s_per_rad, sample_rate_hz).map_err(keyed("compliance"))?;
         }
         Ok(est)
     }

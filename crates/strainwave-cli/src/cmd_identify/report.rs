@@ -63,7 +63,7 @@ pub fn table(s: &Summary, model_path: &Path) -> String {
     }
     if s.skipped > 0 {
         out.push_str(&format!(
-            "note: {} rows with non-finite values skipped (--lenient; first at data row {})\n",
+            "note: {} rows with unusable values skipped (--lenient; first at data row {})\n",
             s.skipped,
             s.first_skipped.unwrap_or(0)
         ));

@@ -29,8 +29,8 @@ impl<T: Real> Hysteresis<T> {
     /// assert!((z - 1.0).abs() < 1e-2);
     /// ```
     pub fn new(half_width_rad: T, memory_rad: T) -> Result<Self, Error> {
-        non_negative(half_width_rad, "hysteresis_half_width_rad")?;
-        positive(memory_rad, "hysteresis_memory_rad")?;
+        non_negative(half_width_rad, "half_width_rad")?;
+        positive(memory_rad, "memory_rad")?;
         Ok(Self { half_width_rad, memory_rad })
     }
 
@@ -97,14 +97,17 @@ impl<T: Real> PlayHysteresis<T> {
     /// assert!(PlayHysteresis::<f64>::new(&[0.0], &[1e-4]).is_err());
     /// ```
     pub fn new(half_widths_rad: &[T], weights_rad: &[T]) -> Result<Self, Error> {
-        if half_widths_rad.len() != weights_rad.len() || half_widths_rad.len() > MAX_PLAYS {
-            return Err(Error::OutOfRange("play_count"));
+        if half_widths_rad.len() > MAX_PLAYS {
+            return Err(Error::OutOfRange("half_widths_rad"));
+        }
+        if weights_rad.len() != half_widths_rad.len() {
+            return Err(Error::OutOfRange("weights_rad"));
         }
         let mut r = [T::ONE; MAX_PLAYS];
         let mut b = [T::ZERO; MAX_PLAYS];
         for (i, (&ri, &bi)) in half_widths_rad.iter().zip(weights_rad).enumerate() {
-            r[i] = positive(ri, "play_half_width_rad")?;
-            b[i] = finite(bi, "play_weight_rad")?;
+            r[i] = positive(ri, "half_widths_rad")?;
+            b[i] = finite(bi, "weights_rad")?;
         }
         Ok(Self { half_widths_rad: r, weights_rad: b, count: half_widths_rad.len() })
     }

@@ -230,7 +230,7 @@ impl<T: Real, K: KinematicError<T>, C: Compliance<T>> TorsionEstimator<T, K, C> 
     /// plus the noise, peak to peak); `z` then catches up with the whole travel since the
     /// extreme, so the only error is a lag of `deadband_rad` right after a reversal.
     pub fn with_hysteresis(mut self, hysteresis: Hysteresis<T>, deadband_rad: T) -> Result<Self, Error> {
-        crate::error::non_negative(deadband_rad, "hysteresis_deadband_rad")?;
+        crate::error::non_negative(deadband_rad, "deadband_rad")?;
         self.hysteresis = Some(hysteresis);
         self.hysteresis_deadband_rad = deadband_rad;
         self.plays = None;

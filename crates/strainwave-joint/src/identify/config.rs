@@ -11,6 +11,10 @@ use strainwave_io::Channel;
 /// configuration file (`circular_spline`, alias `circular-spline`, or `flexspline`).
 pub use strainwave_core::gear::FixedElement as Fixed;
 
+/// The ratios a strain wave gear can have: flexspline teeth over the tooth difference
+/// (catalogue gears span 30 to 320).
+pub const RATIO_RANGE: std::ops::RangeInclusive<f64> = 1.0..=10_000.0;
+
 /// The gear.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -25,14 +29,18 @@ pub struct GearConfig {
 }
 
 impl GearConfig {
-    /// The core's gear; an error naming the key when the ratio or rated torque is not
-    /// positive.
+    /// The core's gear; an error naming the key when the rated torque is not positive or
+    /// the ratio is outside [`RATIO_RANGE`].
     pub fn gear(&self) -> Result<Gear<f64>> {
         let rated = self.rated_torque_nm;
         if !(rated.is_finite() && rated > 0.0) {
             anyhow::bail!("gear.rated_torque_nm: must be positive, got {rated}");
         }
-        Gear::new(self.ratio, self.fixed).map_err(|e| anyhow::anyhow!("gear: {e}"))
+        let (ratio, range) = (self.ratio, RATIO_RANGE);
+        if !range.contains(&ratio) {
+            anyhow::bail!("gear.ratio: must be between {} and {}, got {ratio:?}", range.start(), range.end());
+        }
+        Gear::new(ratio, self.fixed).map_err(|e| anyhow::anyhow!("gear: {e}"))
     }
 }
 

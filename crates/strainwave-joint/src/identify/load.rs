@@ -1,5 +1,6 @@
 //! Reading a recording for `identify`: encoder counts or angles into gear-convention
-//! angles, the reference torque, non-finite values refused (or skipped with `--lenient`).
+//! angles, the reference torque, non-finite values and impossible torques refused (or
+//! skipped with `--lenient`).
 
 use anyhow::{bail, Context, Result};
 use strainwave_core::compliance::ThreeSlopeStiffness;
@@ -9,6 +10,10 @@ use strainwave_io::Channel;
 
 use super::config::{ArmConfig, EncodersConfig};
 use super::RunInput;
+
+/// A reference torque beyond this many times the gear's rated torque is not a reading
+/// of it (a corrupt row): refused, or skipped with `--lenient`.
+const REFERENCE_LIMIT_RATED: f64 = 100.0;
 
 /// Motor and link angles (gear convention, unwrapped) of a recording, with the rows kept.
 pub struct Run {
@@ -108,17 +113,29 @@ pub fn load_run(cfg: &ArmConfig, input: RunInput<'_>, with_reference: bool, leni
     }
     let cols: Vec<(&str, &Channel, &[f64])> =
         used.iter().map(|(k, c)| Ok((*k, *c, column(table, c, k, path)?))).collect::<Result<_>>()?;
+    let limit_nm = REFERENCE_LIMIT_RATED * cfg.gear.rated_torque_nm;
+    // Why a value cannot be used: not finite, or a reference torque no gear can carry.
+    let unusable = |key: &str, c: &Channel, x: f64| -> Option<String> {
+        let (scale, offset) = c.scale_offset();
+        let torque_nm = x * scale + offset;
+        if !x.is_finite() {
+            Some(format!("is {x:?}"))
+        } else if key == "reference_torque" && (!torque_nm.is_finite() || torque_nm.abs() > limit_nm) {
+            Some(format!("is {torque_nm:?} N·m, beyond {REFERENCE_LIMIT_RATED} × gear.rated_torque_nm"))
+        } else {
+            None
+        }
+    };
     let mut rows = Vec::with_capacity(table.rows());
     let (mut skipped, mut first_skipped) = (0usize, None);
     for k in 0..table.rows() {
-        if let Some((key, c, v)) = cols.iter().find(|(_, _, v)| !v[k].is_finite()) {
+        if let Some((key, c, why)) = cols.iter().find_map(|(key, c, v)| Some((key, c, unusable(key, c, v[k])?))) {
             if !lenient {
                 bail!(
-                    "{}: data row {}: column `{}` (channels.{key}) is {} (use --lenient to skip such rows)",
+                    "{}: data row {}: column `{}` (channels.{key}) {why} (use --lenient to skip such rows)",
                     path,
                     k + 1,
                     c.column_name(),
-                    v[k]
                 );
             }
             skipped += 1;

@@ -84,7 +84,9 @@ impl ModelFile {
     }
 
     /// The model's plain numbers, by their keys: the sample rate, torque range and rated
-    /// torque positive, the windup offset and damping finite.
+    /// torque positive, the windup offset, damping and kinematic coefficients finite, one
+    /// play weight per half-width. (The spring and hysteresis constructors check the rest
+    /// and name their keys.)
     pub fn check_numbers(&self) -> Result<()> {
         let c = &self.compliance;
         let positive = [
@@ -94,7 +96,7 @@ impl ModelFile {
         ];
         for (key, v) in positive {
             if !(v.is_finite() && v > 0.0) {
-                bail!("`{key}` must be positive, got {v}");
+                bail!("`{key}` must be positive, got {v:?}");
             }
         }
         for (key, v) in [
@@ -102,7 +104,19 @@ impl ModelFile {
             ("compliance.damping_nm_s_per_rad", c.damping_nm_s_per_rad),
         ] {
             if !v.is_finite() {
-                bail!("`{key}` must be finite, got {v}");
+                bail!("`{key}` must be finite, got {v:?}");
+            }
+        }
+        if let Some((i, v)) = self.kinematic.coefficients.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+            bail!("`kinematic.coefficients` value {} must be finite, got {v:?}", i + 1);
+        }
+        if let Hysteresis::Plays { half_widths_rad, weights_rad } = &c.hysteresis {
+            let (n, max) = (half_widths_rad.len(), strainwave_core::compliance::MAX_PLAYS);
+            if n > max {
+                bail!("`compliance.hysteresis.half_widths_rad`: {n} plays, at most {max}");
+            }
+            if weights_rad.len() != n {
+                bail!("`compliance.hysteresis.weights_rad`: {} values, one per half-width ({n})", weights_rad.len());
             }
         }
         Ok(())

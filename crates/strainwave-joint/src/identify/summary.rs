@@ -84,7 +84,7 @@ impl Summary {
             "no_load": self.no_load,
             "sample_rate_hz": self.sample_rate_hz,
             "rows": self.rows,
-            "rows_skipped_non_finite": self.skipped,
+            "rows_skipped": self.skipped,
             "first_skipped_data_row": self.first_skipped,
             "kinematic": {
                 "basis": self.basis(),
