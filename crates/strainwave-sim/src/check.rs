@@ -13,11 +13,48 @@ pub(crate) fn parse_toml<T: DeserializeOwned>(text: &str) -> Result<T, SimError>
             let message = e.message().trim().replace('\n', "; ");
             // The key as the user wrote it (`sensor.layout`), when the error is a value's.
             let key = e.span().and_then(|s| key_at(text.get(..s.start)?));
-            SimError::Parse {
-                message: key.map_or(message.clone(), |k| format!("`{k}`: {message}")),
-                location: toml_location(text, e.span()),
+            if let Some(k) = key {
+                return SimError::Parse {
+                    message: format!("`{k}`: {message}"),
+                    location: toml_location(text, e.span()),
+                };
             }
+            // An error inside a `[[name]]` entry is reported at its header: name the entry
+            // and, where the message tells, the key and its line.
+            if let Some((entry, key_offset)) = e.span().and_then(|s| array_entry(text, s.start, &message)) {
+                let location = toml_location(text, key_offset.map(|o| o..o).or(e.span()));
+                return SimError::Parse { message: format!("{entry}: {message}"), location };
+            }
+            SimError::Parse { message, location: toml_location(text, e.span()) }
         })
+}
+
+/// When `offset` is at an `[[name]]` header (where the parser reports errors inside any
+/// entry of the array): the entry whose key the message names (`` unknown field `k` ``) or
+/// whose value it shows (`` invalid type: string "x" ``), as "`[[name]]` entry N, `key`"
+/// (counted from 1), with the offset of that key's line; else "`[[name]]`".
+fn array_entry(text: &str, offset: usize, message: &str) -> Option<(String, Option<usize>)> {
+    let name = header_name(text.get(offset..)?.lines().next()?)?;
+    let (mut n, mut inside, mut at) = (0, false, 0);
+    for line in text.split_inclusive('\n') {
+        let trimmed = line.trim_start();
+        if trimmed.starts_with('[') {
+            inside = header_name(line) == Some(name);
+            n += usize::from(inside);
+        } else if let (true, Some((key, value))) = (inside, line.split_once('=')) {
+            let (key, value) = (key.trim(), value.split('#').next().unwrap_or("").trim());
+            if unknown_field(message) == Some(key) || (key != "kind" && shows_value(message, value)) {
+                return Some((format!("`[[{name}]]` entry {n}, `{key}`"), Some(at)));
+            }
+        }
+        at += line.len();
+    }
+    Some((format!("`[[{name}]]`"), None))
+}
+
+/// The name of an `[[name]]` header line.
+fn header_name(line: &str) -> Option<&str> {
+    line.trim().strip_prefix("[[")?.split("]]").next().map(str::trim)
 }
 
 /// The dotted key whose value starts at the end of `before`: the table header above it
@@ -38,6 +75,25 @@ fn key_at(before: &str) -> Option<String> {
         Some(t) if !t.is_empty() => format!("{t}.{key}"),
         _ => key.to_string(),
     })
+}
+
+/// The key of an `` unknown field `key`, expected … `` message.
+fn unknown_field(message: &str) -> Option<&str> {
+    message.strip_prefix("unknown field `")?.split('`').next()
+}
+
+/// Whether `message` is an `invalid type` error showing the value written as `value`
+/// (serde shows `string "x"`, `` boolean `true` ``, `` integer `5` ``, `sequence`, `map`).
+fn shows_value(message: &str, value: &str) -> bool {
+    let Some(found) = message.strip_prefix("invalid type: ") else {
+        return false;
+    };
+    let shown = found.split(", expected").next().unwrap_or("");
+    match shown.split_once(' ') {
+        Some(("string", s)) => s == value || s.trim_matches('"') == value.trim_matches(['"', '\'']),
+        Some((_, v)) => v.trim_matches('`') == value,
+        None => (shown == "sequence" && value.starts_with('[')) || (shown == "map" && value.starts_with('{')),
+    }
 }
 
 /// `line L, column C` of a byte offset (empty without one).
@@ -95,5 +151,39 @@ mod tests {
         }
         let e = parse_toml::<S>("x = 1.0\ny = 2").unwrap_err().to_string();
         assert!(e.contains("line 2"), "{e}");
+    }
+
+    /// An error inside an array of tables is reported by the parser at the array's first
+    /// header; the message names the entry and key, the location the key's line.
+    #[test]
+    fn an_error_in_an_array_of_tables_names_the_entry_and_key() {
+        let preset = crate::presets::preset("taghirad").unwrap().to_toml();
+        // `to_toml` writes each `[[motion]]` entry with its `kind` first.
+        let nth = |n: usize| preset.match_indices("[[motion]]").nth(n).unwrap().0;
+        let edit = |n: usize, from: &str, to: &str| {
+            let (a, b) = (nth(n), nth(n + 1));
+            format!("{}{}{}", &preset[..a], preset[a..b].replacen(from, to, 1), &preset[b..])
+        };
+        let line_of = |text: &str, what: &str| text[..text.find(what).unwrap()].matches('\n').count() + 1;
+        let cases = [
+            (
+                edit(1, "duration_s = ", "duration_s = true #"),
+                "`[[motion]]` entry 2, `duration_s`: invalid type",
+                "= true",
+            ),
+            (
+                edit(0, "duration_s = ", "durashun_s = "),
+                "`[[motion]]` entry 1, `durashun_s`: unknown field",
+                "durashun_s",
+            ),
+            (edit(2, "duration_s = ", "duration_s = \"long\" #"), "`[[motion]]` entry 3, `duration_s`", "\"long\""),
+        ];
+        for (text, expect, at) in cases {
+            let e = crate::Scenario::from_toml(&text).unwrap_err().to_string();
+            assert!(e.contains(expect), "{e}");
+            assert!(e.contains(&format!("(at line {}, column 1)", line_of(&text, at))), "{e}");
+        }
+        let e = crate::Scenario::from_toml(&edit(1, "duration_s = ", "duration_s = -")).unwrap_err().to_string();
+        assert!(e.contains("`motion.duration_s` must be positive") && e.ends_with("(`[[motion]]` entry 2)"), "{e}");
     }
 }

@@ -32,4 +32,12 @@ impl SimError {
     pub fn invalid(key: &'static str, msg: String) -> Self {
         SimError::Invalid { key, msg }
     }
+
+    /// This error, for a value of entry `n` (from 1) of the array of tables `[[name]]`.
+    pub fn in_entry(self, name: &str, n: usize) -> Self {
+        match self {
+            SimError::Invalid { key, msg } => SimError::Invalid { key, msg: format!("{msg} (`[[{name}]]` entry {n})") },
+            other => other,
+        }
+    }
 }

@@ -109,45 +109,11 @@ impl Scenario {
         if let Some(n) = e.reference_torque_noise_nm {
             nonneg(n, "encoders.reference_torque_noise_nm")?;
         }
-        for seg in &self.motion {
-            match seg {
-                MotionSegment::Ramp { to_rad_s, duration_s } => {
-                    fin(*to_rad_s, "motion.to_rad_s")?;
-                    pos(*duration_s, "motion.duration_s")?;
-                }
-                MotionSegment::Hold { duration_s } => pos(*duration_s, "motion.duration_s")?,
-                MotionSegment::Sine { amplitude_rad_s, frequency_hz, duration_s } => {
-                    fin(*amplitude_rad_s, "motion.amplitude_rad_s")?;
-                    pos(*frequency_hz, "motion.frequency_hz")?;
-                    pos(*duration_s, "motion.duration_s")?;
-                }
-                MotionSegment::Current { current_a, duration_s } => {
-                    fin(*current_a, "motion.current_a")?;
-                    pos(*duration_s, "motion.duration_s")?;
-                }
-            }
+        for (i, seg) in self.motion.iter().enumerate() {
+            check_motion(seg).map_err(|e| e.in_entry("motion", i + 1))?;
         }
-        for t in &self.external_torque {
-            match t {
-                ExternalTorque::Step { at_s, torque_nm } => {
-                    fin(*at_s, "external_torque.at_s")?;
-                    fin(*torque_nm, "external_torque.torque_nm")?;
-                }
-                ExternalTorque::Sine { amplitude_nm, frequency_hz, phase_rad, start_s } => {
-                    fin(*amplitude_nm, "external_torque.amplitude_nm")?;
-                    nonneg(*frequency_hz, "external_torque.frequency_hz")?;
-                    fin(*phase_rad, "external_torque.phase_rad")?;
-                    fin(*start_s, "external_torque.start_s")?;
-                }
-                ExternalTorque::Ramp { from_s, to_s, torque_nm } => {
-                    fin(*from_s, "external_torque.from_s")?;
-                    fin(*to_s, "external_torque.to_s")?;
-                    fin(*torque_nm, "external_torque.torque_nm")?;
-                    if to_s <= from_s {
-                        return Err(SimError::invalid("external_torque.to_s", "must exceed from_s".into()));
-                    }
-                }
-            }
+        for (i, t) in self.external_torque.iter().enumerate() {
+            check_external_torque(t).map_err(|e| e.in_entry("external_torque", i + 1))?;
         }
         self.check_nyquist()
     }
@@ -171,4 +137,50 @@ impl Scenario {
         }
         Ok(())
     }
+}
+
+/// One `[[motion]]` segment's values.
+fn check_motion(seg: &MotionSegment) -> Result<(), SimError> {
+    match seg {
+        MotionSegment::Ramp { to_rad_s, duration_s } => {
+            fin(*to_rad_s, "motion.to_rad_s")?;
+            pos(*duration_s, "motion.duration_s")?;
+        }
+        MotionSegment::Hold { duration_s } => pos(*duration_s, "motion.duration_s")?,
+        MotionSegment::Sine { amplitude_rad_s, frequency_hz, duration_s } => {
+            fin(*amplitude_rad_s, "motion.amplitude_rad_s")?;
+            pos(*frequency_hz, "motion.frequency_hz")?;
+            pos(*duration_s, "motion.duration_s")?;
+        }
+        MotionSegment::Current { current_a, duration_s } => {
+            fin(*current_a, "motion.current_a")?;
+            pos(*duration_s, "motion.duration_s")?;
+        }
+    }
+    Ok(())
+}
+
+/// One `[[external_torque]]` component's values.
+fn check_external_torque(t: &ExternalTorque) -> Result<(), SimError> {
+    match t {
+        ExternalTorque::Step { at_s, torque_nm } => {
+            fin(*at_s, "external_torque.at_s")?;
+            fin(*torque_nm, "external_torque.torque_nm")?;
+        }
+        ExternalTorque::Sine { amplitude_nm, frequency_hz, phase_rad, start_s } => {
+            fin(*amplitude_nm, "external_torque.amplitude_nm")?;
+            nonneg(*frequency_hz, "external_torque.frequency_hz")?;
+            fin(*phase_rad, "external_torque.phase_rad")?;
+            fin(*start_s, "external_torque.start_s")?;
+        }
+        ExternalTorque::Ramp { from_s, to_s, torque_nm } => {
+            fin(*from_s, "external_torque.from_s")?;
+            fin(*to_s, "external_torque.to_s")?;
+            fin(*torque_nm, "external_torque.torque_nm")?;
+            if to_s <= from_s {
+                return Err(SimError::invalid("external_torque.to_s", "must exceed from_s".into()));
+            }
+        }
+    }
+    Ok(())
 }
