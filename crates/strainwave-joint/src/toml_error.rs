@@ -12,7 +12,7 @@ pub fn one_line(path: &Path, text: &str, e: &toml::de::Error) -> anyhow::Error {
     let before = text.get(..span.start).unwrap_or(text);
     let line = before.matches('\n').count() + 1;
     let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
-    let key = strainwave_analysis::calibration::toml_key_at(before).map_or(String::new(), |k| format!("`{k}`: "));
+    let key = strainwave_analysis::calibration::toml_key_at(before).map_or(String::new(), |k| format!("{k}: "));
     anyhow::anyhow!("{}: line {line}, column {column}: {key}{message}", path.display())
 }
 
@@ -47,5 +47,26 @@ mod tests {
         let msg = one_line(Path::new("j.toml"), text, &e).to_string();
         assert!(msg.starts_with("j.toml: "), "{msg}");
         assert!(msg.contains("model"), "{msg}");
+    }
+
+    #[derive(Debug, serde::Deserialize)]
+    #[allow(dead_code)]
+    struct Learned {
+        joint: H,
+        orders: Vec<H>,
+    }
+    #[derive(Debug, serde::Deserialize)]
+    #[allow(dead_code)]
+    struct H {
+        multiple: f64,
+    }
+
+    /// In an array of tables the key is named with its entry, not the table above.
+    #[test]
+    fn names_the_entry_of_an_array_of_tables() {
+        let text = "[joint]\nmultiple = 1.0\n[[orders]]\nmultiple = 2.0\n[[orders]]\nmultiple = \"four\"\n";
+        let e = toml::from_str::<Learned>(text).unwrap_err();
+        let msg = one_line(Path::new("l.toml"), text, &e).to_string();
+        assert!(msg.starts_with("l.toml: line 6, column 12: `[[orders]]` entry 2, `multiple`: "), "{msg}");
     }
 }

@@ -14,10 +14,7 @@ pub(crate) fn parse_toml<T: DeserializeOwned>(text: &str) -> Result<T, SimError>
             // The key as the user wrote it (`sensor.layout`), when the error is a value's.
             let key = e.span().and_then(|s| key_at(text.get(..s.start)?));
             if let Some(k) = key {
-                return SimError::Parse {
-                    message: format!("`{k}`: {message}"),
-                    location: toml_location(text, e.span()),
-                };
+                return SimError::Parse { message: format!("{k}: {message}"), location: toml_location(text, e.span()) };
             }
             // An error inside a `[[name]]` entry is reported at its header: name the entry
             // and, where the message tells, the key and its line.
@@ -57,9 +54,10 @@ fn header_name(line: &str) -> Option<&str> {
     line.trim().strip_prefix("[[")?.split("]]").next().map(str::trim)
 }
 
-/// The dotted key whose value starts at the end of `before`: the table header above it
-/// joined with the key on its own line, when the line is a plain `key = value` (as the
-/// joint crate's configuration errors name it).
+/// The key whose value starts at the end of `before`, as the user wrote it, in backticks
+/// (`` `sensor.layout` ``, or `` `[[motion]]` entry 2, `to_rad_s` `` in an array of tables),
+/// when the line is a plain `key = value`; the configuration files of the joint crate
+/// name keys the same way.
 fn key_at(before: &str) -> Option<String> {
     let mut lines = before.rsplit('\n');
     let (key, _) = lines.next()?.split_once('=')?;
@@ -67,13 +65,15 @@ fn key_at(before: &str) -> Option<String> {
     if key.is_empty() || key.contains(['[', '{', ',']) {
         return None;
     }
-    let table = lines
-        .map(str::trim)
-        .find(|l| l.starts_with('['))
-        .map(|l| l.trim_start_matches('[').split(']').next().unwrap_or("").trim().to_string());
-    Some(match table {
-        Some(t) if !t.is_empty() => format!("{t}.{key}"),
-        _ => key.to_string(),
+    let header = lines.map(str::trim).find(|l| l.starts_with('['));
+    let name = |h: &str| h.trim_start_matches('[').split(']').next().unwrap_or("").trim().to_string();
+    Some(match header {
+        Some(h) if h.starts_with("[[") => {
+            let n = before.lines().filter(|l| l.trim().starts_with("[[") && name(l) == name(h)).count();
+            format!("`[[{}]]` entry {n}, `{key}`", name(h))
+        }
+        Some(h) if !name(h).is_empty() => format!("`{}.{key}`", name(h)),
+        _ => format!("`{key}`"),
     })
 }
 

@@ -411,15 +411,17 @@ pub fn toml_error_line(text: &str, e: &toml::de::Error) -> String {
         let before = text.get(..s.start).unwrap_or(text);
         let line = before.matches('\n').count() + 1;
         let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
-        let key = toml_key_at(before).map_or(String::new(), |k| format!("`{k}`: "));
+        let key = toml_key_at(before).map_or(String::new(), |k| format!("{k}: "));
         format!("line {line}, column {column}: {key}")
     });
     format!("{at}{}", e.message().trim().replace('\n', "; "))
 }
 
-/// The dotted key whose value starts at the end of `before` (the text up to an error's
-/// span): the table header above it joined with the key on its own line, when the line
-/// is a plain `key = value` (`filter.model`).
+/// The key whose value starts at the end of `before` (the text up to an error's span),
+/// as the user wrote it, in backticks: the table header above it joined with the key on
+/// its own line (`` `filter.model` ``), or in an array of tables the entry, counted from 1,
+/// and the key (`` `[[orders]]` entry 2, `multiple` ``). `None` unless the line is a plain
+/// `key = value`.
 pub fn toml_key_at(before: &str) -> Option<String> {
     let mut lines = before.rsplit('\n');
     let current = lines.next()?;
@@ -428,13 +430,15 @@ pub fn toml_key_at(before: &str) -> Option<String> {
     if key.is_empty() || key.contains(['[', '{', ',']) {
         return None;
     }
-    let table = lines
-        .map(str::trim)
-        .find(|l| l.starts_with('[') && !l.starts_with("[["))
-        .map(|l| l.trim_start_matches('[').split(']').next().unwrap_or("").trim().to_string());
-    Some(match table {
-        Some(t) if !t.is_empty() => format!("{t}.{key}"),
-        _ => key.to_string(),
+    let header = lines.map(str::trim).find(|l| l.starts_with('['));
+    let name = |h: &str| h.trim_start_matches('[').split(']').next().unwrap_or("").trim().to_string();
+    Some(match header {
+        Some(h) if h.starts_with("[[") => {
+            let n = before.lines().filter(|l| l.trim().starts_with("[[") && name(l) == name(h)).count();
+            format!("`[[{}]]` entry {n}, `{key}`", name(h))
+        }
+        Some(h) if !name(h).is_empty() => format!("`{}.{key}`", name(h)),
+        _ => format!("`{key}`"),
     })
 }
 
