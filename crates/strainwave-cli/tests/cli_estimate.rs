@@ -120,6 +120,11 @@ fn a_bad_model_value_is_an_error_naming_the_file_and_key_before_any_row() {
             "hysteresis = { kind = \"plays\", half_widths_rad = [1e-4], weights_rad = [] }",
             "`compliance.hysteresis.weights_rad`: 0 values",
         ),
+        (
+            HYSTERESIS,
+            "hysteresis = { kind = \"plays\", half_widths_rad = [], weights_rad = [] }",
+            "`compliance.hysteresis.half_widths_rad`: 0 plays, 1 to 8",
+        ),
     ];
     for (from, to, key) in cases {
         let model = d.join("model.toml");

@@ -84,9 +84,9 @@ impl ModelFile {
     }
 
     /// The model's plain numbers, by their keys: the sample rate, torque range and rated
-    /// torque positive, the windup offset, damping and kinematic coefficients finite, one
-    /// play weight per half-width. (The spring and hysteresis constructors check the rest
-    /// and name their keys.)
+    /// torque positive, the windup offset, damping and kinematic coefficients finite, 1 to
+    /// 8 plays with one weight per half-width. (The spring and hysteresis constructors
+    /// check the rest and name their keys.)
     pub fn check_numbers(&self) -> Result<()> {
         let c = &self.compliance;
         let positive = [
@@ -112,8 +112,8 @@ impl ModelFile {
         }
         if let Hysteresis::Plays { half_widths_rad, weights_rad } = &c.hysteresis {
             let (n, max) = (half_widths_rad.len(), strainwave_core::compliance::MAX_PLAYS);
-            if n > max {
-                bail!("`compliance.hysteresis.half_widths_rad`: {n} plays, at most {max}");
+            if !(1..=max).contains(&n) {
+                bail!("`compliance.hysteresis.half_widths_rad`: {n} plays, 1 to {max}");
             }
             if weights_rad.len() != n {
                 bail!("`compliance.hysteresis.weights_rad`: {} values, one per half-width ({n})", weights_rad.len());
