@@ -39,7 +39,7 @@ fn array_entry(text: &str, offset: usize, message: &str) -> Option<(String, Opti
             inside = header_name(line) == Some(name);
             n += usize::from(inside);
         } else if let (true, Some((key, value))) = (inside, line.split_once('=')) {
-            let (key, value) = (key.trim(), value.split('#').next().unwrap_or("").trim());
+            let (key, value) = (key.trim(), without_comment(value).trim());
             if unknown_field(message) == Some(key) || (key != "kind" && shows_value(message, value)) {
                 return Some((format!("`[[{name}]]` entry {n}, `{key}`"), Some(at)));
             }
@@ -47,6 +47,26 @@ fn array_entry(text: &str, offset: usize, message: &str) -> Option<(String, Opti
         at += line.len();
     }
     Some((format!("`[[{name}]]`"), None))
+}
+
+/// `value` up to its comment: the first `#` outside a quoted string.
+fn without_comment(value: &str) -> &str {
+    let (mut quote, mut escaped) = (None, false);
+    for (i, c) in value.char_indices() {
+        match (quote, c) {
+            (None, '#') => return &value[..i],
+            (None, '"' | '\'') => quote = Some(c),
+            // Only basic strings (`"…"`) have escapes.
+            (Some('"'), '\\') if !escaped => {
+                escaped = true;
+                continue;
+            }
+            (Some(q), _) if c == q && !escaped => quote = None,
+            _ => {}
+        }
+        escaped = false;
+    }
+    value
 }
 
 /// The name of an `[[name]]` header line.
@@ -177,6 +197,9 @@ mod tests {
                 "durashun_s",
             ),
             (edit(2, "duration_s = ", "duration_s = \"long\" #"), "`[[motion]]` entry 3, `duration_s`", "\"long\""),
+            // A `#` inside a string is the value's, not a comment.
+            (edit(1, "duration_s = ", "duration_s = \"1 # s\" #"), "`[[motion]]` entry 2, `duration_s`", "\"1 # s\""),
+            (edit(1, "duration_s = ", "duration_s = 'a#b' #"), "`[[motion]]` entry 2, `duration_s`", "'a#b'"),
         ];
         for (text, expect, at) in cases {
             let e = crate::Scenario::from_toml(&text).unwrap_err().to_string();
