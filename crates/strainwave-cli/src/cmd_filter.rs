@@ -67,6 +67,17 @@ pub fn run(a: &Args) -> Result<()> {
     let outputs = [("--out", &a.out), ("--learn", &a.learn)];
     strainwave_io::output::refuse_shared_outputs(outputs.into_iter().filter_map(|(f, p)| Some((f, p.as_deref()?))))?;
     let cfg = JointConfig::load(&a.config)?;
+    // The files the config reads are inputs too (`--learn` may update the learned file).
+    let calibration = cfg.calibration.as_ref().and_then(|c| c.file.as_deref());
+    if let Some(out) = &a.out {
+        strainwave_io::output::refuse_input_as_output(
+            out,
+            calibration.into_iter().chain(cfg.filter.learned.as_deref()),
+        )?;
+    }
+    if let Some(learn) = &a.learn {
+        strainwave_io::output::refuse_input_as_output(learn, calibration)?;
+    }
     let last = a.input.len() - 1;
     for (i, input) in a.input.iter().enumerate() {
         // Only the last run's output is kept; the others go nowhere.

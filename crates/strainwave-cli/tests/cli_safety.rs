@@ -120,6 +120,30 @@ fn an_output_naming_an_input_is_refused_and_the_input_kept() {
 }
 
 #[test]
+fn filter_refuses_to_write_over_a_file_its_config_reads() {
+    let d = tmp("config-reads");
+    let rec = d.join("rec.csv");
+    recording(&rec, 64, |_, _| {});
+    // The config's calibration and learned files, under names an output could take.
+    let (cal, learned) = (d.join("cal.csv"), d.join("learned.csv"));
+    std::fs::copy("../../examples/calibration.toml", &cal).unwrap();
+    std::fs::copy("../../examples/joint-taghirad-learned.toml", &learned).unwrap();
+    let config = std::fs::read_to_string("../../examples/joint-taghirad.toml")
+        .unwrap()
+        .replace("gain_nm_per_v = 6.611", "file = \"cal.csv\"")
+        .replace("learned = \"joint-taghirad-learned.toml\"", "learned = \"learned.csv\"");
+    let joint = d.join("joint.toml");
+    std::fs::write(&joint, config).unwrap();
+    let before = [&cal, &learned].map(|p| std::fs::read(p).unwrap());
+    let filter = ["filter", "--config", s(&joint), "--in", s(&rec)];
+    for (flag, target) in [("--out", &cal), ("--out", &learned), ("--learn", &cal)] {
+        let o = run(&[&filter[..], &[flag, s(target)]].concat());
+        assert_error(&o, &["is also an input", s(target)]);
+    }
+    assert_eq!([&cal, &learned].map(|p| std::fs::read(p).unwrap()), before);
+}
+
+#[test]
 fn a_second_output_naming_an_input_or_the_first_output_is_refused() {
     let d = tmp("second");
     let rec = d.join("rec.csv");
