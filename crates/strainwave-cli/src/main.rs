@@ -2,7 +2,7 @@
 //!
 //! A thin binary over the library crates: parse arguments, run one command, print
 //! errors once. Exit codes: 0 success, 1 user error (bad file, bad value), 2 bad usage,
-//! 130 / 143 interrupted (SIGINT / SIGTERM), 141 output pipe closed.
+//! 130 / 143 / 129 interrupted (SIGINT / SIGTERM / SIGHUP), 141 output pipe closed.
 
 mod cmd_calibrate;
 mod cmd_campbell;

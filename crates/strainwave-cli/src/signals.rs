@@ -1,17 +1,18 @@
 //! Interrupts and closed pipes end a run the way the shell expects, leaving nothing
-//! behind: on SIGINT or SIGTERM the temporary files of outputs not yet in place are
-//! removed and the process exits with 128 + the signal (130, 143); a write to a closed
+//! behind: on SIGINT, SIGTERM or SIGHUP (the terminal closed) the temporary files of
+//! outputs not yet in place are removed and the process exits with 128 + the signal
+//! (130, 143, 129); a write to a closed
 //! pipe (`strainwave … --out - | head`) ends the run quietly with 141, as SIGPIPE would.
 
-use signal_hook::consts::{SIGINT, SIGTERM};
+use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
 
 /// Exit status of a run cut short by a closed pipe (128 + SIGPIPE).
 pub const BROKEN_PIPE_EXIT: u8 = 141;
 
-/// Starts the thread that waits for SIGINT and SIGTERM. Without it (if the handler cannot
+/// Starts the thread that waits for SIGINT, SIGTERM and SIGHUP. Without it (if the handler cannot
 /// be installed) the default action still ends the process; only the cleanup is lost.
 pub fn install() {
-    let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM]) else { return };
+    let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]) else { return };
     let _ = std::thread::Builder::new().name("signals".into()).spawn(move || {
         if let Some(sig) = signals.forever().next() {
             // Held until exit: no new temporary file appears after the cleanup.

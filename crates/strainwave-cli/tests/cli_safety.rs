@@ -201,8 +201,8 @@ fn a_learn_file_that_cannot_be_written_leaves_the_output_as_it_was() {
 }
 
 #[test]
-fn sigterm_and_sigint_remove_the_temporary_file_and_exit_128_plus_the_signal() {
-    for (sig, code) in [("TERM", 143), ("INT", 130)] {
+fn sigterm_sigint_and_sighup_remove_the_temporary_file_and_exit_128_plus_the_signal() {
+    for (sig, code) in [("TERM", 143), ("INT", 130), ("HUP", 129)] {
         let d = tmp(&format!("sig{sig}"));
         let out = d.join("long.csv");
         let mut child = bin()
