@@ -6,7 +6,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use strainwave_io::{RecordingReader, RecordingWriter};
 use strainwave_joint::estimate::Estimator;
 
@@ -32,7 +32,8 @@ pub struct Args {
 pub fn run(a: &Args) -> Result<()> {
     strainwave_io::output::refuse_input_as_output(&a.out, [a.input.as_path(), a.config.as_path()])?;
     let est = Estimator::load(&a.config)?;
-    let mut reader = RecordingReader::open(&a.input).with_context(|| format!("{}", a.input.display()))?;
+    // The reader's errors name the file.
+    let mut reader = RecordingReader::open(&a.input)?;
     let input = a.input.display().to_string();
     let s = est.run(&mut reader, |names| Ok(RecordingWriter::create(&a.out, names)?), &input)?;
     if let Some(w) = s.warning() {

@@ -167,3 +167,26 @@ fn missing_encoder_column_is_a_one_line_error() {
     assert_eq!(err.trim_end().lines().count(), 1, "{err}");
     assert!(err.contains("link_angle"), "{err}");
 }
+
+#[test]
+fn an_unreadable_recording_is_named_once() {
+    let d = dir("unreadable");
+    let model = d.join("model.toml");
+    std::fs::write(&model, MODEL).unwrap();
+    let empty = d.join("empty.csv");
+    std::fs::write(&empty, "").unwrap();
+    for input in [empty, d.join("missing.csv")] {
+        let out = bin()
+            .args(["estimate", "--config"])
+            .arg(&model)
+            .arg("--in")
+            .arg(&input)
+            .arg("--out")
+            .arg(d.join("out.csv"))
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(1));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(err.matches(input.to_str().unwrap()).count(), 1, "{err}");
+    }
+}

@@ -226,6 +226,9 @@ fn bad_inputs_are_one_line_errors_and_write_nothing() {
         (with("motor_velocity = \"motor_velocity\"", "motor_velocity = \"tacho\""), "no column `tacho`"),
         (with("output_angle = \"output_angle\"", "output_angle = \"link_angle\""), "learned on another joint"),
         (with("noise_nm = 0.0162", "noise_nm = -1.0"), "noise_nm"),
+        // Positive, but its variance overflows: named once, by its key and value.
+        (with("noise_nm = 0.0162", "noise_nm = 1e300"), "toml: `filter.noise_nm` = 1e300 N·m: its square"),
+        (with("noise_nm = 0.0162", "noise_nm = 1e-300"), "toml: `filter.noise_nm` = 1e-300 N·m: its square"),
         (with("model = \"full\"", "model = \"magic\""), "filter.model"),
         (with("model = \"full\"", "model = \"product\""), "orders [2 relative, 4 relative, 2 relative load-scaled"),
         (with("learned = \"joint-taghirad-learned.toml\"", "learned = \"missing.toml\""), "`filter.learned`: "),
