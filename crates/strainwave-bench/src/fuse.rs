@@ -355,9 +355,10 @@ impl Job<'_> {
                 let (ts, acc) = m.paths(cfg.stator_inertia_kg_m2, config)?;
                 // Taps beyond the recording only add zeros; the bound keeps a typo from
                 // sizing the design's FFT.
-                if !(1..=MAX_FIR_TAPS).contains(&m.fir_taps) || m.fir_taps > n {
+                // An even count is rounded up to the odd one above it.
+                if !(2..=MAX_FIR_TAPS).contains(&m.fir_taps) || m.fir_taps > n {
                     bail!(
-                        "{}: [model] fir_taps = {}: must be from 1 to {MAX_FIR_TAPS} and at most the recording's {n} rows",
+                        "{}: [model] fir_taps = {}: must be from 2 to {MAX_FIR_TAPS} and at most the recording's {n} rows",
                         config,
                         m.fir_taps
                     );

@@ -446,33 +446,37 @@ fn option_values_beyond_the_limits_are_one_line_errors() {
         "--quiet",
     ]);
     assert_error(&o, &["speed bins"]);
-    // FIR taps of a bench config.
-    let cfg = std::fs::read_to_string("../../examples/bench-kit.toml").unwrap();
-    let cfg = if cfg.contains("fir_taps") {
-        cfg.lines()
-            .map(|l| if l.trim_start().starts_with("fir_taps") { "fir_taps = 100000001" } else { l })
-            .collect::<Vec<_>>()
-            .join("\n")
-    } else {
-        cfg.replace("[model]\n", "[model]\nfir_taps = 100000001\n")
-    };
-    let cfg_path = d.join("bench.toml");
-    std::fs::write(&cfg_path, cfg).unwrap();
+    // FIR taps of a bench config: too many, or too few for a filter (named by the key,
+    // not by the library's parameter).
     let bench = d.join("bench.csv");
     let o = run(&["simulate", "--preset", "kit-bench", "--duration", "2", "--out", s(&bench), "--quiet"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let o = run(&[
-        "fuse",
-        "--config",
-        s(&cfg_path),
-        "--in",
-        s(&bench),
-        "--method",
-        "corrected",
-        "--out",
-        s(&d.join("f.csv")),
-    ]);
-    assert_error(&o, &["fir_taps"]);
+    let original = std::fs::read_to_string("../../examples/bench-kit.toml").unwrap();
+    for taps in ["fir_taps = 100000001", "fir_taps = 1"] {
+        let cfg = if original.contains("fir_taps") {
+            original
+                .lines()
+                .map(|l| if l.trim_start().starts_with("fir_taps") { taps } else { l })
+                .collect::<Vec<_>>()
+                .join("\n")
+        } else {
+            original.replace("[model]\n", &format!("[model]\n{taps}\n"))
+        };
+        let cfg_path = d.join("bench.toml");
+        std::fs::write(&cfg_path, cfg).unwrap();
+        let o = run(&[
+            "fuse",
+            "--config",
+            s(&cfg_path),
+            "--in",
+            s(&bench),
+            "--method",
+            "corrected",
+            "--out",
+            s(&d.join("f.csv")),
+        ]);
+        assert_error(&o, &[taps]);
+    }
 }
 
 #[test]
