@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::Result;
+use anyhow::{bail, Result};
 use strainwave_analysis::psd::SpectralConfig;
 use strainwave_analysis::stft::spectrogram;
 
@@ -28,6 +28,9 @@ pub struct Args {
 /// Runs `spectrogram`.
 pub fn run(a: &Args) -> Result<()> {
     strainwave_io::output::refuse_input_as_output(&a.out, [a.source.input.as_path()])?;
+    if let Some(f) = a.max_hz.filter(|f| !(f.is_finite() && *f > 0.0)) {
+        bail!("--max-hz: must be positive, got {f:?}");
+    }
     let (t, fs) = a.source.read()?;
     let x = a.source.signal(&t)?;
     check_window(x.len(), a.nperseg)?;

@@ -233,6 +233,23 @@ fn bad_inputs_give_one_line_errors() {
     // Missing column.
     let o = run(&["spectrogram", "--in", s(&sim), "--signal", "nope", "--out", s(&d.join("s.svg"))]);
     assert_user_error(&o, "nope");
+
+    // A frequency range that shows nothing.
+    for max_hz in ["0", "-0", "nan"] {
+        let svg = d.join("s.svg");
+        let o = run(&[
+            "spectrogram",
+            "--in",
+            s(&sim),
+            "--signal",
+            "torsion_torque",
+            &format!("--max-hz={max_hz}"),
+            "--out",
+            s(&svg),
+        ]);
+        assert_user_error(&o, "--max-hz: must be positive");
+        assert!(!svg.exists());
+    }
 }
 
 /// The fusion target, end to end: `fuse` with its defaults on the `kit-bench-sweep`
