@@ -240,9 +240,9 @@ impl JointConfig {
             bail!("{}: `filter.sample_rate_hz` must be positive", path.display());
         }
         c.denoiser().with_context(|| format!("{}", path.display()))?;
-        // The models use the variance: its square must be a usable number too.
+        // The models use the variance: a positive value's square must be usable too.
         if let Some(n) = c.filter.noise_nm {
-            if !(n > 0.0 && (n * n).is_normal()) {
+            if n > 0.0 && !(n * n).is_normal() {
                 bail!(
                     "{}: `filter.noise_nm` = {n:?} N·m: its square (the variance) must be finite and positive",
                     path.display()
