@@ -156,6 +156,33 @@ fn column<'a>(t: &'a strainwave_io::Table, path: &Path, name: &str, option: &str
     Ok(c)
 }
 
+/// How many times its column's 90th-percentile magnitude a reference or sensor value
+/// may be: a calibration spans one range, so a value far beyond it is a glitch or a unit
+/// slip that a least-squares fit would follow (one row of 4e9 N·m made the gain 5000 times
+/// too large).
+const OUTLIER_FACTOR: f64 = 100.0;
+
+/// An error naming the row of `c` (column `name` of `path`) whose magnitude is over
+/// [`OUTLIER_FACTOR`] times the column's 90th-percentile magnitude.
+fn refuse_outlier(c: &[f64], path: &Path, name: &str) -> Result<()> {
+    let mut size: Vec<f64> = c.iter().map(|v| v.abs()).collect();
+    size.sort_by(f64::total_cmp);
+    let p90 = size[(size.len() - 1) * 9 / 10];
+    if p90 == 0.0 {
+        return Ok(());
+    }
+    if let Some(row) = c.iter().position(|v| v.abs() > OUTLIER_FACTOR * p90) {
+        bail!(
+            "{}: row {}: `{name}` = {:?} is over {OUTLIER_FACTOR} times the column's 90th-percentile magnitude ({p90:?}); \
+             a glitch or a unit slip? Fix or drop the row",
+            path.display(),
+            row + 1,
+            c[row]
+        );
+    }
+    Ok(())
+}
+
 /// Reads the inputs into experiments: one per file, or one per value of `--experiment-column`.
 fn load(a: &Args, need_speed: bool, mounting: Option<&str>) -> Result<Vec<ExperimentRows>> {
     let mut out = Vec::new();
@@ -166,6 +193,8 @@ fn load(a: &Args, need_speed: bool, mounting: Option<&str>) -> Result<Vec<Experi
         }
         let reference = column(&t, path, &a.reference, "--reference")?;
         let sensor = column(&t, path, &a.sensor, "--sensor")?;
+        refuse_outlier(reference, path, &a.reference)?;
+        refuse_outlier(sensor, path, &a.sensor)?;
         let speed = match (&a.speed, need_speed) {
             (Some(s), _) => Some(column(&t, path, s, "--speed")?),
             (None, true) => bail!("--model {} needs --speed COL", a.model.name()),

@@ -268,6 +268,32 @@ fn a_finite_value_too_large_to_square_is_named_by_its_input_row() {
 }
 
 #[test]
+fn one_glitch_row_is_refused_not_fitted() {
+    // Before: one reference row of 4e9 N·m was fitted like any other (exit 0).
+    let d = tmp("glitch");
+    let cal = d.join("cal.toml");
+    for (column, row, glitch) in [("torque", 37, "4e9"), ("volts", 12, "-1500")] {
+        let p = d.join("glitch.csv");
+        let mut text = String::from("torque,volts\n");
+        for k in 0..100 {
+            let (torque, volts) = (k.to_string(), format!("{}", 0.15 * k as f64));
+            let (torque, volts) = match (k + 1 == row, column) {
+                (true, "torque") => (glitch.to_string(), volts),
+                (true, _) => (torque, glitch.to_string()),
+                _ => (torque, volts),
+            };
+            text += &format!("{torque},{volts}\n");
+        }
+        std::fs::write(&p, text).unwrap();
+        let e =
+            user_error(&["calibrate", "--in", s(&p), "--reference", "torque", "--sensor", "volts", "--out", s(&cal)]);
+        let at = format!("glitch.csv: row {row}: `{column}` = {glitch}");
+        assert!(e.contains(&at.replace("4e9", "4000000000.0")) && e.contains("over 100 times"), "{e}");
+        assert!(!cal.exists());
+    }
+}
+
+#[test]
 fn speeds_outside_the_table_reject_or_clamp() {
     let d = tmp("speed");
     let p = d.join("speeds.csv");

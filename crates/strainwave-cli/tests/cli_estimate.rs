@@ -23,6 +23,11 @@ fn simulate(preset: &str, out: &Path) {
     ok(bin().args(["simulate", "--preset", preset, "--quiet", "--out"]).arg(out));
 }
 
+/// `estimate` of `input` with the model file `model`, written to `out`.
+fn estimate(model: &Path, input: &Path, out: &Path) -> std::process::Output {
+    bin().args(["estimate", "--config"]).arg(model).arg("--in").arg(input).arg("--out").arg(out).output().unwrap()
+}
+
 fn examples() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/arm-hda.toml")
 }
@@ -129,15 +134,7 @@ fn a_bad_model_value_is_an_error_naming_the_file_and_key_before_any_row() {
     for (from, to, key) in cases {
         let model = d.join("model.toml");
         std::fs::write(&model, MODEL.replacen(from, to, 1)).unwrap();
-        let out = bin()
-            .args(["estimate", "--config"])
-            .arg(&model)
-            .arg("--in")
-            .arg(&input)
-            .arg("--out")
-            .arg(d.join("out.csv"))
-            .output()
-            .unwrap();
+        let out = estimate(&model, &input, &d.join("out.csv"));
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(1), "{to}: {err}");
         assert_eq!(err.trim_end().lines().count(), 1, "{err}");
@@ -153,15 +150,7 @@ fn missing_encoder_column_is_a_one_line_error() {
     std::fs::write(&model, MODEL).unwrap();
     let input = d.join("in.csv");
     std::fs::write(&input, "time,motor_angle,other\n0,0,0\n0.001,0,0\n").unwrap();
-    let out = bin()
-        .args(["estimate", "--config"])
-        .arg(&model)
-        .arg("--in")
-        .arg(&input)
-        .arg("--out")
-        .arg(d.join("out.csv"))
-        .output()
-        .unwrap();
+    let out = estimate(&model, &input, &d.join("out.csv"));
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(err.trim_end().lines().count(), 1, "{err}");
@@ -176,17 +165,47 @@ fn an_unreadable_recording_is_named_once() {
     let empty = d.join("empty.csv");
     std::fs::write(&empty, "").unwrap();
     for input in [empty, d.join("missing.csv")] {
-        let out = bin()
-            .args(["estimate", "--config"])
-            .arg(&model)
-            .arg("--in")
-            .arg(&input)
-            .arg("--out")
-            .arg(d.join("out.csv"))
-            .output()
-            .unwrap();
+        let out = estimate(&model, &input, &d.join("out.csv"));
         assert_eq!(out.status.code(), Some(1));
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(err.matches(input.to_str().unwrap()).count(), 1, "{err}");
     }
+}
+
+#[test]
+fn the_time_column_must_move_forward_at_the_models_rate() {
+    let d = dir("time");
+    let model = d.join("model.toml");
+    std::fs::write(&model, MODEL).unwrap();
+    let rows = |times: &[&str]| -> String {
+        let body: String = times.iter().map(|t| format!("{t},0,0\n")).collect();
+        format!("time,motor_angle,link_angle\n{body}")
+    };
+    let every_other_row: Vec<String> = (0..50).map(|k| format!("{}", 0.002 * k as f64)).collect();
+    let every_other_row: Vec<&str> = every_other_row.iter().map(String::as_str).collect();
+    let cases = [
+        (rows(&every_other_row), "gives 500.0 Hz, but the model was fitted at `sample_rate_hz` = 1000.0 Hz"),
+        (rows(&["0", "0.001", "nan", "0.003"]), "data row 3: time (column `time`) is NaN"),
+        (rows(&["0", "0.001", "0.001"]), "data row 3: time 0.001 s (column `time`) is not after"),
+        (rows(&["0.002", "0.001", "0"]), "data row 2: time 0.001 s"),
+        (rows(&[]), "no data rows"),
+    ];
+    let out = d.join("out.csv");
+    std::fs::write(&out, "kept").unwrap();
+    for (text, message) in cases {
+        let input = d.join("in.csv");
+        std::fs::write(&input, &text).unwrap();
+        let run = estimate(&model, &input, &out);
+        let err = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(1), "{message}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+        assert!(err.contains("in.csv") && err.contains(message), "{message}: {err}");
+        assert_eq!(std::fs::read_to_string(&out).unwrap(), "kept", "an error leaves the old output");
+    }
+    // Within 5 % of the model's rate is the same rate (a real arm's logs differ by 0.5 %).
+    let close: Vec<String> = (0..50).map(|k| format!("{}", 0.00102 * k as f64)).collect();
+    let input = d.join("in.csv");
+    std::fs::write(&input, rows(&close.iter().map(String::as_str).collect::<Vec<_>>())).unwrap();
+    let run = estimate(&model, &input, &out);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
 }

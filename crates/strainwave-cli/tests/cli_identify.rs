@@ -131,6 +131,19 @@ fn joint3_from_the_loaded_log_alone_beats_the_plain_linear_fit() {
     // The fit reported R² 0.9615 on the same log; the streaming path must agree.
     assert!(in_sample > 0.955, "{in_sample}");
     assert!(r2(&cols[1], &cols[2]) < in_sample, "friction must explain part of the current torque");
+    // The same log with every other row dropped is at half the model's rate: refused, as
+    // the model's damping and friction rates would be wrong (before: exit 0 and an RMS
+    // error of `current_torque` of 110 N·m instead of 12.5).
+    let text = std::fs::read_to_string(log("validate")).unwrap();
+    let half: String = text.lines().enumerate().filter(|(k, _)| k % 2 == 0).map(|(_, l)| format!("{l}\n")).collect();
+    let half_log = d.join("half.csv");
+    std::fs::write(&half_log, half).unwrap();
+    let mut c = bin();
+    c.args(["estimate", "--config"]).arg(&model).arg("--in").arg(&half_log).arg("--out").arg(d.join("half-est.csv"));
+    let o = c.output().unwrap();
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("half.csv: the time column `Timestamp` gives 124.5 Hz") && err.contains("249.1 Hz"), "{err}");
 }
 
 /// Joint 1 jogs 0.02 rev: the current torque is mostly friction. Measured: holdout R²

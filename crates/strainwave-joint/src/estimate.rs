@@ -11,6 +11,7 @@ use strainwave_core::torsion::{Estimate, EstimatorState};
 
 use crate::identify::{refuse_count_scaling, ModelFile};
 use crate::run::{RowSink, RowSource};
+use crate::sample_clock::SampleClock;
 
 /// Bits of the `estimate_flags` column.
 pub mod flags {
@@ -121,6 +122,7 @@ impl Estimator {
         };
         let mi = index("motor", &model.channels.motor, source)?;
         let li = index("link", &model.channels.link, source)?;
+        let mut clock = SampleClock::find(model.channels.time.as_ref(), source.columns(), input, &self.config)?;
         let (ms, mo) = model.channels.motor.scale_offset();
         let (ls, lo) = model.channels.link.scale_offset();
         let mut rates = match &model.friction {
@@ -147,6 +149,9 @@ impl Estimator {
         let mut k = 0u64;
         while source.read_row(&mut row)? {
             k += 1;
+            if let Some(c) = &mut clock {
+                c.push(&row, k, input)?;
+            }
             let (m, l) = (row[mi], row[li]);
             let r = match &model.encoders {
                 Some(_) => {
@@ -188,6 +193,12 @@ impl Estimator {
                 row.push(e.link_torque_nm + f.torque_nm(e.link_torque_nm, v, acc));
             }
             w.write_row(&row)?;
+        }
+        if k == 0 {
+            bail!("{input}: no data rows");
+        }
+        if let Some(c) = &clock {
+            c.check_rate(fs, input, &self.config)?;
         }
         let rows = w.finish()?;
         Ok(EstimateSummary { rows, wraps, jumps, first_jump })

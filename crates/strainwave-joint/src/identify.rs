@@ -426,7 +426,7 @@ pub fn identify(
         channels: Channels {
             motor: cfg.channels.motor.clone(),
             link: cfg.channels.link.clone(),
-            time: None,
+            time: cfg.channels.time.clone(),
             reference_torque: None,
         },
         kinematic: kinematic_model(&kin),

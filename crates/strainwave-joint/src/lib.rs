@@ -22,6 +22,7 @@ pub mod merge;
 pub mod one_line;
 pub mod row_check;
 pub mod run;
+pub mod sample_clock;
 pub mod smooth;
 pub mod toml_error;
 

@@ -120,7 +120,8 @@ pub struct Channels {
     pub motor: Channel,
     /// Link encoder: counts with `[encoders]`, else angle (rad after scaling).
     pub link: Channel,
-    /// Time, s (for the sample rate when `sample_rate_hz` is not given).
+    /// Time, s: the sample rate when `sample_rate_hz` is not given. In a model file, the
+    /// column `estimate` checks against the model's rate.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub time: Option<Channel>,
     /// Reference link torque of the loaded run, N·m.
