@@ -152,6 +152,13 @@ pub fn run(a: &Args) -> Result<()> {
     while sim.next_row(&mut row) {
         w.write_row(&row)?;
     }
+    if let Some(t) = sim.diverged_at_s() {
+        bail!(
+            "{}: the joint's dynamics diverged at t = {t} s (its true values are no longer finite); \
+             look for an extreme value among the gear, motor and load keys",
+            source()
+        );
+    }
     let rows = w.finish()?;
     if !a.quiet {
         let sensor = sim.sensor();

@@ -125,6 +125,16 @@ fn bad_scenarios_are_one_line_errors_naming_the_key() {
         ("sample_rate_hz = 1000.0", "sample_rate_hz = 150.0", "sample_rate_hz"),
         // Checked as the twin builds its sensor: still the file and the section named.
         ("outer_radius_m = 0.020", "outer_radius_m = 1e308", "bad.toml: `sensor` leaves the bridge with no torque"),
+        // Before: NaN angles and truth in 499 of 500 rows, exit 0 (the sub-step cap was reached).
+        (
+            "damping_nm_s_per_rad = 5.0",
+            "damping_nm_s_per_rad = 1e7",
+            "`gear.damping_nm_s_per_rad` = 1e7: the joint's fastest mode (4.030e7 rad/s) needs 6.717e4 RK4 sub-steps",
+        ),
+        // Before: accepted.
+        ("ratio = 100.0", "ratio = 1e308", "`gear.ratio` must be between 1 and 10000, got 1e308"),
+        // Before: a header and no row, exit 0.
+        ("duration_s = 4.0", "duration_s = 1e-300", "`duration_s` = 1e-300 s: not one sample"),
     ];
     for (from, to, needle) in cases {
         let f = scenario_with(&d, from, to);

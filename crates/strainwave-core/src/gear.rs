@@ -15,6 +15,10 @@
 use crate::error::{positive, Error};
 use crate::Real;
 
+/// The ratios a strain wave gear can have: flexspline teeth over the tooth difference
+/// (catalogue gears span 30 to 320). Configuration files are held to it.
+pub const RATIO_RANGE: core::ops::RangeInclusive<f64> = 1.0..=10_000.0;
+
 /// Which element of the gear is held fixed.
 ///
 /// With the `serde` feature it is the `fixed` value of every configuration file (joint,

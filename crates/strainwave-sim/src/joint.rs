@@ -146,6 +146,26 @@ impl JointModel {
         w_spring.max(s.gear.damping_nm_s_per_rad / j_eff)
     }
 
+    /// The scenario key that sets [`JointModel::max_natural_frequency_rad_s`], and its value:
+    /// the damping when its rate is the larger, else the stiffest spring slope.
+    pub fn stiffest_mode_key(s: &Scenario) -> (&'static str, f64) {
+        let jm_reflected = s.motor.inertia_kg_m2 * s.gear.ratio * s.gear.ratio;
+        let inv_j = 1.0 / s.load.inertia_kg_m2 + 1.0 / jm_reflected;
+        let g = &s.gear;
+        let slopes = [
+            ("gear.k1_nm_per_rad", g.k1_nm_per_rad),
+            ("gear.k2_nm_per_rad", g.k2_nm_per_rad),
+            ("gear.k3_nm_per_rad", g.k3_nm_per_rad),
+        ];
+        let (key, k) = slopes.into_iter().fold(slopes[0], |a, b| if b.1 > a.1 { b } else { a });
+        let hyst_factor = if g.hysteresis_rad > 0.0 { 3.0 } else { 1.0 };
+        if g.damping_nm_s_per_rad * inv_j > (hyst_factor * k * inv_j).sqrt() {
+            ("gear.damping_nm_s_per_rad", g.damping_nm_s_per_rad)
+        } else {
+            (key, k)
+        }
+    }
+
     /// Signed ratio `n_s`.
     pub fn signed_ratio(&self) -> f64 {
         self.n_s

@@ -31,6 +31,10 @@ pub const TRUE_COLUMNS: &[&str] = &[
 /// the test `integrator_converges_against_a_finer_step` holds the result to a 4× finer step.
 pub const MAX_OMEGA_H: f64 = 0.6;
 
+/// Most RK4 sub-steps per sample: a scenario whose stiffest mode needs more is refused
+/// (RK4 would otherwise run beyond its stability limit and write NaN).
+pub const MAX_SUBSTEPS: u32 = 10_000;
+
 /// A running simulation.
 pub struct Simulator {
     scenario: Scenario,
@@ -48,6 +52,7 @@ pub struct Simulator {
     motor_step_rad: f64,
     output_step_rad: f64,
     clipped: u64,
+    diverged_at_s: Option<f64>,
 }
 
 /// Encoder reading: whole counts, rad.
@@ -59,13 +64,30 @@ impl Simulator {
     /// Prepares a run of a validated scenario; the RK4 sub-step count follows from the
     /// stiffest mode (`|ω h| ≤ MAX_OMEGA_H`).
     pub fn new(scenario: &Scenario) -> Result<Self, SimError> {
+        scenario.validate()?;
+        let w = JointModel::max_natural_frequency_rad_s(scenario);
+        let needed = w / scenario.sample_rate_hz / MAX_OMEGA_H;
+        if needed.is_nan() || needed > f64::from(MAX_SUBSTEPS) {
+            let (key, value) = JointModel::stiffest_mode_key(scenario);
+            return Err(SimError::invalid(
+                key,
+                if w.is_finite() {
+                    format!(
+                        "= {value:e}: the joint's fastest mode ({w:.3e} rad/s) needs {needed:.3e} RK4 sub-steps \
+                         per sample, more than {MAX_SUBSTEPS}; lower it or raise `sample_rate_hz`"
+                    )
+                } else {
+                    format!("= {value:e}: the joint's fastest mode is infinitely fast; lower it")
+                },
+            ));
+        }
         Self::with_substeps(scenario, Self::auto_substeps(scenario))
     }
 
     /// Sub-steps per sample that keep `|ω h| ≤ MAX_OMEGA_H` for the stiffest mode.
     pub fn auto_substeps(scenario: &Scenario) -> u32 {
         let w = JointModel::max_natural_frequency_rad_s(scenario);
-        ((w / scenario.sample_rate_hz / MAX_OMEGA_H).ceil() as u32).clamp(1, 10_000)
+        ((w / scenario.sample_rate_hz / MAX_OMEGA_H).ceil() as u32).clamp(1, MAX_SUBSTEPS)
     }
 
     /// Prepares a run with a given number of RK4 sub-steps per sample (≥ 1).
@@ -103,6 +125,7 @@ impl Simulator {
             n_sub,
             open_loop: false,
             clipped: 0,
+            diverged_at_s: None,
         })
     }
 
@@ -151,7 +174,13 @@ impl Simulator {
         self.clipped
     }
 
-    /// Writes the next row into `row` (length = `columns().len()`); `false` when done.
+    /// The time at which the run stopped because its true values were no longer finite.
+    pub fn diverged_at_s(&self) -> Option<f64> {
+        self.diverged_at_s
+    }
+
+    /// Writes the next row into `row` (length = `columns().len()`); `false` when done, or
+    /// when the dynamics diverged ([`Simulator::diverged_at_s`]).
     pub fn next_row(&mut self, row: &mut Vec<f64>) -> bool {
         if self.k >= self.n_samples {
             return false;
@@ -216,6 +245,7 @@ impl Simulator {
         if let Some(noise) = s.encoders.reference_torque_noise_nm {
             row.push(tau + noise * self.rng.normal());
         }
+        let truth_from = row.len();
         row.extend_from_slice(&[
             tau,
             mesh + reading.interference_nm,
@@ -228,6 +258,13 @@ impl Simulator {
             current_a,
             ext,
         ]);
+        if !row[truth_from..].iter().all(|v| v.is_finite()) {
+            // The dynamics left the numbers: stop rather than write NaN as truth.
+            self.diverged_at_s = Some(t);
+            self.k = self.n_samples;
+            row.clear();
+            return false;
+        }
 
         // Advance the dynamics over the sample.
         let h = self.dt_s / self.n_sub as f64;
@@ -271,4 +308,28 @@ pub fn simulate(scenario: &Scenario) -> Result<(Recording, Simulator), SimError>
         }
     }
     Ok((Recording { columns, data }, sim))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_run_that_diverges_stops_before_writing_nan() {
+        let mut s = crate::presets::preset("taghirad").unwrap();
+        s.gear.damping_nm_s_per_rad = 1e7;
+        assert!(Simulator::new(&s).is_err(), "too stiff for the sub-step cap");
+        // Forced to one sub-step, RK4 runs past its stability limit.
+        let mut sim = Simulator::with_substeps(&s, 1).unwrap();
+        let mut row = Vec::new();
+        let mut rows = 0;
+        while sim.next_row(&mut row) {
+            assert!(row.iter().all(|v| v.is_finite()), "row {rows}: {row:?}");
+            rows += 1;
+        }
+        assert!(rows < sim.len() as usize, "{rows} rows");
+        let stopped_s = sim.diverged_at_s().expect("the time it stopped");
+        assert!((stopped_s * s.sample_rate_hz - rows as f64).abs() < 1e-6, "{stopped_s} s after {rows} rows");
+        assert!(!sim.next_row(&mut row), "stays stopped");
+    }
 }

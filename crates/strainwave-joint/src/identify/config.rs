@@ -11,9 +11,8 @@ use strainwave_io::Channel;
 /// configuration file (`circular_spline`, alias `circular-spline`, or `flexspline`).
 pub use strainwave_core::gear::FixedElement as Fixed;
 
-/// The ratios a strain wave gear can have: flexspline teeth over the tooth difference
-/// (catalogue gears span 30 to 320).
-pub const RATIO_RANGE: std::ops::RangeInclusive<f64> = 1.0..=10_000.0;
+/// The ratios a configuration file may give (the core's [`RATIO_RANGE`](strainwave_core::gear::RATIO_RANGE)).
+pub use strainwave_core::gear::RATIO_RANGE;
 
 /// The gear.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
