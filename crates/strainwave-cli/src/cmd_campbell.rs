@@ -57,7 +57,11 @@ pub fn run(a: &Args) -> Result<()> {
         .iter()
         .map(|&o| {
             let n_max = c.speed_axis_rpm.last().copied().unwrap_or(0.0) + a.speed_bin;
-            (format!("{o}×"), vec![(0.0, 0.0), (n_max, order_hz(o, n_max))])
+            // From the origin to the right edge, or to the top where it leaves the plot
+            // first (a large order, even an infinite frequency, ends at the top).
+            let hz = order_hz(o, n_max);
+            let end = if hz <= max_hz { (n_max, hz) } else { (n_max * (max_hz / hz), max_hz) };
+            (format!("{o}×"), vec![(0.0, 0.0), end])
         })
         .collect();
     let map = HeatMap {

@@ -22,20 +22,30 @@ pub struct Args {
     pub svg: Option<PathBuf>,
 }
 
+/// `v` with `decimals` decimals, or in scientific notation from a million up (an extreme
+/// design would otherwise print hundreds of digits).
+fn fixed(v: f64, decimals: usize) -> String {
+    if v.abs() >= 1e6 {
+        format!("{v:.3e}")
+    } else {
+        format!("{v:.decimals$}")
+    }
+}
+
 /// The printed report.
 pub fn render(r: &DesignReport, full_scale_for_pct: f64) -> String {
     let mut out = String::new();
     let _ = writeln!(out, "sensor design");
     let rows = vec![
-        vec!["sensitivity (bridge)".into(), format!("{:.5}", r.sensitivity_mv_per_v_per_nm), "mV/V per N·m".into()],
-        vec!["output at rated torque".into(), format!("{:.4}", r.output_at_rated_mv_per_v), "mV/V".into()],
-        vec!["sensitivity after amplifier".into(), format!("{:.5}", r.amplified_v_per_nm), "V per N·m".into()],
-        vec!["calibration gain".into(), format!("{:.4}", 1.0 / r.amplified_v_per_nm), "N·m/V".into()],
-        vec!["full scale (ADC range)".into(), format!("{:.2}", r.full_scale_nm), "N·m".into()],
-        vec!["resolution (1 LSB)".into(), format!("{:.5}", r.resolution_nm), "N·m".into()],
-        vec!["principal strain at rated torque".into(), format!("{:.1}", r.strain_at_rated_microstrain), "µε".into()],
+        vec!["sensitivity (bridge)".into(), fixed(r.sensitivity_mv_per_v_per_nm, 5), "mV/V per N·m".into()],
+        vec!["output at rated torque".into(), fixed(r.output_at_rated_mv_per_v, 4), "mV/V".into()],
+        vec!["sensitivity after amplifier".into(), fixed(r.amplified_v_per_nm, 5), "V per N·m".into()],
+        vec!["calibration gain".into(), fixed(1.0 / r.amplified_v_per_nm, 4), "N·m/V".into()],
+        vec!["full scale (ADC range)".into(), fixed(r.full_scale_nm, 2), "N·m".into()],
+        vec!["resolution (1 LSB)".into(), fixed(r.resolution_nm, 5), "N·m".into()],
+        vec!["principal strain at rated torque".into(), fixed(r.strain_at_rated_microstrain, 1), "µε".into()],
         vec!["2× residual, ideal placement".into(), format!("{:.2e}", r.ideal_residual_nm.0), "N·m".into()],
-        vec!["4× residual, ideal placement".into(), format!("{:.4}", r.ideal_residual_nm.1), "N·m".into()],
+        vec!["4× residual, ideal placement".into(), fixed(r.ideal_residual_nm.1, 4), "N·m".into()],
     ];
     out += &text_table(&["figure", "value", "unit"], &rows);
     let _ = writeln!(out, "\nresidual interference from placement errors (Monte Carlo), N·m and % of full scale:");
@@ -46,10 +56,10 @@ pub fn render(r: &DesignReport, full_scale_for_pct: f64) -> String {
             mc.push(vec![
                 s.errors.to_string(),
                 line.to_string(),
-                format!("{:.4}", p.p50),
-                format!("{:.4}", p.p95),
-                format!("{:.4}", p.p99),
-                format!("{:.3}", pct(p.p95)),
+                fixed(p.p50, 4),
+                fixed(p.p95, 4),
+                fixed(p.p99, 4),
+                fixed(pct(p.p95), 3),
             ]);
         }
     }

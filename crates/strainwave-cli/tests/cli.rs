@@ -230,6 +230,21 @@ fn design_prints_the_figures_and_rejects_bad_configs() {
     assert_user_error(&run(&["design", "--config", bad.to_str().unwrap()]), "monte_carlo.draws");
     std::fs::write(&bad, text.replace("seed = 1", "seed = 1\nsede = 2")).unwrap();
     assert_user_error(&run(&["design", "--config", bad.to_str().unwrap()]), "sede");
+    // Before: accepted, with `inf` or 300-digit figures, or unchanged results for gauges
+    // off the diaphragm.
+    let absurd = [
+        ("thickness_m = 1.44e-3", "thickness_m = 1e308", "`sensor.thickness_m` = 1e308 m: a diaphragm is thinner"),
+        ("gauge_radius_m = 0.014", "gauge_radius_m = 0.5", "`sensor.gauge_radius_m` = 0.5 m: the gauges sit on"),
+        ("gauge_radius_m = 0.014", "gauge_radius_m = 0.004", "between `sensor.hub_radius_m` (0.008)"),
+        ("gauge_factor = 2.0", "gauge_factor = 1e308", "`sensor.gauge_factor` = 1e308: at most 1e3"),
+        ("excitation_v = 10.0", "excitation_v = 1e308", "`sensor.excitation_v` = 1e308: at most 1e2"),
+        ("shear_modulus_pa = 80.0e9", "shear_modulus_pa = 1e308", "`sensor.shear_modulus_pa` = 1e308: at most 1e12"),
+    ];
+    for (from, to, needle) in absurd {
+        assert!(text.contains(from), "{from}");
+        std::fs::write(&bad, text.replacen(from, to, 1)).unwrap();
+        assert_user_error(&run(&["design", "--config", bad.to_str().unwrap()]), needle);
+    }
 }
 
 #[test]

@@ -106,6 +106,20 @@ fn simulate_fuse_and_analyse() {
     assert!(text.starts_with("<svg") && text.matches("<rect").count() > 100);
     assert_eq!(text.matches("class=\"order-line\"").count(), 2);
     assert!(text.contains("speed (rpm)") && text.contains("frequency (Hz)") && text.contains("18×"));
+    // An order too large for the plot ends at its top (before: `-inf` in the SVG).
+    let huge = d.join("campbell-huge.svg");
+    let args = ["campbell", "--in", s(&sim), "--signal", "accel_torque", "--speed", "speed_rpm"];
+    let o = run(&[&args[..], &["--orders", "18,1e308", "--out", s(&huge)]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&huge).unwrap();
+    let lines: Vec<&str> = text.split("points=\"").skip(1).map(|p| p.split('"').next().unwrap()).collect();
+    assert_eq!(lines.len(), 2);
+    for p in &lines {
+        for v in p.split([',', ' ']) {
+            let v: f64 = v.parse().unwrap_or(f64::NAN);
+            assert!(v.is_finite() && v.abs() < 1e5, "{p}");
+        }
+    }
 
     let svg = d.join("orders.svg");
     let o = run(&[

@@ -140,7 +140,7 @@ impl DesignConfig {
         let field = strain_field(p)?;
         let ideal = ideal_bridge(p)?;
         let k0 = ideal.kernel(&field);
-        let s_v_per_nm = k0.sensitivity_v_per_nm();
+        let s_v_per_nm = crate::sensors::sensitive(k0.sensitivity_v_per_nm())?;
         let chain = SignalChain { amplifier_gain: p.amplifier_gain, adc_bits: p.adc_bits, adc_range_v: p.adc_range_v }
             .validated()?;
         let to_nm = |amp_v: f64, sens: f64| amp_v / sens.abs();

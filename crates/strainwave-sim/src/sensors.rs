@@ -100,14 +100,7 @@ impl TorqueSensor {
         let field = strain_field(p)?;
         let chain = SignalChain { amplifier_gain: p.amplifier_gain, adc_bits: p.adc_bits, adc_range_v: p.adc_range_v }
             .validated()?;
-        let s_fs = bridge.sensitivity_v_per_nm(&field);
-        if !s_fs.is_finite() || s_fs == 0.0 {
-            return Err(SimError::invalid(
-                "sensor",
-                "leaves the bridge with no torque sensitivity (check its dimensions, shear modulus and placement)"
-                    .into(),
-            ));
-        }
+        let s_fs = sensitive(bridge.sensitivity_v_per_nm(&field))?;
         let gain_nm_per_v = 1.0 / (s_fs * fs_per_out * p.amplifier_gain);
         Ok(Self {
             kernel: bridge.kernel(&field),
@@ -151,4 +144,16 @@ impl TorqueSensor {
         let (voltage_v, clipped) = self.chain.quantize(noisy);
         BridgeReading { voltage_v, interference_nm: a * u_interf * self.gain_nm_per_v, clipped }
     }
+}
+
+/// The bridge's sensitivity `s` (V per N·m), or an error naming the sensor section when it
+/// sees no torque (zero or not finite: extreme dimensions or placement).
+pub(crate) fn sensitive(s: f64) -> Result<f64, SimError> {
+    if !s.is_finite() || s == 0.0 {
+        return Err(SimError::invalid(
+            "sensor",
+            "leaves the bridge with no torque sensitivity (check its dimensions, shear modulus and placement)".into(),
+        ));
+    }
+    Ok(s)
 }

@@ -46,6 +46,9 @@ fn colour(t: f64) -> String {
     format!("#{:02x}{:02x}{:02x}", m(a.0, b.0), m(a.1, b.1), m(a.2, b.2))
 }
 
+/// How far outside the image a line's point may lie, px.
+const FAR_PX: f64 = 1e5;
+
 impl HeatMap {
     /// The SVG.
     pub fn to_svg(&self) -> String {
@@ -94,7 +97,14 @@ impl HeatMap {
         // Lines, clipped to the plot.
         let _ = write!(s, r#"<clipPath id="plotarea"><rect x="{ML}" y="{MT}" width="{pw}" height="{ph}"/></clipPath>"#);
         for (label, pts) in &self.lines {
-            let p: Vec<String> = pts.iter().map(|(x, y)| format!("{:.2},{:.2}", sx(*x), sy(*y))).collect();
+            // Points far outside the plot are pulled in to where the clip hides them, so
+            // that the SVG holds only finite, short numbers.
+            let near = |v: f64| v.clamp(-FAR_PX, FAR_PX);
+            let p: Vec<String> = pts
+                .iter()
+                .filter(|(x, y)| !(x.is_nan() || y.is_nan()))
+                .map(|(x, y)| format!("{:.2},{:.2}", near(sx(*x)), near(sy(*y))))
+                .collect();
             let _ = write!(
                 s,
                 r#"<polyline class="order-line" clip-path="url(#plotarea)" points="{}" fill="none" stroke="white" stroke-width="1.2" stroke-dasharray="5,3"/>"#,

@@ -67,6 +67,18 @@ impl Scenario {
         let s = &self.sensor;
         pos(s.gauge_factor, "sensor.gauge_factor")?;
         pos(s.excitation_v, "sensor.excitation_v")?;
+        // Foil gauges have K ≈ 2, semiconductor ones up to about 200; bridges run on a few
+        // volts; shear moduli of solids stay under 1e12 Pa (diamond's is about 5e11).
+        let most = [
+            (s.gauge_factor, "sensor.gauge_factor", 1000.0),
+            (s.excitation_v, "sensor.excitation_v", 100.0),
+            (s.shear_modulus_pa, "sensor.shear_modulus_pa", 1e12),
+        ];
+        for (v, key, most) in most {
+            if v > most {
+                return Err(SimError::invalid(key, format!("= {v:e}: at most {most:e}")));
+            }
+        }
         pos(s.hub_radius_m, "sensor.hub_radius_m")?;
         pos(s.outer_radius_m, "sensor.outer_radius_m")?;
         if s.outer_radius_m <= s.hub_radius_m {
@@ -75,6 +87,21 @@ impl Scenario {
         pos(s.thickness_m, "sensor.thickness_m")?;
         pos(s.shear_modulus_pa, "sensor.shear_modulus_pa")?;
         pos(s.gauge_radius_m, "sensor.gauge_radius_m")?;
+        if !(s.hub_radius_m < s.gauge_radius_m && s.gauge_radius_m < s.outer_radius_m) {
+            let msg = format!(
+                "= {:?} m: the gauges sit on the diaphragm, between `sensor.hub_radius_m` ({:?}) and \
+                 `sensor.outer_radius_m` ({:?})",
+                s.gauge_radius_m, s.hub_radius_m, s.outer_radius_m
+            );
+            return Err(SimError::invalid("sensor.gauge_radius_m", msg));
+        }
+        if s.thickness_m >= s.outer_radius_m - s.hub_radius_m {
+            let msg = format!(
+                "= {:?} m: a diaphragm is thinner than its width (`sensor.outer_radius_m` − `sensor.hub_radius_m`)",
+                s.thickness_m
+            );
+            return Err(SimError::invalid("sensor.thickness_m", msg));
+        }
         for (h, k) in [(&s.interference_2x, "sensor.interference_2x"), (&s.interference_4x, "sensor.interference_4x")] {
             for v in [h.shear_microstrain, h.normal_microstrain, h.common_microstrain, h.phase_rad] {
                 fin(v, k)?;
