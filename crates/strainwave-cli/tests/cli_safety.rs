@@ -477,6 +477,28 @@ fn option_values_beyond_the_limits_are_one_line_errors() {
         ]);
         assert_error(&o, &[taps]);
     }
+    // Bench keys no bench has. Before: accepted (NaN response figures with exit 0), or a
+    // crossover of 1e-300 Hz blamed on the input's data row 1.
+    let cases = [
+        ("stator_inertia_kg_m2 = 1.305e-3", "stator_inertia_kg_m2 = 1e308", "`stator_inertia_kg_m2` = 1e308: at most"),
+        ("radius_m = 0.6727", "radius_m = 1e308", "`radius_m` = 1e308: at most 10"),
+        ("crossover_hz = 250.0", "crossover_hz = 1e-300", "`crossover_hz` = 1e-300 Hz is below a millionth"),
+    ];
+    for (from, to, needle) in cases {
+        assert!(original.contains(from), "{from}");
+        let cfg_path = d.join("bench.toml");
+        std::fs::write(&cfg_path, original.replacen(from, to, 1)).unwrap();
+        let fused = d.join("f.csv");
+        let args = ["fuse", "--config", s(&cfg_path), "--in", s(&bench), "--out", s(&fused)];
+        for method in ["complementary", "online-corrected"] {
+            let o = run(&[&args[..], &["--method", method]].concat());
+            if method == "online-corrected" && to.starts_with("crossover_hz") {
+                continue; // its own crossover is `[model] online_crossover_hz`
+            }
+            assert_error(&o, &["bench.toml", needle]);
+            assert!(!stderr(&o).contains("bench.csv"), "blames the data: {}", stderr(&o));
+        }
+    }
 }
 
 #[test]

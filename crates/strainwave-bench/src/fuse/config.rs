@@ -116,7 +116,11 @@ impl Model {
     }
 }
 
+/// The lowest crossover, as a fraction of the sample rate.
+const MIN_CROSSOVER_PER_RATE: f64 = 1e-6;
+
 /// A bench configuration file.
+
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BenchConfig {
@@ -148,13 +152,18 @@ impl BenchConfig {
     pub fn load(path: &Path) -> Result<Self> {
         let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
         let c: Self = toml::from_str(&text).map_err(|e| strainwave_joint::toml_error::one_line(path, &text, &e))?;
-        for (v, key) in [
-            (c.stator_inertia_kg_m2, "stator_inertia_kg_m2"),
-            (c.radius_m, "radius_m"),
-            (c.crossover_hz, "crossover_hz"),
+        // The largest a test bench has: a stator of a megawatt machine, a mounting radius of
+        // metres (beyond these a typo or a unit slip, not a bench).
+        for (v, key, most) in [
+            (c.stator_inertia_kg_m2, "stator_inertia_kg_m2", 1e4),
+            (c.radius_m, "radius_m", 10.0),
+            (c.crossover_hz, "crossover_hz", f64::INFINITY),
         ] {
             if !(v.is_finite() && v > 0.0) {
                 bail!("{}: `{key}` must be positive, got {v}", path.display());
+            }
+            if v > most {
+                bail!("{}: `{key}` = {v:e}: at most {most}", path.display());
             }
         }
         if !matches!(c.crossover_order, 1 | 2) {
@@ -181,8 +190,16 @@ impl BenchConfig {
         self.model.as_ref().with_context(|| format!("{config}: the `{method}` method needs a `[model]` section"))
     }
 
-    /// Checks the crossover against the sample rate.
+    /// Checks the crossover against the sample rate: below the Nyquist frequency and
+    /// above a millionth of the rate (the crossover filters' poles must differ from 1).
     pub(super) fn check_crossover(&self, fs: f64, config: &str) -> Result<()> {
+        if self.crossover_hz < fs * MIN_CROSSOVER_PER_RATE {
+            bail!(
+                "{config}: `crossover_hz` = {:e} Hz is below a millionth of the sample rate ({} Hz)",
+                self.crossover_hz,
+                fs * MIN_CROSSOVER_PER_RATE
+            );
+        }
         if self.crossover_hz >= fs / 2.0 {
             bail!(
                 "{config}: `crossover_hz` = {} Hz is at or above the Nyquist frequency {} Hz",
