@@ -325,6 +325,18 @@ fn a_bad_gear_value_is_an_error_naming_the_config_and_key_before_the_fit() {
     let (o, _, _) = identify(&d, &cfg, &log("validate"), &["--quiet"]);
     let e = stderr(&o);
     assert!(e.contains("joint3-edited.toml") && e.contains("encoders.noise_counts: must be positive"), "{e}");
+    // Before: reported as fit failures, without file or key.
+    let stribeck = "stribeck_speed_rad_s = [0.02, 0.05, 0.1, 0.2, 0.4]";
+    let cfg = config_with(&d, 3, &[(stribeck, "stribeck_speed_rad_s = 1e-300")]);
+    let (o, _, _) = identify(&d, &cfg, &log("validate"), &["--quiet"]);
+    let e = stderr(&o);
+    assert!(e.contains("joint3-edited.toml: friction.stribeck_speed_rad_s: 1e-300 rad/s is outside"), "{e}");
+    let cfg = config_with(&d, 3, &[("rated_torque_nm = 100.0", "rated_torque_nm = 1e9")]);
+    let (o, _, _) = identify(&d, &cfg, &log("validate"), &["--quiet"]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(e.contains("validate.csv: the reference torque varies by 6.705e1 N·m rms"), "{e}");
+    assert!(e.contains("under 0.1 % of `gear.rated_torque_nm` = 1e9 N·m"), "{e}");
 }
 
 #[test]

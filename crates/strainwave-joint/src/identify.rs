@@ -273,6 +273,7 @@ fn check_config(cfg: &ArmConfig, windup_offset: bool) -> Result<()> {
         load::refuse_count_scaling(&cfg.channels.link, "link")?;
     }
     compliance_options(cfg, windup_offset)?;
+    stribeck_candidates(cfg)?;
     Ok(())
 }
 
@@ -345,6 +346,22 @@ impl Identified {
     }
 }
 
+/// An error naming the loaded run and `gear.rated_torque_nm` when the reference torque
+/// varies by less than 0.1 % of the rated torque (RMS): no load to fit a compliance to,
+/// or a rated torque in the wrong unit (the fit would only say that it has no load).
+fn refuse_unloaded(reference: &[f64], rated_nm: f64, loaded: &str) -> Result<()> {
+    let n = reference.len().max(1) as f64;
+    let mean = reference.iter().sum::<f64>() / n;
+    let rms = (reference.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / n).sqrt();
+    if rms < 1e-3 * rated_nm {
+        bail!(
+            "{loaded}: the reference torque varies by {rms:.3e} N·m rms, under 0.1 % of `gear.rated_torque_nm` = \
+             {rated_nm:e} N·m: no load to identify the compliance from, or a rated torque in the wrong unit"
+        );
+    }
+    Ok(())
+}
+
 /// Reads and checks an arm configuration (`identify --config`) for runs with or without a
 /// no-load run: every error names `path`, before any recording is read.
 pub fn load_config(path: &Path, has_no_load: bool, opts: &IdentifyOptions) -> Result<ArmConfig> {
@@ -376,6 +393,7 @@ pub fn identify(
         None => None,
     };
     let reference = ld.reference.clone().context("reference torque")?;
+    refuse_unloaded(&reference, cfg.gear.rated_torque_nm, &loaded.name())?;
     let ld_angles = JointAngles { motor_angle_rad: &ld.motor, link_angle_rad: &ld.link, sample_rate_hz: fs };
     let nl_angles =
         nl.as_ref().map(|r| JointAngles { motor_angle_rad: &r.motor, link_angle_rad: &r.link, sample_rate_hz: fs });

@@ -338,9 +338,17 @@ impl SpeedChoice {
         if let Some(bad) = c.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
             anyhow::bail!("{key}: {bad} is not a positive speed (rad/s)");
         }
+        let (lo, hi) = (*STRIBECK_SPEEDS_RAD_S.start(), *STRIBECK_SPEEDS_RAD_S.end());
+        if let Some(bad) = c.iter().find(|v| !STRIBECK_SPEEDS_RAD_S.contains(*v)) {
+            anyhow::bail!("{key}: {bad:e} rad/s is outside {lo:e} to {hi:e} rad/s (a joint's friction changes over 1e-3 to 1 rad/s)");
+        }
         Ok(c)
     }
 }
+
+/// The Stribeck speeds a fit can tell apart: slower, the term is zero at every sampled
+/// speed; faster, it is constant.
+const STRIBECK_SPEEDS_RAD_S: std::ops::RangeInclusive<f64> = 1e-6..=1e3;
 
 fn smoothing() -> f64 {
     0.01
