@@ -311,7 +311,7 @@ pub fn order_slice(
     if last - first < b {
         return Err(invalid(
             "speed_rpm",
-            format!("the recording covers {:.3} revolutions, one block needs {b}", last - first),
+            format!("the recording covers {:.3} revolutions, one block needs {b:?}", last - first),
         ));
     }
     let blocks = ((last - first - b) / (0.5 * b)).floor();

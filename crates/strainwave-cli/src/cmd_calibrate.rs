@@ -18,6 +18,7 @@ mod summary;
 use crate::report::calibration::{
     affine_report, din_report, din_series, fit_plots, gain_report, speed_report, stacked_svg, ExperimentRows,
 };
+use crate::report::text::compact;
 
 /// The model to fit.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -277,9 +278,18 @@ fn keep_held(exps: &mut [ExperimentRows], hold_s: f64, band: Option<f64>, cols: 
         if !e.file_rows.is_empty() {
             e.file_rows = e.file_rows.iter().zip(&h).filter(|(_, &k)| k).map(|(r, _)| *r).collect();
         }
+        if e.reference.is_empty() {
+            bail!(
+                "--held {hold_s:?}: no row of `{}` has its reference steady within {} N·m peak to peak for that long; \
+                 shorten --held or widen --held-band",
+                e.label,
+                compact(band, 3)
+            );
+        }
         kept += e.reference.len();
     }
-    Ok(format!("held rows: {kept} of {total} (reference steady within {band:.3} N·m peak to peak for {hold_s} s)\n"))
+    let band = compact(band, 3);
+    Ok(format!("held rows: {kept} of {total} (reference steady within {band} N·m peak to peak for {hold_s:?} s)\n"))
 }
 
 fn pooled(exps: &[ExperimentRows]) -> ExperimentRows {

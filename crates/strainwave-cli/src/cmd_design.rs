@@ -9,7 +9,7 @@ use strainwave_analysis::stats::histogram;
 use strainwave_sim::design::{DesignConfig, DesignReport};
 
 use crate::report::plot::{LinePlot, Series};
-use crate::report::text::text_table;
+use crate::report::text::{compact as fixed, text_table};
 
 /// Arguments of `design`.
 #[derive(clap::Args, Debug)]
@@ -20,16 +20,6 @@ pub struct Args {
     /// Write a histogram of the combined 2× residual as SVG.
     #[arg(long)]
     pub svg: Option<PathBuf>,
-}
-
-/// `v` with `decimals` decimals, or in scientific notation from a million up (an extreme
-/// design would otherwise print hundreds of digits).
-fn fixed(v: f64, decimals: usize) -> String {
-    if v.abs() >= 1e6 {
-        format!("{v:.3e}")
-    } else {
-        format!("{v:.decimals$}")
-    }
 }
 
 /// The printed report.

@@ -167,6 +167,12 @@ fn bad_inputs_give_one_line_errors() {
         let o = run(&["fuse", "--config", s(&cfg), "--in", s(&sim), "--out", s(&d.join("x.csv")), "--method", method]);
         assert_user_error(&o, "crossover_hz");
     }
+    // A value written `1e308` is printed so, not in 309 digits.
+    let text = std::fs::read_to_string(config()).unwrap().replace("crossover_hz = 250.0", "crossover_hz = 1e308");
+    std::fs::write(&cfg, text).unwrap();
+    let o =
+        run(&["fuse", "--config", s(&cfg), "--in", s(&sim), "--out", s(&d.join("x.csv")), "--method", "complementary"]);
+    assert_user_error(&o, "`crossover_hz` = 1e308 Hz is at or above the Nyquist frequency");
     // The online corrected fusion has its own crossover, in [model].
     let text = std::fs::read_to_string(config())
         .unwrap()
@@ -225,6 +231,9 @@ fn bad_inputs_give_one_line_errors() {
         s(&d.join("o.svg")),
     ]);
     assert_user_error(&o, "speed_rpm");
+    let args = ["orders", "--in", s(&sim), "--signal", "accel_torque", "--speed", "speed_rpm", "--order", "18"];
+    let o = run(&[&args[..], &["--revs-per-block", "1e308", "--out", s(&d.join("o.svg"))]].concat());
+    assert_user_error(&o, "one block needs 1e308");
 
     // Fewer samples than one window.
     let short = d.join("short.csv");

@@ -294,6 +294,22 @@ fn one_glitch_row_is_refused_not_fitted() {
 }
 
 #[test]
+fn a_hold_no_row_meets_is_named_with_what_to_change() {
+    // Before: `fitting the gain: experiment `ramp.csv`: 0 rows, needs at least 1`.
+    let d = tmp("held");
+    let p = d.join("ramp.csv");
+    let rows: Vec<Vec<f64>> = (0..100).map(|k| vec![0.01 * k as f64, k as f64, 0.15 * k as f64]).collect();
+    write_csv(&p, "time,torque,volts", &rows);
+    let args = ["calibrate", "--in", s(&p), "--reference", "torque", "--sensor", "volts"];
+    let e = user_error(&[&args[..], &["--held", "1e308"]].concat());
+    assert!(e.contains("--held 1e308: no row of `ramp.csv` has its reference steady within 1.980 N·m"), "{e}");
+    assert!(e.contains("shorten --held or widen --held-band"), "{e}");
+    // A band of 1e308 holds every row after the first 0.05 s, and prints short.
+    let out = ok(&[&args[..], &["--held", "0.05", "--held-band", "1e308"]].concat());
+    assert!(out.contains("held rows: 95 of 100 (reference steady within 1.000e308 N·m"), "{out}");
+}
+
+#[test]
 fn speeds_outside_the_table_reject_or_clamp() {
     let d = tmp("speed");
     let p = d.join("speeds.csv");

@@ -93,7 +93,7 @@ impl RowCheck {
             None => ("torque", "torque", f64::NAN),
         };
         bail!(
-            "data row {n}: column `{column}` (`channels.{key}`) is {value}, which the calibration makes infinite; \
+            "data row {n}: column `{column}` (`channels.{key}`) is {value:?}, which the calibration makes infinite; \
              fix the recording or the calibration, or pass --lenient to skip such rows with a flag"
         )
     }

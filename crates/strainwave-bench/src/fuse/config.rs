@@ -202,7 +202,7 @@ impl BenchConfig {
         }
         if self.crossover_hz >= fs / 2.0 {
             bail!(
-                "{config}: `crossover_hz` = {} Hz is at or above the Nyquist frequency {} Hz",
+                "{config}: `crossover_hz` = {:?} Hz is at or above the Nyquist frequency {} Hz",
                 self.crossover_hz,
                 fs / 2.0
             );

@@ -1,6 +1,16 @@
-//! Fixed-width text tables for the terminal.
+//! Fixed-width text tables for the terminal, and numbers short enough for them.
 
 use std::fmt::Write as _;
+
+/// `v` with `decimals` decimals, or in scientific notation from a million up (an extreme
+/// value would otherwise print hundreds of digits).
+pub fn compact(v: f64, decimals: usize) -> String {
+    if v.abs() >= 1e6 {
+        format!("{v:.3e}")
+    } else {
+        format!("{v:.decimals$}")
+    }
+}
 
 /// A table with a header rule; first column left-aligned, the others right-aligned.
 pub fn text_table(header: &[&str], rows: &[Vec<String>]) -> String {
