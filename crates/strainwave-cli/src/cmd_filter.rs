@@ -70,10 +70,7 @@ pub fn run(a: &Args) -> Result<()> {
     // The files the config reads are inputs too (`--learn` may update the learned file).
     let calibration = cfg.calibration.as_ref().and_then(|c| c.file.as_deref());
     if let Some(out) = &a.out {
-        strainwave_io::output::refuse_input_as_output(
-            out,
-            calibration.into_iter().chain(cfg.filter.learned.as_deref()),
-        )?;
+        strainwave_io::output::refuse_input_as_output(out, cfg.files_named())?;
     }
     if let Some(learn) = &a.learn {
         strainwave_io::output::refuse_input_as_output(learn, calibration)?;

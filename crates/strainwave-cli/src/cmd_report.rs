@@ -44,6 +44,10 @@ const SPECTRUM_SEGMENT: usize = 1 << 16;
 pub fn run(a: &Args) -> Result<()> {
     strainwave_io::output::refuse_input_as_output(&a.out, [a.input.as_path()].into_iter().chain(a.config.as_deref()))?;
     let cfg = a.config.as_deref().map(JointConfig::load).transpose()?;
+    if let Some(cfg) = &cfg {
+        // The report does not read them, but overwriting them would lose them.
+        strainwave_io::output::refuse_input_as_output(&a.out, cfg.files_named())?;
+    }
     let mut r = strainwave_io::RecordingReader::open(&a.input)?;
     let columns = r.columns().to_vec();
     let input = a.input.display().to_string();

@@ -120,7 +120,7 @@ fn an_output_naming_an_input_is_refused_and_the_input_kept() {
 }
 
 #[test]
-fn filter_refuses_to_write_over_a_file_its_config_reads() {
+fn filter_and_report_refuse_to_write_over_a_file_their_config_names() {
     let d = tmp("config-reads");
     let rec = d.join("rec.csv");
     recording(&rec, 64, |_, _| {});
@@ -138,6 +138,11 @@ fn filter_refuses_to_write_over_a_file_its_config_reads() {
     let filter = ["filter", "--config", s(&joint), "--in", s(&rec)];
     for (flag, target) in [("--out", &cal), ("--out", &learned), ("--learn", &cal)] {
         let o = run(&[&filter[..], &[flag, s(target)]].concat());
+        assert_error(&o, &["is also an input", s(target)]);
+    }
+    // `report` does not read them, but writing over them would lose them.
+    for target in [&cal, &learned] {
+        let o = run(&["report", "--config", s(&joint), "--in", s(&rec), "--out", s(target)]);
         assert_error(&o, &["is also an input", s(target)]);
     }
     assert_eq!([&cal, &learned].map(|p| std::fs::read(p).unwrap()), before);

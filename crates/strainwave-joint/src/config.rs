@@ -218,6 +218,13 @@ pub struct OrderConfig {
 }
 
 impl JointConfig {
+    /// The files the config names for reading: `calibration.file` and `filter.learned`
+    /// (outputs must not overwrite them).
+    pub fn files_named(&self) -> impl Iterator<Item = &Path> {
+        let calibration = self.calibration.as_ref().and_then(|c| c.file.as_deref());
+        calibration.into_iter().chain(self.filter.learned.as_deref())
+    }
+
     /// Reads and checks a config file.
     pub fn load(path: &Path) -> Result<Self> {
         let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
