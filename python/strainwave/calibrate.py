@@ -12,7 +12,7 @@ import pandas as pd
 from . import _native
 from ._native import StrainwaveError
 from .recording import SOURCE_ATTR, PathLike
-from .spectra import _num
+from .spectra import _num, _num_debug
 
 try:  # Python 3.11+
     import tomllib
@@ -43,6 +43,25 @@ def _column(df: pd.DataFrame, path: str, name: str, option: str) -> np.ndarray:
             "calibration data must be finite (fix or drop the row)"
         )
     return c
+
+
+#: How many times its column's 90th-percentile magnitude a reference or sensor value may
+#: be (the command line's limit: a glitch or a unit slip that a fit would follow).
+OUTLIER_FACTOR = 100.0
+
+
+def _refuse_outlier(c: np.ndarray, path: str, name: str) -> None:
+    size = np.sort(np.abs(c))
+    p90 = float(size[(len(size) - 1) * 9 // 10])
+    if p90 == 0.0:
+        return
+    far = np.flatnonzero(np.abs(c) > OUTLIER_FACTOR * p90)
+    if far.size:
+        r = int(far[0])
+        raise StrainwaveError(
+            f"{path}: row {r + 1}: `{name}` = {_num_debug(c[r])} is over {_num(OUTLIER_FACTOR)} times the column's "
+            f"90th-percentile magnitude ({_num_debug(p90)}); a glitch or a unit slip? Fix or drop the row"
+        )
 
 
 def calibrate(
@@ -102,6 +121,8 @@ def calibrate(
             raise StrainwaveError(f"{path}: no data rows")
         ref = _column(df, path, reference, "--reference")
         sen = _column(df, path, sensor, "--sensor")
+        _refuse_outlier(ref, path, reference)
+        _refuse_outlier(sen, path, sensor)
         if speed is not None:
             spd = _column(df, path, speed, "--speed")
         elif speed_model:

@@ -86,6 +86,15 @@ def _num(v: float) -> str:
     return r[:-2] if r.endswith(".0") else r
 
 
+def _num_debug(v: float) -> str:
+    """A finite float as Rust's `{:?}` prints it (shortest round trip, `1e308`, `4.0`)."""
+    r = repr(float(v))
+    if "e" in r:
+        mantissa, exponent = r.split("e")
+        return f"{mantissa}e{int(exponent)}"
+    return r
+
+
 def _signal(data: Any, signal: Optional[str], sample_rate: Optional[float]) -> Tuple[np.ndarray, float]:
     """The signal and its rate: a DataFrame's column (rate from ``time`` unless given) or an
     array with ``sample_rate_hz``."""

@@ -91,3 +91,13 @@ def test_errors_are_the_cli_errors(cli, locked, tmp_path):
     with pytest.raises(sw.StrainwaveError) as e:
         sw.calibrate(sw.read_recording(str(path)), "reference_torque", "bridge_voltage")
     assert str(e.value) == expected
+    # One glitched row, far beyond the column's range: refused, not fitted.
+    bad = rec.copy()
+    bad.loc[41, "reference_torque"] = 4e9
+    path = tmp_path / "glitch.csv"
+    sw.write_recording(bad, path)
+    expected = cli_error(cli("calibrate", "--in", path, "--reference", "reference_torque", "--sensor", "bridge_voltage"))
+    assert "row 42: `reference_torque` = 4000000000.0 is over 100 times" in expected
+    with pytest.raises(sw.StrainwaveError) as e:
+        sw.calibrate(sw.read_recording(str(path)), "reference_torque", "bridge_voltage")
+    assert str(e.value) == expected
