@@ -176,7 +176,7 @@ fn an_unreadable_recording_is_named_once() {
 fn the_time_column_must_move_forward_at_the_models_rate() {
     let d = dir("time");
     let model = d.join("model.toml");
-    std::fs::write(&model, MODEL).unwrap();
+    std::fs::write(&model, MODEL.replacen("[channels]\n", "[channels]\ntime = \"time\"\n", 1)).unwrap();
     let rows = |times: &[&str]| -> String {
         let body: String = times.iter().map(|t| format!("{t},0,0\n")).collect();
         format!("time,motor_angle,link_angle\n{body}")
@@ -207,5 +207,12 @@ fn the_time_column_must_move_forward_at_the_models_rate() {
     let input = d.join("in.csv");
     std::fs::write(&input, rows(&close.iter().map(String::as_str).collect::<Vec<_>>())).unwrap();
     let run = estimate(&model, &input, &out);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    // A model that names no time column (its rate given as a number) checks none: a
+    // column called `time` may then be in any unit.
+    let plain = d.join("plain.toml");
+    std::fs::write(&plain, MODEL).unwrap();
+    std::fs::write(&input, rows(&every_other_row)).unwrap();
+    let run = estimate(&plain, &input, &out);
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
 }

@@ -23,18 +23,15 @@ pub struct SampleClock {
 }
 
 impl SampleClock {
-    /// The time column: the model's `channels.time`, else a column named `time`, else
-    /// none (nothing to check). `input` and `config` name the files in messages.
+    /// The model's time column `channels.time` in the recording's `columns`; none when
+    /// the model names none (its rate was given as a number, so a column called `time`
+    /// may be in any unit: nothing to check). `input` and `config` name the files in
+    /// messages.
     pub fn find(channel: Option<&Channel>, columns: &[String], input: &str, config: &str) -> Result<Option<Self>> {
-        let (column, (scale, offset)) = match channel {
-            Some(c) => (c.column_name(), c.scale_offset()),
-            None => ("time", (1.0, 0.0)),
-        };
+        let Some(channel) = channel else { return Ok(None) };
+        let (column, (scale, offset)) = (channel.column_name(), channel.scale_offset());
         let Some(index) = columns.iter().position(|c| c == column) else {
-            if channel.is_some() {
-                bail!("{input}: missing time column `{column}` (channels.time of {config})");
-            }
-            return Ok(None);
+            bail!("{input}: missing time column `{column}` (channels.time of {config})");
         };
         let column = column.to_string();
         Ok(Some(Self { index, column, scale, offset, first_s: f64::NAN, last_s: f64::NAN, rows: 0 }))
@@ -86,7 +83,8 @@ mod tests {
 
     fn clock(times: &[f64]) -> Result<SampleClock> {
         let cols = ["time".to_string(), "x".to_string()];
-        let mut c = SampleClock::find(None, &cols, "in.csv", "m.toml")?.expect("a `time` column");
+        let named = Channel::Column("time".into());
+        let mut c = SampleClock::find(Some(&named), &cols, "in.csv", "m.toml")?.expect("a `time` column");
         for (k, &t) in times.iter().enumerate() {
             c.push(&[t, 0.0], k as u64 + 1, "in.csv")?;
         }
@@ -114,8 +112,8 @@ mod tests {
     }
 
     #[test]
-    fn a_named_time_column_must_exist_and_an_unnamed_one_may_not() {
-        let cols = ["t".to_string()];
+    fn a_named_time_column_must_exist_and_none_is_checked_unless_named() {
+        let cols = ["time".to_string()];
         assert!(SampleClock::find(None, &cols, "in.csv", "m.toml").unwrap().is_none());
         let named = Channel::Column("Timestamp".into());
         let err = SampleClock::find(Some(&named), &cols, "in.csv", "m.toml").unwrap_err().to_string();
