@@ -45,22 +45,27 @@ def _column(df: pd.DataFrame, path: str, name: str, option: str) -> np.ndarray:
     return c
 
 
-#: How many times its column's 90th-percentile magnitude a reference or sensor value may
-#: be (the command line's limit: a glitch or a unit slip that a fit would follow).
+#: How many times its column's range a reference or sensor value may be (the command
+#: line's limit: a glitch or a unit slip that a fit would follow), and the fewest rows
+#: checked. The range is the largest magnitude once the largest 1 % (at least 3) are set aside.
 OUTLIER_FACTOR = 100.0
+OUTLIER_MIN_ROWS = 20
 
 
 def _refuse_outlier(c: np.ndarray, path: str, name: str) -> None:
-    size = np.sort(np.abs(c))
-    p90 = float(size[(len(size) - 1) * 9 // 10])
-    if p90 == 0.0:
+    if len(c) < OUTLIER_MIN_ROWS:
         return
-    far = np.flatnonzero(np.abs(c) > OUTLIER_FACTOR * p90)
+    size = np.sort(np.abs(c))
+    scale = float(size[len(size) - 1 - max(len(size) // 100, 3)])
+    if scale == 0.0:
+        return
+    far = np.flatnonzero(np.abs(c) > OUTLIER_FACTOR * scale)
     if far.size:
         r = int(far[0])
         raise StrainwaveError(
             f"{path}: row {r + 1}: `{name}` = {_num_debug(c[r])} is over {_num(OUTLIER_FACTOR)} times the column's "
-            f"90th-percentile magnitude ({_num_debug(p90)}); a glitch or a unit slip? Fix or drop the row"
+            f"range (its largest magnitude {_num_debug(scale)} without the top 1 %); a glitch or a unit slip? "
+            "Fix or drop the row"
         )
 
 

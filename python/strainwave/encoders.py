@@ -102,8 +102,8 @@ def estimate(data: Recording, config: PathLike, *, input_name: Optional[str] = N
 
     Returns the input columns followed by ``torque``, ``torsion``, ``kinematic_error`` and
     ``estimate_flags`` (and ``current_torque`` when the model has friction), the command
-    line's numbers bit for bit. The warning the command line prints about encoder jumps
-    is in ``out.attrs["strainwave_warnings"]``.
+    line's numbers bit for bit. The warnings the command line prints (encoder jumps, a
+    sample rate it could not check) are in ``out.attrs["strainwave_warnings"]``.
 
     Example::
 
@@ -115,5 +115,5 @@ def estimate(data: Recording, config: PathLike, *, input_name: Optional[str] = N
     names, arrays = _columns(frame, name)
     added, columns, warning = _native.estimate_columns(os.fspath(config), names, arrays, input_name=name)
     out = _frame(names + added, arrays + columns)
-    out.attrs["strainwave_warnings"] = [warning] if warning else []
+    out.attrs["strainwave_warnings"] = warning.splitlines() if warning else []
     return out

@@ -157,25 +157,32 @@ fn column<'a>(t: &'a strainwave_io::Table, path: &Path, name: &str, option: &str
     Ok(c)
 }
 
-/// How many times its column's 90th-percentile magnitude a reference or sensor value
-/// may be: a calibration spans one range, so a value far beyond it is a glitch or a unit
-/// slip that a least-squares fit would follow (one row of 4e9 N·m made the gain 5000 times
-/// too large).
+/// How many times the column's range a reference or sensor value may be: a calibration
+/// spans one range, so a value far beyond it is a glitch or a unit slip that a
+/// least-squares fit would follow (one row of 4e9 N·m made the gain 5000 times too large).
 const OUTLIER_FACTOR: f64 = 100.0;
 
+/// Fewest rows the check runs on (fewer: every row may matter).
+const OUTLIER_MIN_ROWS: usize = 20;
+
 /// An error naming the row of `c` (column `name` of `path`) whose magnitude is over
-/// [`OUTLIER_FACTOR`] times the column's 90th-percentile magnitude.
+/// [`OUTLIER_FACTOR`] times the column's range: its largest magnitude once the largest
+/// 1 % (at least 3) are set aside, so that neither a few glitches nor long idle stretches
+/// near zero set it.
 fn refuse_outlier(c: &[f64], path: &Path, name: &str) -> Result<()> {
-    let mut size: Vec<f64> = c.iter().map(|v| v.abs()).collect();
-    size.sort_by(f64::total_cmp);
-    let p90 = size[(size.len() - 1) * 9 / 10];
-    if p90 == 0.0 {
+    if c.len() < OUTLIER_MIN_ROWS {
         return Ok(());
     }
-    if let Some(row) = c.iter().position(|v| v.abs() > OUTLIER_FACTOR * p90) {
+    let mut size: Vec<f64> = c.iter().map(|v| v.abs()).collect();
+    size.sort_by(f64::total_cmp);
+    let range = size[size.len() - 1 - (size.len() / 100).max(3)];
+    if range == 0.0 {
+        return Ok(());
+    }
+    if let Some(row) = c.iter().position(|v| v.abs() > OUTLIER_FACTOR * range) {
         bail!(
-            "{}: row {}: `{name}` = {:?} is over {OUTLIER_FACTOR} times the column's 90th-percentile magnitude ({p90:?}); \
-             a glitch or a unit slip? Fix or drop the row",
+            "{}: row {}: `{name}` = {:?} is over {OUTLIER_FACTOR} times the column's range (its largest magnitude \
+             {range:?} without the top 1 %); a glitch or a unit slip? Fix or drop the row",
             path.display(),
             row + 1,
             c[row]

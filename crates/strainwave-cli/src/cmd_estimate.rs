@@ -36,7 +36,7 @@ pub fn run(a: &Args) -> Result<()> {
     let mut reader = RecordingReader::open(&a.input)?;
     let input = a.input.display().to_string();
     let s = est.run(&mut reader, |names| Ok(RecordingWriter::create(&a.out, names)?), &input)?;
-    if let Some(w) = s.warning() {
+    for w in s.warning().iter().flat_map(|w| w.lines()) {
         eprintln!("warning: {w}");
     }
     if !a.quiet {

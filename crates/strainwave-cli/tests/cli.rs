@@ -129,7 +129,8 @@ fn bad_scenarios_are_one_line_errors_naming_the_key() {
         (
             "damping_nm_s_per_rad = 5.0",
             "damping_nm_s_per_rad = 1e7",
-            "`gear.damping_nm_s_per_rad` = 1e7: the joint's fastest mode (4.030e7 rad/s) needs 6.717e4 RK4 sub-steps",
+            "`gear.damping_nm_s_per_rad` = 1e7 with `motor.inertia_kg_m2` = 3.3e-5, `load.inertia_kg_m2` = 1e0: the \
+             joint's fastest mode (4.030e7 rad/s) makes RK4 unstable even at 10000 sub-steps",
         ),
         // Before: accepted.
         ("ratio = 100.0", "ratio = 1e308", "`gear.ratio` must be between 1 and 10000, got 1e308"),

@@ -114,12 +114,17 @@ fn simulate_fuse_and_analyse() {
     let text = std::fs::read_to_string(&huge).unwrap();
     let lines: Vec<&str> = text.split("points=\"").skip(1).map(|p| p.split('"').next().unwrap()).collect();
     assert_eq!(lines.len(), 2);
+    let mut ends = Vec::new();
     for p in &lines {
-        for v in p.split([',', ' ']) {
-            let v: f64 = v.parse().unwrap_or(f64::NAN);
-            assert!(v.is_finite() && v.abs() < 1e5, "{p}");
-        }
+        let v: Vec<f64> = p.split([',', ' ']).map(|v| v.parse().unwrap_or(f64::NAN)).collect();
+        assert!(v.len() == 4 && v.iter().all(|v| v.is_finite() && v.abs() < 1e5), "{p}");
+        ends.push(v);
     }
+    // The 1e308× line rises straight up from the origin (x within a pixel) and ends
+    // higher than the 18× line, which leaves by the top too but further right.
+    let (o18, huge) = (&ends[0], &ends[1]);
+    assert!((huge[2] - huge[0]).abs() < 1.0 && huge[3] < huge[1], "{huge:?}");
+    assert!(huge[3] <= o18[3] + 0.01 && o18[2] > huge[2], "{o18:?} {huge:?}");
 
     let svg = d.join("orders.svg");
     let o = run(&[

@@ -291,6 +291,20 @@ fn one_glitch_row_is_refused_not_fitted() {
         assert!(e.contains(&at.replace("4e9", "4000000000.0")) && e.contains("over 100 times"), "{e}");
         assert!(!cal.exists());
     }
+    // Long tare stretches with noise near zero and a few loaded rows are one range, not
+    // glitches; nor is a short calibration of a few points far apart.
+    let p = d.join("mostly-idle.csv");
+    let rows: Vec<Vec<f64>> = (0..1000)
+        .map(|k| {
+            let torque = if k % 20 == 19 { 50.0 } else { 0.05 * ((k % 7) as f64 - 3.0) / 3.0 };
+            vec![torque, 0.15 * torque + 1e-4 * ((k % 5) as f64 - 2.0)]
+        })
+        .collect();
+    write_csv(&p, "torque,volts", &rows);
+    ok(&["calibrate", "--in", s(&p), "--reference", "torque", "--sensor", "volts", "--quiet"]);
+    let p = d.join("two-points.csv");
+    write_csv(&p, "torque,volts", &[vec![0.1, 0.015], vec![50.0, 7.5]]);
+    ok(&["calibrate", "--in", s(&p), "--reference", "torque", "--sensor", "volts", "--quiet"]);
 }
 
 #[test]

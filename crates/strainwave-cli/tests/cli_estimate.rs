@@ -184,10 +184,15 @@ fn the_time_column_must_move_forward_at_the_models_rate() {
     let every_other_row: Vec<String> = (0..50).map(|k| format!("{}", 0.002 * k as f64)).collect();
     let every_other_row: Vec<&str> = every_other_row.iter().map(String::as_str).collect();
     let cases = [
-        (rows(&every_other_row), "gives 500.0 Hz, but the model was fitted at `sample_rate_hz` = 1000.0 Hz"),
+        (
+            rows(&every_other_row),
+            "steps at about 500 Hz (its median step), but the model was fitted at `sample_rate_hz` = 1000.0 Hz",
+        ),
         (rows(&["0", "0.001", "nan", "0.003"]), "data row 3: time (column `time`) is NaN"),
-        (rows(&["0", "0.001", "0.001"]), "data row 3: time 0.001 s (column `time`) is not after"),
-        (rows(&["0.002", "0.001", "0"]), "data row 2: time 0.001 s"),
+        (
+            rows(&["0.002", "0.001", "0"]),
+            "data row 2: time 0.001 s (column `time`) is before the previous row's 0.002 s",
+        ),
         (rows(&[]), "no data rows"),
     ];
     let out = d.join("out.csv");
@@ -208,6 +213,20 @@ fn the_time_column_must_move_forward_at_the_models_rate() {
     std::fs::write(&input, rows(&close.iter().map(String::as_str).collect::<Vec<_>>())).unwrap();
     let run = estimate(&model, &input, &out);
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    // A repeated stamp and a pause do not change the median step.
+    let paused: Vec<String> =
+        (0..50).map(|k| format!("{}", 0.001 * k as f64 + if k >= 25 { 3.0 } else { 0.0 })).collect();
+    let mut paused: Vec<&str> = paused.iter().map(String::as_str).collect();
+    paused.insert(10, paused[9]);
+    std::fs::write(&input, rows(&paused)).unwrap();
+    let run = estimate(&model, &input, &out);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    // Without the model's time column the rate is not checked, and the summary says so.
+    std::fs::write(&input, "motor_angle,link_angle\n0,0\n0,0\n").unwrap();
+    let run = estimate(&model, &input, &out);
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{err}");
+    assert!(err.contains("warning: ") && err.contains("no time column `time`") && err.contains("not checked"), "{err}");
     // A model that names no time column (its rate given as a number) checks none: a
     // column called `time` may then be in any unit.
     let plain = d.join("plain.toml");

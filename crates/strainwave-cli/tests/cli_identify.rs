@@ -143,7 +143,10 @@ fn joint3_from_the_loaded_log_alone_beats_the_plain_linear_fit() {
     let o = c.output().unwrap();
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{err}");
-    assert!(err.contains("half.csv: the time column `Timestamp` gives 124.5 Hz") && err.contains("249.1 Hz"), "{err}");
+    assert!(
+        err.contains("half.csv: the time column `Timestamp` steps at about 125 Hz") && err.contains("249.1 Hz"),
+        "{err}"
+    );
 }
 
 /// Joint 1 jogs 0.02 rev: the current torque is mostly friction. Measured: holdout R²

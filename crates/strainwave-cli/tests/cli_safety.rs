@@ -485,8 +485,12 @@ fn option_values_beyond_the_limits_are_one_line_errors() {
     // Bench keys no bench has. Before: accepted (NaN response figures with exit 0), or a
     // crossover of 1e-300 Hz blamed on the input's data row 1.
     let cases = [
-        ("stator_inertia_kg_m2 = 1.305e-3", "stator_inertia_kg_m2 = 1e308", "`stator_inertia_kg_m2` = 1e308: at most"),
-        ("radius_m = 0.6727", "radius_m = 1e308", "`radius_m` = 1e308: at most 10"),
+        (
+            "stator_inertia_kg_m2 = 1.305e-3",
+            "stator_inertia_kg_m2 = 1e308",
+            "`stator_inertia_kg_m2` = 1e308 kg·m²: at most 1e4 kg·m²",
+        ),
+        ("radius_m = 0.6727", "radius_m = 1e308", "`radius_m` = 1e308 m: at most 1e1 m"),
         ("crossover_hz = 250.0", "crossover_hz = 1e-300", "`crossover_hz` = 1e-300 Hz is below a millionth"),
     ];
     for (from, to, needle) in cases {

@@ -41,7 +41,7 @@ pub const ESTIMATE_COLUMNS: &[&str] = &["torque", "torsion", "kinematic_error", 
 pub const CURRENT_TORQUE_COLUMN: &str = "current_torque";
 
 /// What a run of `estimate` counted.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct EstimateSummary {
     /// Rows written.
     pub rows: u64,
@@ -51,17 +51,21 @@ pub struct EstimateSummary {
     pub jumps: u64,
     /// First data row (1-based) with a jump; 0 without one.
     pub first_jump: u64,
+    /// Why the recording's rate was not checked (the model's time column is missing).
+    pub unchecked_time: Option<String>,
 }
 
 impl EstimateSummary {
-    /// The warning about encoder jumps, when there were some.
+    /// The warnings, one a line: encoder jumps, a sample rate not checked.
     pub fn warning(&self) -> Option<String> {
-        (self.jumps > 0).then(|| {
+        let jumps = (self.jumps > 0).then(|| {
             format!(
                 "{} rows with encoder jumps (first at data row {}; estimate_flags 4/8): a counter wrapping that the model's encoders do not expect?",
                 self.jumps, self.first_jump
             )
-        })
+        });
+        let lines: Vec<String> = jumps.into_iter().chain(self.unchecked_time.clone()).collect();
+        (!lines.is_empty()).then(|| lines.join("\n"))
     }
 }
 
@@ -122,7 +126,15 @@ impl Estimator {
         };
         let mi = index("motor", &model.channels.motor, source)?;
         let li = index("link", &model.channels.link, source)?;
-        let mut clock = SampleClock::find(model.channels.time.as_ref(), source.columns(), input, &self.config)?;
+        let time = model.channels.time.as_ref();
+        let mut clock = time.and_then(|t| SampleClock::find(t, source.columns(), fs));
+        let unchecked_time = time.filter(|_| clock.is_none()).map(|t| {
+            format!(
+                "{input}: no time column `{}` (channels.time of {}): the recording's sample rate is not checked",
+                t.column_name(),
+                self.config
+            )
+        });
         let (ms, mo) = model.channels.motor.scale_offset();
         let (ls, lo) = model.channels.link.scale_offset();
         let mut rates = match &model.friction {
@@ -198,9 +210,9 @@ impl Estimator {
             bail!("{input}: no data rows");
         }
         if let Some(c) = &clock {
-            c.check_rate(fs, input, &self.config)?;
+            c.check_rate(input, &self.config)?;
         }
         let rows = w.finish()?;
-        Ok(EstimateSummary { rows, wraps, jumps, first_jump })
+        Ok(EstimateSummary { rows, wraps, jumps, first_jump, unchecked_time })
     }
 }

@@ -1,14 +1,22 @@
 //! The time column of a recording that `estimate` runs a model over. The model's
-//! damping, velocities and accelerations were fitted at one sample rate, so every time
-//! must be finite and after the one before, and the recording's mean rate must be the
-//! model's (a log with every other row dropped would otherwise give wrong torques).
+//! damping, velocities and accelerations were fitted at one sample rate, so time must be
+//! finite and never go back, and the recording's typical step (the median, so that pauses
+//! and jitter do not count) must be the model's: a log with every other row dropped would
+//! otherwise give wrong torques.
 
 use anyhow::{bail, Result};
 use strainwave_io::Channel;
 
-/// How far the recording's mean sample rate may be from the model's (5 %; a real arm's
-/// logs differ by 0.5 % from run to run).
+/// How far the recording's rate (from its median step) may be from the model's: 5 %. A
+/// real arm's logs differ by 0.5 % from run to run.
 pub const RATE_TOLERANCE: f64 = 0.05;
+
+/// Resolution of the steps' histogram: bins per octave of the step over the model's
+/// period (0.07 %), over ±[`OCTAVES`].
+const BINS_PER_OCTAVE: usize = 1000;
+/// Octaves of the histogram on either side of the model's period (steps beyond count in
+/// the end bins).
+const OCTAVES: usize = 4;
 
 /// The time column as it is read, row by row.
 #[derive(Debug, Clone)]
@@ -17,59 +25,66 @@ pub struct SampleClock {
     column: String,
     scale: f64,
     offset: f64,
-    first_s: f64,
-    last_s: f64,
-    rows: u64,
+    model_hz: f64,
+    last_s: Option<f64>,
+    /// Steps per bin of `log₂(step × model_hz)`.
+    steps: Vec<u64>,
 }
 
 impl SampleClock {
-    /// The model's time column `channels.time` in the recording's `columns`; none when
-    /// the model names none (its rate was given as a number, so a column called `time`
-    /// may be in any unit: nothing to check). `input` and `config` name the files in
-    /// messages.
-    pub fn find(channel: Option<&Channel>, columns: &[String], input: &str, config: &str) -> Result<Option<Self>> {
-        let Some(channel) = channel else { return Ok(None) };
+    /// The model's time column `channels.time` in the recording's `columns`, to check
+    /// against the model's rate `model_hz`; none when the recording lacks it.
+    pub fn find(channel: &Channel, columns: &[String], model_hz: f64) -> Option<Self> {
         let (column, (scale, offset)) = (channel.column_name(), channel.scale_offset());
-        let Some(index) = columns.iter().position(|c| c == column) else {
-            bail!("{input}: missing time column `{column}` (channels.time of {config})");
-        };
-        let column = column.to_string();
-        Ok(Some(Self { index, column, scale, offset, first_s: f64::NAN, last_s: f64::NAN, rows: 0 }))
+        let index = columns.iter().position(|c| c == column)?;
+        let steps = vec![0; 2 * OCTAVES * BINS_PER_OCTAVE];
+        Some(Self { index, column: column.to_string(), scale, offset, model_hz, last_s: None, steps })
     }
 
-    /// Reads data row `k`'s time: an error unless it is finite and after the last row's.
+    /// Reads data row `k`'s time: an error if it is not finite or before the last row's.
     pub fn push(&mut self, row: &[f64], k: u64, input: &str) -> Result<()> {
         let t = row[self.index] * self.scale + self.offset;
         let column = &self.column;
         if !t.is_finite() {
             bail!("{input}: data row {k}: time (column `{column}`) is {t}");
         }
-        if self.rows == 0 {
-            self.first_s = t;
-        } else if t <= self.last_s {
-            bail!(
-                "{input}: data row {k}: time {t} s (column `{column}`) is not after the previous row's {} s",
-                self.last_s
-            );
+        if let Some(last) = self.last_s {
+            if t < last {
+                bail!(
+                    "{input}: data row {k}: time {t:?} s (column `{column}`) is before the previous row's {last:?} s"
+                );
+            }
+            let octaves = ((t - last) * self.model_hz).log2();
+            let bin = ((octaves + OCTAVES as f64) * BINS_PER_OCTAVE as f64).max(0.0) as usize;
+            let last_bin = self.steps.len() - 1;
+            self.steps[bin.min(last_bin)] += 1;
         }
-        self.last_s = t;
-        self.rows += 1;
+        self.last_s = Some(t);
         Ok(())
     }
 
-    /// The mean sample rate of the rows read, Hz (none before two rows).
-    pub fn mean_rate_hz(&self) -> Option<f64> {
-        (self.rows >= 2).then(|| (self.rows - 1) as f64 / (self.last_s - self.first_s))
+    /// The rate of the median step of the rows read, Hz (none before two rows).
+    pub fn median_rate_hz(&self) -> Option<f64> {
+        let n: u64 = self.steps.iter().sum();
+        let mut seen = 0;
+        let bin = self.steps.iter().position(|&c| {
+            seen += c;
+            n > 0 && 2 * seen >= n
+        })?;
+        let octaves = (bin as f64 + 0.5) / BINS_PER_OCTAVE as f64 - OCTAVES as f64;
+        Some(self.model_hz / octaves.exp2())
     }
 
-    /// An error unless the mean rate is within [`RATE_TOLERANCE`] of the model's
+    /// An error unless the median step's rate is within [`RATE_TOLERANCE`] of the model's
     /// `sample_rate_hz` (from file `config`).
-    pub fn check_rate(&self, model_hz: f64, input: &str, config: &str) -> Result<()> {
-        let Some(rate) = self.mean_rate_hz() else { return Ok(()) };
+    pub fn check_rate(&self, input: &str, config: &str) -> Result<()> {
+        let Some(rate) = self.median_rate_hz() else { return Ok(()) };
+        let model_hz = self.model_hz;
         if (rate / model_hz - 1.0).abs() > RATE_TOLERANCE {
             bail!(
-                "{input}: the time column `{}` gives {rate:.1} Hz, but the model was fitted at `sample_rate_hz` = \
-                 {model_hz:.1} Hz ({config}); resample the recording to that rate or identify a model at its own",
+                "{input}: the time column `{}` steps at about {rate:.0} Hz (its median step), but the model was fitted at \
+                 `sample_rate_hz` = {model_hz:.1} Hz ({config}); resample the recording to that rate or identify a \
+                 model at its own",
                 self.column
             );
         }
@@ -81,10 +96,10 @@ impl SampleClock {
 mod tests {
     use super::*;
 
-    fn clock(times: &[f64]) -> Result<SampleClock> {
+    fn clock(times: &[f64], model_hz: f64) -> Result<SampleClock> {
         let cols = ["time".to_string(), "x".to_string()];
         let named = Channel::Column("time".into());
-        let mut c = SampleClock::find(Some(&named), &cols, "in.csv", "m.toml")?.expect("a `time` column");
+        let mut c = SampleClock::find(&named, &cols, model_hz).expect("a `time` column");
         for (k, &t) in times.iter().enumerate() {
             c.push(&[t, 0.0], k as u64 + 1, "in.csv")?;
         }
@@ -92,31 +107,33 @@ mod tests {
     }
 
     #[test]
-    fn the_mean_rate_is_rows_over_the_span() {
-        let c = clock(&[0.0, 0.001, 0.0021, 0.003]).unwrap();
-        assert!((c.mean_rate_hz().unwrap() - 1000.0).abs() < 1e-9);
-        c.check_rate(1000.0, "in.csv", "m.toml").unwrap();
-        c.check_rate(1049.0, "in.csv", "m.toml").unwrap();
-        let err = c.check_rate(2000.0, "in.csv", "m.toml").unwrap_err().to_string();
-        assert!(err.contains("1000.0 Hz") && err.contains("2000.0 Hz") && err.contains("m.toml"), "{err}");
+    fn the_rate_is_the_median_steps_so_pauses_and_jitter_do_not_count() {
+        // 1 kHz with jitter, a repeated stamp and a 5 s pause.
+        let mut t: Vec<f64> = (0..1000).map(|k| 0.001 * k as f64 + 2e-4 * ((k % 3) as f64 - 1.0)).collect();
+        t.push(t[999]);
+        t.extend((0..1000).map(|k| 6.0 + 0.001 * k as f64));
+        let c = clock(&t, 1000.0).unwrap();
+        assert!((c.median_rate_hz().unwrap() / 1000.0 - 1.0).abs() < 2e-3, "{:?}", c.median_rate_hz());
+        c.check_rate("in.csv", "m.toml").unwrap();
+        // Every other row: 500 Hz.
+        let half: Vec<f64> = t.iter().step_by(2).copied().collect();
+        let err = clock(&half, 1000.0).unwrap().check_rate("in.csv", "m.toml").unwrap_err().to_string();
+        assert!(err.contains("steps at about 500 Hz") && err.contains("1000.0 Hz") && err.contains("m.toml"), "{err}");
+        assert!(clock(&[0.0], 1000.0).unwrap().median_rate_hz().is_none());
     }
 
     #[test]
-    fn time_must_be_finite_and_increase() {
-        let err = clock(&[0.0, f64::NAN]).unwrap_err().to_string();
+    fn time_must_be_finite_and_never_go_back() {
+        let err = clock(&[0.0, f64::NAN], 1000.0).unwrap_err().to_string();
         assert!(err.starts_with("in.csv: data row 2: time (column `time`) is NaN"), "{err}");
-        let err = clock(&[0.0, 0.001, 0.001]).unwrap_err().to_string();
-        assert!(err.contains("data row 3") && err.contains("not after"), "{err}");
-        let err = clock(&[1.0, 0.5]).unwrap_err().to_string();
-        assert!(err.contains("data row 2"), "{err}");
+        let err = clock(&[1.0, 0.5], 1000.0).unwrap_err().to_string();
+        assert!(err.contains("data row 2: time 0.5 s") && err.contains("before the previous row's 1.0 s"), "{err}");
+        clock(&[0.0, 0.001, 0.001, 0.002], 1000.0).unwrap();
     }
 
     #[test]
-    fn a_named_time_column_must_exist_and_none_is_checked_unless_named() {
-        let cols = ["time".to_string()];
-        assert!(SampleClock::find(None, &cols, "in.csv", "m.toml").unwrap().is_none());
+    fn a_missing_time_column_is_none() {
         let named = Channel::Column("Timestamp".into());
-        let err = SampleClock::find(Some(&named), &cols, "in.csv", "m.toml").unwrap_err().to_string();
-        assert_eq!(err, "in.csv: missing time column `Timestamp` (channels.time of m.toml)");
+        assert!(SampleClock::find(&named, &["t".to_string()], 1000.0).is_none());
     }
 }

@@ -120,7 +120,6 @@ impl Model {
 const MIN_CROSSOVER_PER_RATE: f64 = 1e-6;
 
 /// A bench configuration file.
-
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BenchConfig {
@@ -155,15 +154,16 @@ impl BenchConfig {
         // The largest a test bench has: a stator of a megawatt machine, a mounting radius of
         // metres (beyond these a typo or a unit slip, not a bench).
         for (v, key, most) in [
-            (c.stator_inertia_kg_m2, "stator_inertia_kg_m2", 1e4),
-            (c.radius_m, "radius_m", 10.0),
-            (c.crossover_hz, "crossover_hz", f64::INFINITY),
+            (c.stator_inertia_kg_m2, "stator_inertia_kg_m2", (1e4, "kg·m²")),
+            (c.radius_m, "radius_m", (10.0, "m")),
+            (c.crossover_hz, "crossover_hz", (f64::INFINITY, "Hz")),
         ] {
             if !(v.is_finite() && v > 0.0) {
                 bail!("{}: `{key}` must be positive, got {v}", path.display());
             }
+            let (most, unit) = most;
             if v > most {
-                bail!("{}: `{key}` = {v:e}: at most {most}", path.display());
+                bail!("{}: `{key}` = {v:e} {unit}: at most {most:e} {unit}", path.display());
             }
         }
         if !matches!(c.crossover_order, 1 | 2) {

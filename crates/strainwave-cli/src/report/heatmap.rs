@@ -97,8 +97,8 @@ impl HeatMap {
         // Lines, clipped to the plot.
         let _ = write!(s, r#"<clipPath id="plotarea"><rect x="{ML}" y="{MT}" width="{pw}" height="{ph}"/></clipPath>"#);
         for (label, pts) in &self.lines {
-            // Points far outside the plot are pulled in to where the clip hides them, so
-            // that the SVG holds only finite, short numbers.
+            // A guard, so that the SVG holds only finite, short numbers: callers end their
+            // lines at the plot's edge, as pulling a far point in would tilt its line.
             let near = |v: f64| v.clamp(-FAR_PX, FAR_PX);
             let p: Vec<String> = pts
                 .iter()
