@@ -200,12 +200,43 @@ impl Idx {
         Ok(Self { time, torsion: column(cols, &c.torsion, "channels.torsion", path)?, accel })
     }
 
+    /// The first value of `row` beyond what any sensor gives (see [`MAX_ACCEL_M_S2`] and
+    /// [`MAX_TORQUE_NM`]), as a message naming its column: one glitched sample would
+    /// otherwise reach the whole fused output.
+    fn implausible(&self, cfg: &BenchConfig, row: &[f64]) -> Option<String> {
+        let c = &cfg.channels;
+        let beyond = |v: f64, limit: f64| v.abs() > limit;
+        if beyond(row[self.torsion], MAX_TORQUE_NM) {
+            return Some(torque_beyond(&c.torsion, row[self.torsion]));
+        }
+        match (self.accel, &c.accel_1, &c.accel_2, &c.accel_torque) {
+            (Ok((i, j)), Some(a1), Some(a2), _) => [(i, a1), (j, a2)].into_iter().find(|&(k, _)| beyond(row[k], MAX_ACCEL_M_S2)).map(|(k, name)| {
+                format!(
+                    "column `{name}`: {:e} m/s² is beyond any accelerometer (limit ±{MAX_ACCEL_M_S2:e} m/s², about 100,000 g)",
+                    row[k]
+                )
+            }),
+            (Err(k), _, _, Some(name)) => beyond(row[k], MAX_TORQUE_NM).then(|| torque_beyond(name, row[k])),
+            _ => None,
+        }
+    }
+
     fn accel_torque(&self, pair: &AccelerometerPair<f64>, row: &[f64]) -> f64 {
         match self.accel {
             Ok((i, j)) => pair.torque_nm(row[i], row[j]),
             Err(k) => row[k],
         }
     }
+}
+
+/// An acceleration beyond this is refused, m/s²: about 100,000 g, beyond the range of
+/// shock accelerometers.
+pub const MAX_ACCEL_M_S2: f64 = 1e6;
+/// A torque beyond this is refused, N·m: ten times the largest torque transducers.
+pub const MAX_TORQUE_NM: f64 = 1e7;
+
+fn torque_beyond(column: &str, v: f64) -> String {
+    format!("column `{column}`: {v:e} N·m is beyond any torque transducer (limit ±{MAX_TORQUE_NM:e} N·m)")
 }
 
 /// The column `fuse` adds.
@@ -265,6 +296,9 @@ impl Job<'_> {
                 bail!("{input}: row {n}, column `{}`: time {time} s does not come after {last_t} s", cfg.channels.time);
             }
             last_t = time;
+            if let Some(what) = idx.implausible(cfg, row) {
+                bail!("{input}: data row {n}, {what}");
+            }
             let (t, acc) = (row[idx.torsion], idx.accel_torque(pair, row));
             if !(t.is_finite() && acc.is_finite()) {
                 bail!(
@@ -329,6 +363,15 @@ impl Job<'_> {
             None => rate_from_time(table.data[idx.time][0], table.data[idx.time][1], &cfg.channels.time, self.input)?,
         };
         cfg.check_crossover(fs, config)?;
+        let mut row = vec![0.0; table.columns.len()];
+        for k in 0..n {
+            for (c, v) in row.iter_mut().zip(&table.data) {
+                *c = v[k];
+            }
+            if let Some(what) = idx.implausible(cfg, &row) {
+                bail!("{}: data row {}, {what}", self.input, k + 1);
+            }
+        }
         let torsion = &table.data[idx.torsion];
         let accel: Vec<f64> = (0..n)
             .map(|k| match idx.accel {

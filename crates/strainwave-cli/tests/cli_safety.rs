@@ -539,6 +539,21 @@ fn fuse_refuses_accelerometer_values_that_overflow_and_backwards_time() {
     let o = run(&["fuse", "--config", cfg_path, "--in", s(&bad), "--out", s(&out)]);
     assert_error(&o, &["row 201", "time"]);
     assert!(!out.exists());
+    // One finite glitch no sensor gives. Before: every method wrote fused torques near
+    // 1e297 N·m with exit 0 (the spectral ones over the whole recording).
+    let torsion = at("torsion_torque");
+    let glitches = [
+        (a2, "1e300", "column `accel_2`: 1e300 m/s² is beyond any accelerometer (limit ±1e6 m/s²"),
+        (torsion, "-2e7", "column `torsion_torque`: -2e7 N·m is beyond any torque transducer (limit ±1e7 N·m)"),
+    ];
+    for (col, v, needle) in glitches {
+        std::fs::write(&bad, edit(301, &[col], v)).unwrap();
+        for method in ["online-corrected", "complementary", "spectral", "corrected"] {
+            let o = run(&["fuse", "--config", cfg_path, "--in", s(&bad), "--out", s(&out), "--method", method]);
+            assert_error(&o, &["bad.csv: data row 301, ", needle]);
+            assert!(!out.exists(), "{method}");
+        }
+    }
 }
 
 #[test]
