@@ -117,6 +117,19 @@ fn an_output_naming_an_input_is_refused_and_the_input_kept() {
         assert_error(&run(&["convert", "--in", s(&rec), "--out", s(&link)]), &["is also an input"]);
     }
     assert_eq!(std::fs::read(&rec).unwrap(), before);
+    // A bag folder is read whole: an output inside it would replace or join its files.
+    // Before: `--out bag/bag_0.mcap` overwrote the recording with exit 0.
+    let bag = d.join("bag");
+    std::fs::create_dir_all(&bag).unwrap();
+    let log = bag.join("bag_0.mcap");
+    assert!(run(&["convert", "--in", s(&rec), "--out", s(&log), "--quiet"]).status.success());
+    let recorded = std::fs::read(&log).unwrap();
+    for out in [log.clone(), bag.join("bag_0.csv")] {
+        let o = run(&["convert", "--in", s(&bag), "--out", s(&out)]);
+        assert_error(&o, &["is inside the input folder"]);
+        assert_eq!(std::fs::read(&log).unwrap(), recorded);
+        assert!(!bag.join("bag_0.csv").exists());
+    }
 }
 
 #[test]

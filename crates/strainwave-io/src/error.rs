@@ -153,6 +153,14 @@ pub enum IoError {
         /// The flag that named it again.
         second: String,
     },
+    /// The output would be written inside an input folder (a rosbag2 bag).
+    #[error("{output}: is inside the input folder {input}; write the output outside it")]
+    OutputInInputFolder {
+        /// The output path.
+        output: PathBuf,
+        /// The input folder.
+        input: PathBuf,
+    },
     /// The output would replace an input.
     #[error("{output}: is also an input ({input}); write the output to another file")]
     OutputIsInput {

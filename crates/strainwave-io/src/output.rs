@@ -261,14 +261,25 @@ pub fn same_file(a: &Path, b: &Path) -> bool {
     }
 }
 
-/// Refuses an output that is one of the inputs (through any spelling or link).
+/// Refuses an output that is one of the inputs (through any spelling or link), or that
+/// lies inside an input folder (a rosbag2 bag: its files are the input).
 pub fn refuse_input_as_output<'a>(output: &Path, inputs: impl IntoIterator<Item = &'a Path>) -> Result<(), IoError> {
     if is_stdout(output) {
         return Ok(());
     }
+    // The output's folder as the file system resolves it (the output may not exist yet).
+    let folder = output.parent().map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p });
+    let folder = folder.and_then(|p| std::fs::canonicalize(p).ok());
     for input in inputs {
-        if !is_stdout(input) && same_file(output, input) {
+        if is_stdout(input) {
+            continue;
+        }
+        if same_file(output, input) {
             return Err(IoError::OutputIsInput { output: output.to_path_buf(), input: input.to_path_buf() });
+        }
+        let inside = |f: &PathBuf| input.is_dir() && std::fs::canonicalize(input).is_ok_and(|d| f.starts_with(d));
+        if folder.as_ref().is_some_and(inside) {
+            return Err(IoError::OutputInInputFolder { output: output.to_path_buf(), input: input.to_path_buf() });
         }
     }
     Ok(())
@@ -308,6 +319,25 @@ mod tests {
             std::fs::read_dir(d).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
         v.sort();
         v
+    }
+
+    #[test]
+    fn an_output_inside_an_input_folder_is_refused() {
+        let d = dir("bag");
+        let bag = d.join("bag");
+        std::fs::create_dir_all(bag.join("sub")).unwrap();
+        std::fs::write(bag.join("bag_0.mcap"), b"x").unwrap();
+        for out in [bag.join("bag_0.mcap"), bag.join("new.csv"), bag.join("sub/new.csv"), bag.join("../bag/x.csv")] {
+            let e = refuse_input_as_output(&out, [bag.as_path()]).unwrap_err().to_string();
+            assert!(e.contains("is inside the input folder"), "{e}");
+        }
+        refuse_input_as_output(&d.join("beside.csv"), [bag.as_path()]).unwrap();
+        // A file input: only that file is refused, not its folder.
+        let file = d.join("rec.csv");
+        std::fs::write(&file, b"x").unwrap();
+        refuse_input_as_output(&d.join("other.csv"), [file.as_path()]).unwrap();
+        assert!(refuse_input_as_output(&file, [file.as_path()]).is_err());
+        std::fs::remove_dir_all(&d).unwrap();
     }
 
     #[test]
