@@ -379,3 +379,85 @@ def test_damaged_bags_are_one_line_errors(binary, tmp_path):
     assert len(warn) == 1 and "protobuf" in warn[0] and "my.Proto" in warn[0], res.stderr
     header, rows = read_csv(tmp_path / "good.csv")
     assert header == ["time", "/v/x", "/v/y", "/v/z"] and rows.tolist() == [[1.0, 1.0, 2.0, 3.0]]
+
+
+def bounded(limit_bytes):
+    """A child limited to `limit_bytes` of address space: memory that grows without bound
+    ends the run instead of the machine's."""
+    import resource
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_AS, (limit_bytes, limit_bytes))
+
+    return limit
+
+
+def test_a_glitched_first_stamp_is_an_error_not_unbounded_memory(binary, tmp_path):
+    # A driver not yet synced stamps its first message 0.001 s, the rest Unix time: a
+    # grid at 1 kHz would need 1.7e12 rows. Before: memory grew until the run aborted.
+    store = typesys.get_typestore(typesys.Stores.ROS2_HUMBLE)
+    t = store.types
+    JointState, Header, Time = t["sensor_msgs/msg/JointState"], t["std_msgs/msg/Header"], t["builtin_interfaces/msg/Time"]
+    path = tmp_path / "glitch"
+    with rosbag2.Writer(path, version=9, storage_plugin=rosbag2.StoragePlugin.MCAP) as w:
+        c = w.add_connection("/joint_states", "sensor_msgs/msg/JointState", typestore=store)
+        for k in range(200):
+            log_ns = T0_NS + k * 1_000_000
+            stamp = 1_000_000 if k == 0 else log_ns
+            msg = JointState(
+                header=Header(stamp=Time(sec=stamp // 10**9, nanosec=stamp % 10**9), frame_id=""),
+                name=["j1"],
+                position=np.array([k * 1e-3]),
+                velocity=np.array([1.0]),
+                effort=np.array([0.0]),
+            )
+            w.write(c, log_ns, store.serialize_cdr(msg, "sensor_msgs/msg/JointState"))
+    out = tmp_path / "glitch.csv"
+    res = subprocess.run(
+        [str(binary), "convert", "--in", str(path), "--resample-hz", "1000", "--out", str(out)],
+        capture_output=True, text=True, timeout=120, preexec_fn=bounded(1 << 30),
+    )
+    err = [l for l in res.stderr.splitlines() if l.startswith("error:")]
+    assert res.returncode == 1 and len(err) == 1, res.stderr
+    assert "glitch" in err[0] and "/joint_states" in err[0] and "more than 10000000 rows" in err[0], err[0]
+    assert not out.exists() and [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
+    # The same bag on the topic's own clock reads.
+    run(binary, "convert", "--in", path, "--out", out, "--quiet")
+    assert out.exists()
+
+
+def test_schemas_that_would_expand_or_spin_are_read_at_once(binary, tmp_path):
+    mcap_writer = pytest.importorskip("mcap.writer", reason="pip install mcap")
+
+    def write(name, schema, body):
+        path = tmp_path / name
+        with open(path, "wb") as f:
+            w = mcap_writer.Writer(f)
+            w.start(profile="ros2")
+            s = w.register_schema(name="p/msg/Root", encoding="ros2msg", data=schema.encode())
+            c = w.register_channel(topic="/x", message_encoding="cdr", schema_id=s)
+            for k in range(3):
+                w.add_message(channel_id=c, log_time=(k + 1) * 1_000_000, publish_time=0, data=body)
+            w.finish()
+        return path
+
+    # 24 levels, each using the next twice (2^24 uses of the last type), in 1 KB.
+    # Before: the schema was copied per use, gigabytes, and the run aborted.
+    text = "T1 a\nT1 b\n"
+    for d in range(1, 24):
+        text += f"===\nMSG: p/T{d}\nT{d + 1} a\nT{d + 1} b\n"
+    text += "===\nMSG: p/T24\nfloat64 x\n"
+    deep = write("deep.mcap", text, b"\x00\x01\x00\x00" + bytes(16))
+    res = subprocess.run(
+        [str(binary), "convert", "--in", str(deep), "--out", str(tmp_path / "deep.csv")],
+        capture_output=True, text=True, timeout=60, preexec_fn=bounded(1 << 30),
+    )
+    err = [l for l in res.stderr.splitlines() if l.startswith("error:")]
+    assert res.returncode == 1 and len(err) == 1 and "deep.mcap" in err[0] and "/x" in err[0], res.stderr
+
+    # Four billion elements that hold no value, then one that does. Before: never ended.
+    body = b"\x00\x01\x00\x00" + np.array([2.5]).tobytes()
+    empty = write("empty.mcap", "Z[4000000000] z\nfloat64 v\n===\nMSG: p/Z\nfloat64[0] a\n", body)
+    res = run(binary, "convert", "--in", empty, "--align", "none", "--out", tmp_path / "empty.csv")
+    header, rows = read_csv(tmp_path / "empty.csv")
+    assert header == ["time", "/x/v"] and rows[:, 1].tolist() == [2.5, 2.5, 2.5], res.stderr

@@ -16,6 +16,8 @@
 
 use std::collections::VecDeque;
 
+use crate::resample::{GapTooLong, MAX_ROWS_PER_GAP};
+
 /// How a column gets its value at a clock time.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Align {
@@ -63,6 +65,7 @@ pub struct Aligner {
     last_clock_ns: Option<i64>,
     grid_t0_ns: Option<i64>,
     grid_k: u64,
+    last_push_ns: Option<i64>,
 }
 
 fn interpolate(mode: Align, prev: Option<(i64, f64)>, next: Option<(i64, f64)>, t: i64, gap: i64) -> f64 {
@@ -112,6 +115,7 @@ impl Aligner {
             last_clock_ns: None,
             grid_t0_ns: None,
             grid_k: 0,
+            last_push_ns: None,
         }
     }
 
@@ -133,15 +137,17 @@ impl Aligner {
     }
 
     /// One message at `t_ns` (not before the previous one) of `topic`, giving `values`
-    /// as `(column, value)` (columns counted without the time column).
-    pub fn push(&mut self, t_ns: i64, topic: usize, values: &[(usize, f64)]) {
+    /// as `(column, value)` (columns counted without the time column). On a grid, a
+    /// message more than [`MAX_ROWS_PER_GAP`] grid rows after the last is an error (a
+    /// glitched stamp would fill memory), found before anything changes.
+    pub fn push(&mut self, t_ns: i64, topic: usize, values: &[(usize, f64)]) -> Result<(), GapTooLong> {
         if self.mode == Align::None {
             let mut row = self.new_row(t_ns);
             for &(c, v) in values {
                 row[c + 1] = v;
             }
             self.ready.push_back(row);
-            return;
+            return Ok(());
         }
         match self.source {
             ClockSource::Topic(clock) => {
@@ -151,6 +157,11 @@ impl Aligner {
             }
             ClockSource::Grid(rate_hz) => {
                 let t0 = *self.grid_t0_ns.get_or_insert(t_ns);
+                let rows = ((t_ns - t0) as f64 * rate_hz / 1e9).floor() - self.grid_k as f64;
+                if rows >= MAX_ROWS_PER_GAP as f64 {
+                    let last_ns = self.last_push_ns.unwrap_or(t0);
+                    return Err(GapTooLong { time_s: t_ns as f64 / 1e9, gap_s: (t_ns - last_ns) as f64 / 1e9 });
+                }
                 loop {
                     let t = t0.saturating_add((self.grid_k as f64 * 1e9 / rate_hz).round() as i64);
                     if t > t_ns {
@@ -161,10 +172,12 @@ impl Aligner {
                 }
             }
         }
+        self.last_push_ns = Some(t_ns);
         for &(c, v) in values {
             self.sample(c, t_ns, v);
         }
         self.settle(Some(t_ns));
+        Ok(())
     }
 
     /// Gives column `c` its values in the rows up to `t_ns`, then makes `(t_ns, v)` its
@@ -245,9 +258,9 @@ mod tests {
         let mut a = Aligner::new(mode, source, &[gap, gap]);
         let mut out = Vec::new();
         for k in 0..=20i64 {
-            a.push(k * MS, 0, &[(0, k as f64)]);
+            a.push(k * MS, 0, &[(0, k as f64)]).unwrap();
             if k % 4 == 0 && k != 8 && k != 12 {
-                a.push(k * MS, 1, &[(1, 10.0 * k as f64)]);
+                a.push(k * MS, 1, &[(1, 10.0 * k as f64)]).unwrap();
             }
             while let Some(r) = a.pop() {
                 out.push(r);
@@ -297,10 +310,24 @@ mod tests {
         let mut a = Aligner::new(Align::Linear, ClockSource::Topic(0), &[2 * MS, 2 * MS]);
         let mut most = 0;
         for k in 0..10_000i64 {
-            a.push(k * MS, 0, &[(0, 1.0)]);
+            a.push(k * MS, 0, &[(0, 1.0)]).unwrap();
             while a.pop().is_some() {}
             most = most.max(a.held_rows());
         }
         assert!(most <= 3, "column 1 never comes, yet only {most} rows wait");
+    }
+
+    #[test]
+    fn a_grid_gap_beyond_the_row_limit_is_refused_before_any_row() {
+        // A first stamp at 1 ms, then Unix time: 1.7e12 rows at 1 kHz.
+        let mut a = Aligner::new(Align::Linear, ClockSource::Grid(1000.0), &[MS]);
+        a.push(MS, 0, &[(0, 1.0)]).unwrap();
+        let unix_ns = 1_700_000_000 * 1_000_000_000;
+        let e = a.push(unix_ns, 0, &[(0, 2.0)]).unwrap_err();
+        assert_eq!(e.time_s, 1.7e9);
+        assert_eq!(a.held_rows(), 1, "the grid row of the first sample only");
+        // A shorter gap is filled.
+        a.push(MS + 1000 * MS, 0, &[(0, 2.0)]).unwrap();
+        assert_eq!(a.held_rows(), 1001);
     }
 }

@@ -565,8 +565,7 @@ impl BagReader {
         self.topics[topic].read += 1;
         if self.lateness_ns == 0 && t >= self.newest_ns {
             self.newest_ns = t;
-            self.aligner.push(t, topic, &self.values);
-            return Ok(());
+            return self.align(t, topic, None);
         }
         self.newest_ns = self.newest_ns.max(t);
         self.seq += 1;
@@ -574,15 +573,24 @@ impl BagReader {
         let until = self.newest_ns.saturating_sub(self.lateness_ns);
         while self.held.peek().is_some_and(|h| h.0.t_ns <= until) {
             if let Some(Reverse(h)) = self.held.pop() {
-                self.aligner.push(h.t_ns, h.topic, &h.values);
+                self.align(h.t_ns, h.topic, Some(&h.values))?;
             }
         }
         Ok(())
     }
 
+    /// One message's values (`None`: those just decoded) into the aligner.
+    fn align(&mut self, t_ns: i64, topic: usize, values: Option<&[(usize, f64)]>) -> Result<(), IoError> {
+        let values = values.unwrap_or(&self.values);
+        self.aligner.push(t_ns, topic, values).map_err(|e| IoError::Csv {
+            path: self.path.clone(),
+            msg: format!("topic `{}`, message at {} s: {e}", self.topics[topic].name, t_ns as f64 / 1e9),
+        })
+    }
+
     fn end(&mut self, error: Option<IoError>) -> Result<(), IoError> {
         while let Some(Reverse(h)) = self.held.pop() {
-            self.aligner.push(h.t_ns, h.topic, &h.values);
+            self.align(h.t_ns, h.topic, Some(&h.values))?;
         }
         self.aligner.finish();
         self.finished = true;

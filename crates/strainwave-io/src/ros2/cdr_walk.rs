@@ -157,19 +157,22 @@ impl<'a> Walker<'a, '_> {
                 Arity::Fixed(n) => n,
                 Arity::Seq => {
                     let n = self.u32()? as usize;
-                    let min = match f.ty {
-                        Ty::Prim(p) => p.size(),
-                        Ty::Nested(_) => 1,
-                    };
-                    if n.saturating_mul(min) > self.body.len() - self.pos {
-                        return Err(self.truncated());
-                    }
                     if emit {
                         self.out.layout_key.extend_from_slice(&(n as u32).to_le_bytes());
                     }
                     n
                 }
             };
+            // Elements that hold no value take no bytes: nothing to walk (a count of
+            // billions would otherwise spin). The others must fit in what is left.
+            let min = def.min_bytes(f.ty);
+            if min == 0 {
+                self.path.truncate(base);
+                continue;
+            }
+            if n.saturating_mul(min) > self.body.len() - self.pos {
+                return Err(self.truncated());
+            }
             let numeric = matches!(f.ty, Ty::Prim(p) if p != Prim::Str);
             let keep = emit && !(numeric && n > MAX_ARRAY_VALUES);
             if emit && !keep {
@@ -308,6 +311,21 @@ mod tests {
         let mut w = W::new();
         w.u32(u32::MAX);
         let e = walk(&def, &w.0, &mut Decoded::default(), None).unwrap_err();
+        assert!(matches!(e, WalkError::Truncated { .. }), "{e}");
+    }
+
+    #[test]
+    fn arrays_of_elements_without_bytes_or_beyond_the_message_end_at_once() {
+        // Four billion elements that hold nothing: before, a walk that never ended.
+        let def = MsgDef::parse("my/A", "Z[4000000000] z\nfloat64 x\n===\nMSG: my/Z\nfloat64[0] a").unwrap();
+        let mut w = W::new();
+        w.f64(2.5);
+        let mut out = Decoded::default();
+        walk(&def, &w.0, &mut out, None).unwrap();
+        assert_eq!(out.values, [2.5]);
+        // A fixed array longer than the message: refused before walking it.
+        let def = MsgDef::parse("my/A", "float64[4000000000] v").unwrap();
+        let e = walk(&def, &W::new().0, &mut Decoded::default(), None).unwrap_err();
         assert!(matches!(e, WalkError::Truncated { .. }), "{e}");
     }
 

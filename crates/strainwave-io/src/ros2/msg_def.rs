@@ -106,6 +106,8 @@ pub struct MsgType {
     pub name: String,
     /// Fields in wire order.
     pub fields: Vec<Field>,
+    /// Fewest bytes one value takes on the wire (0: it holds no value at all).
+    pub min_bytes: usize,
 }
 
 /// A parsed definition: the root is `types[0]`.
@@ -249,7 +251,7 @@ impl MsgDef {
         }
         let (name, raw) = block;
         let index = self.types.len();
-        self.types.push(MsgType { name: name.clone(), fields: Vec::new() });
+        self.types.push(MsgType { name: name.clone(), fields: Vec::new(), min_bytes: 0 });
         let package = name.split('/').next().unwrap_or("").to_string();
         let mut fields = Vec::with_capacity(raw.len());
         for f in raw {
@@ -259,8 +261,29 @@ impl MsgDef {
             };
             fields.push(Field { name: f.name, ty, arity: f.arity });
         }
+        // An empty struct is one byte in CDR.
+        let min_bytes = if fields.is_empty() {
+            1
+        } else {
+            fields.iter().fold(0usize, |sum, f| {
+                sum.saturating_add(match f.arity {
+                    Arity::One => self.min_bytes(f.ty),
+                    Arity::Fixed(n) => n.saturating_mul(self.min_bytes(f.ty)),
+                    Arity::Seq => 4,
+                })
+            })
+        };
         self.types[index].fields = fields;
+        self.types[index].min_bytes = min_bytes;
         Ok(index)
+    }
+
+    /// Fewest bytes one value of `ty` takes on the wire.
+    pub fn min_bytes(&self, ty: Ty) -> usize {
+        match ty {
+            Ty::Prim(p) => p.size(),
+            Ty::Nested(i) => self.types[i].min_bytes,
+        }
     }
 
     fn nested(
@@ -277,8 +300,12 @@ impl MsgDef {
             t if t.contains('/') => normalize(t),
             t => format!("{package}/{t}"),
         };
-        // Types are copied per use (a type used twice is resolved twice): simple, and the
-        // depth limit bounds the work.
+        // Each type is resolved once and shared by its uses (copies would grow
+        // exponentially with the depth); one still being resolved contains itself.
+        if let Some(i) = self.types.iter().position(|t| t.name == full) {
+            let resolving = self.types[i].fields.is_empty() && self.types[i].min_bytes == 0;
+            return if resolving { Err(DefError::TooDeep) } else { Ok(i) };
+        }
         let short = full.rsplit('/').next().unwrap_or(&full).to_string();
         let found = blocks
             .iter()
@@ -339,9 +366,26 @@ mod tests {
     }
 
     #[test]
+    fn a_type_used_many_times_is_resolved_once() {
+        // 24 levels, each using the next twice: 2^24 uses. Before, each use was a copy
+        // (gigabytes); now 25 types.
+        let mut text = String::from("L1 a\nL1 b\n");
+        for k in 1..24 {
+            text += &format!("===\nMSG: p/L{k}\nL{} a\nL{} b\n", k + 1, k + 1);
+        }
+        text += "===\nMSG: p/L24\nfloat64 v\n";
+        let d = MsgDef::parse("p/Root", &text).unwrap();
+        assert_eq!(d.types.len(), 25);
+        assert_eq!(d.root().min_bytes, 8 << 24);
+        assert_eq!(d.min_bytes(d.root().fields[0].ty), 8 << 23);
+    }
+
+    #[test]
     fn unknown_and_recursive_types_are_errors() {
         assert_eq!(MsgDef::parse("a/B", "c/D x").unwrap_err(), DefError::Unknown("c/D".into()));
         assert_eq!(MsgDef::parse("a/B", "B self").unwrap_err(), DefError::TooDeep);
+        let mutual = "C c\n===\nMSG: a/C\nB b\n";
+        assert_eq!(MsgDef::parse("a/B", mutual).unwrap_err(), DefError::TooDeep);
         assert!(matches!(MsgDef::parse("a/B", "float64[x] v"), Err(DefError::Line(_))));
     }
 }
