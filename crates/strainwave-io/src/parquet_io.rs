@@ -1,5 +1,6 @@
-//! Parquet recordings through Arrow: every column read as `f64` (integer and `f32`
-//! columns are widened; nulls become NaN; any other type is an error naming the column),
+//! Parquet recordings through Arrow: every column read as `f64` (integer, `f16` and `f32`
+//! columns are widened, timestamps become seconds since the epoch with the unit `s`;
+//! nulls become NaN; any other type is an error naming the column),
 //! written as non-nullable `Float64` columns with snappy compression, in row groups
 //! of [`crate::DEFAULT_CHUNK_ROWS`] rows, so both directions stream in constant memory.
 //! A column's unit is its field's metadata `unit` (both ways).
@@ -11,10 +12,12 @@ use std::sync::Arc;
 
 use arrow_array::cast::AsArray;
 use arrow_array::types::{
-    Float32Type, Float64Type, Int16Type, Int32Type, Int64Type, Int8Type, UInt16Type, UInt32Type, UInt64Type, UInt8Type,
+    Float16Type, Float32Type, Float64Type, Int16Type, Int32Type, Int64Type, Int8Type, TimestampMicrosecondType,
+    TimestampMillisecondType, TimestampNanosecondType, TimestampSecondType, UInt16Type, UInt32Type, UInt64Type,
+    UInt8Type,
 };
 use arrow_array::{Array, ArrayRef, Float64Array, RecordBatch};
-use arrow_schema::{DataType, Field, Schema, SchemaRef};
+use arrow_schema::{DataType, Field, Schema, SchemaRef, TimeUnit};
 use parquet::arrow::arrow_reader::{ParquetRecordBatchReader, ParquetRecordBatchReaderBuilder};
 use parquet::arrow::ArrowWriter;
 use parquet::basic::Compression;
@@ -34,6 +37,8 @@ fn numeric(dt: &DataType) -> bool {
         dt,
         DataType::Float64
             | DataType::Float32
+            | DataType::Float16
+            | DataType::Timestamp(..)
             | DataType::Int8
             | DataType::Int16
             | DataType::Int32
@@ -53,6 +58,17 @@ fn value(a: &dyn Array, k: usize) -> f64 {
     match a.data_type() {
         DataType::Float64 => a.as_primitive::<Float64Type>().value(k),
         DataType::Float32 => a.as_primitive::<Float32Type>().value(k) as f64,
+        DataType::Float16 => a.as_primitive::<Float16Type>().value(k).to_f64(),
+        DataType::Timestamp(TimeUnit::Second, _) => a.as_primitive::<TimestampSecondType>().value(k) as f64,
+        DataType::Timestamp(TimeUnit::Millisecond, _) => {
+            seconds(a.as_primitive::<TimestampMillisecondType>().value(k), 1e3)
+        }
+        DataType::Timestamp(TimeUnit::Microsecond, _) => {
+            seconds(a.as_primitive::<TimestampMicrosecondType>().value(k), 1e6)
+        }
+        DataType::Timestamp(TimeUnit::Nanosecond, _) => {
+            seconds(a.as_primitive::<TimestampNanosecondType>().value(k), 1e9)
+        }
         DataType::Int8 => a.as_primitive::<Int8Type>().value(k) as f64,
         DataType::Int16 => a.as_primitive::<Int16Type>().value(k) as f64,
         DataType::Int32 => a.as_primitive::<Int32Type>().value(k) as f64,
@@ -63,6 +79,13 @@ fn value(a: &dyn Array, k: usize) -> f64 {
         DataType::UInt64 => a.as_primitive::<UInt64Type>().value(k) as f64,
         _ => f64::NAN,
     }
+}
+
+/// `ticks` of `per_s` to a second, as seconds: whole and fractional seconds apart, so
+/// that the fraction keeps its digits.
+fn seconds(ticks: i64, per_s: f64) -> f64 {
+    let per = per_s as i64;
+    ticks.div_euclid(per) as f64 + ticks.rem_euclid(per) as f64 / per_s
 }
 
 /// Every column chunk inside the file: the `parquet` crate panics on a negative offset
@@ -128,7 +151,11 @@ impl ParquetReader {
         if let Some(dup) = columns.iter().find(|c| !seen.insert(c.as_str())) {
             return Err(IoError::DuplicateColumn { path: path.to_path_buf(), column: dup.clone() });
         }
-        let units = schema.fields().iter().map(|f| f.metadata().get(UNIT_KEY).cloned()).collect();
+        let unit = |f: &Field| match f.data_type() {
+            DataType::Timestamp(..) => f.metadata().get(UNIT_KEY).cloned().or(Some("s".to_string())),
+            _ => f.metadata().get(UNIT_KEY).cloned(),
+        };
+        let units = schema.fields().iter().map(|f| unit(f)).collect();
         let batches = crate::guard::guarded(|| builder.with_batch_size(crate::DEFAULT_CHUNK_ROWS).build())
             .map_err(|e| pq_err(path, e))?
             .map_err(|e| pq_err(path, e))?;

@@ -1,0 +1,77 @@
+"""Parquet files written by an independent library (`pyarrow`), as DAQ software and
+dataframe tools write them, read by the built `strainwave` binary: every compression
+pyarrow offers, timestamp time columns in each unit, `float16`, `float32` and integer
+columns, nulls."""
+
+import csv
+import subprocess
+
+import pytest
+from conftest import cargo_executable
+
+np = pytest.importorskip("numpy", reason="pip install numpy")
+pa = pytest.importorskip("pyarrow", reason="pip install pyarrow")
+pq = pytest.importorskip("pyarrow.parquet", reason="pip install pyarrow")
+
+N = 500
+RATE_HZ = 1000.0
+EPOCH_S = 1_795_932_000  # 2026-11-29T06:00:00Z
+
+
+@pytest.fixture(scope="module")
+def binary():
+    return cargo_executable("bin", "strainwave")
+
+
+def convert(binary, path, tmp_path):
+    out = tmp_path / (path.stem + ".csv")
+    res = subprocess.run(
+        [str(binary), "convert", "--in", str(path), "--out", str(out), "--quiet"],
+        capture_output=True, text=True, timeout=120,
+    )
+    assert res.returncode == 0, res.stderr
+    with open(out, newline="") as f:
+        rows = list(csv.reader(f))
+    return rows[0], np.array([[float(x) for x in r] for r in rows[1:]])
+
+
+def signal():
+    return np.sin(2 * np.pi * 7.0 * np.arange(N) / RATE_HZ)
+
+
+@pytest.mark.parametrize("compression", ["zstd", "gzip", "lz4", "brotli", "snappy", "none"])
+def test_every_pyarrow_compression_reads(binary, tmp_path, compression):
+    # Before: all but snappy and none failed ("Disabled feature at compile time").
+    path = tmp_path / f"{compression}.parquet"
+    table = pa.table({"time": np.arange(N) / RATE_HZ, "torque": signal()})
+    pq.write_table(table, path, compression=compression)
+    header, rows = convert(binary, path, tmp_path)
+    assert header == ["time", "torque"]
+    assert rows[:, 0].tolist() == (np.arange(N) / RATE_HZ).tolist()
+    assert rows[:, 1].tolist() == signal().tolist()
+
+
+@pytest.mark.parametrize("unit", ["s", "ms", "us", "ns"])
+def test_timestamp_columns_are_seconds_since_the_epoch(binary, tmp_path, unit):
+    # Before: refused ("has type Timestamp(ns), expected a number").
+    per_s = {"s": 1, "ms": 1_000, "us": 1_000_000, "ns": 1_000_000_000}[unit]
+    step = per_s // 1000 if per_s >= 1000 else 1
+    ticks = EPOCH_S * per_s + np.arange(N, dtype=np.int64) * step
+    table = pa.table(
+        {
+            "time": pa.array(ticks, type=pa.timestamp(unit, tz="UTC")),
+            "torque": pa.array(signal().astype(np.float16)),
+            "mode": pa.array(np.arange(N, dtype=np.int32) % 3),
+            "temp": pa.array([None if k % 100 == 0 else 20.5 for k in range(N)], type=pa.float32()),
+        }
+    )
+    path = tmp_path / f"ts_{unit}.parquet"
+    pq.write_table(table, path)
+    header, rows = convert(binary, path, tmp_path)
+    assert header[1:] == ["torque", "mode", "temp"]
+    want = EPOCH_S + np.arange(N) * step / per_s
+    # Seconds since the epoch in f64: within a microsecond (its resolution near 1.8e9 s).
+    assert np.max(np.abs(rows[:, 0] - want)) < 1e-6, unit
+    assert rows[:, 1].tolist() == signal().astype(np.float16).astype(np.float64).tolist()
+    assert rows[:, 2].tolist() == (np.arange(N) % 3).tolist()
+    assert np.isnan(rows[::100, 3]).all() and (rows[1::100, 3] == 20.5).all()
