@@ -64,6 +64,8 @@ pub struct CsvReader {
     cells: Vec<f64>,
     next: usize,
     done: bool,
+    /// The `time` column and how its unit becomes seconds (`t · mul / div`).
+    time_to_s: Option<(usize, f64, f64)>,
 }
 
 impl CsvReader {
@@ -107,7 +109,13 @@ impl CsvReader {
         if header.is_empty() || (header.len() == 1 && header[0].is_empty()) {
             return Err(IoError::Empty(path));
         }
-        let (columns, units): (Vec<String>, Vec<Option<String>>) = header.iter().map(split_unit).unzip();
+        let (columns, mut units): (Vec<String>, Vec<Option<String>>) = header.iter().map(split_unit).unzip();
+        // A time in another unit (`Time [ms]`) is read in seconds, as every command takes it.
+        let time_to_s = columns.iter().position(|c| c == "time").and_then(|i| {
+            let (mul, div) = dialect::seconds_per(units[i].as_deref()?)?;
+            units[i] = Some("s".to_string());
+            Some((i, mul, div)).filter(|_| (mul, div) != (1.0, 1.0))
+        });
         let mut seen = std::collections::HashSet::with_capacity(columns.len());
         if let Some(c) = columns.iter().find(|c| !seen.insert(c.as_str())) {
             return Err(IoError::DuplicateColumn { path, column: c.clone() });
@@ -129,6 +137,7 @@ impl CsvReader {
             cells: Vec::new(),
             next: 0,
             done: false,
+            time_to_s,
         })
     }
 
@@ -178,6 +187,9 @@ impl CsvReader {
         }
         row.clear();
         row.extend_from_slice(&self.cells[self.next..self.next + n]);
+        if let Some((i, mul, div)) = self.time_to_s {
+            row[i] = row[i] * mul / div;
+        }
         self.next += n;
         self.rows_read += 1;
         Ok(true)

@@ -145,6 +145,19 @@ fn formatting_is_std_text_byte_for_byte() {
 }
 
 #[test]
+fn a_time_column_in_another_unit_is_read_in_seconds() {
+    // Before: `Time [ms]` was taken as seconds (a 1 kHz log read as 1 Hz, with exit 0).
+    for (unit, t, want_s) in [("ms", "1500", 1.5), ("us", "250", 250e-6), ("min", "2", 120.0), ("s", "0.25", 0.25)] {
+        let text = format!("Time [{unit}],torque [ms]\n{t},7\n");
+        let mut r = CsvReader::from_reader(Path::new("rec.csv"), Box::new(std::io::Cursor::new(text))).unwrap();
+        assert_eq!(r.units(), [Some("s".to_string()), Some("ms".to_string())], "{unit}");
+        let mut row = Vec::new();
+        assert!(r.read_row(&mut row).unwrap());
+        assert_eq!(row, [want_s, 7.0], "{unit}: other columns keep their unit");
+    }
+}
+
+#[test]
 fn values_are_bit_exact_and_quoted_cells_parse() {
     let text = "time,\"torque, N·m\" ,x\n\
                 0.30000000000000004,5e-324,1.7976931348623157e308\n\
