@@ -77,6 +77,12 @@ pub fn run(a: &Args) -> Result<()> {
                 );
             }
         }
+        if let (n @ 1.., Some((gap_s, at_s))) = r.resample_gaps() {
+            eprintln!(
+                "warning: {}: {n} gap(s) longer than --max-gap left NaN in the resampled rows, the longest {gap_s} s ending at time {at_s} s",
+                a.input.display()
+            );
+        }
         if r.resample_skipped() > 0 {
             eprintln!(
                 "warning: {} rows with non-increasing time were left out of the resampling",

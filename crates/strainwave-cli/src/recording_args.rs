@@ -175,7 +175,7 @@ pub struct ReadArgs {
     #[arg(long, global = true, value_name = "MODE", value_enum)]
     pub align: Option<AlignArg>,
     /// A column's value is NaN where its own samples are further apart than this, s
-    /// [default: 4 mean periods of its topic, at most 10 s].
+    /// [default: logs 4 mean periods of its topic, at most 10 s; tables resampled 10 s].
     #[arg(long, global = true, value_name = "S")]
     pub max_gap: Option<f64>,
     /// Put every column on a uniform clock at this rate, Hz (logs: default the fastest

@@ -153,10 +153,11 @@ impl RecordingReader {
                         available: format!("{} (needed by --resample-hz)", columns.join(", ")),
                     });
                 };
-                let Some(resampler) = LinearResampler::new(ti, hz) else {
+                let max_gap_s = options.max_gap_s.unwrap_or(crate::resample::DEFAULT_MAX_GAP_S);
+                let Some(resampler) = LinearResampler::new(ti, hz, max_gap_s) else {
                     return Err(IoError::Csv {
                         path: path.to_path_buf(),
-                        msg: format!("--resample-hz must be positive, got {hz}"),
+                        msg: format!("--resample-hz must be positive, got {hz} (--max-gap {max_gap_s})"),
                     });
                 };
                 Some(Resampled { resampler, ready: VecDeque::new(), skipped: 0 })
@@ -205,6 +206,12 @@ impl RecordingReader {
     /// Table rows left out of `--resample-hz` because their time does not increase.
     pub fn resample_skipped(&self) -> u64 {
         self.resampled.as_ref().map_or(0, |r| r.skipped)
+    }
+
+    /// A table's gaps longer than `--max-gap` that `--resample-hz` left NaN, and the
+    /// largest as `(gap_s, ends_at_s)`.
+    pub fn resample_gaps(&self) -> (u64, Option<(f64, f64)>) {
+        self.resampled.as_ref().map_or((0, None), |r| r.resampler.gaps())
     }
 
     /// The path, for messages.

@@ -22,21 +22,37 @@ pub struct GapTooLong {
 pub struct LinearResampler {
     time_index: usize,
     rate_hz: f64,
+    max_gap_s: f64,
     start_s: f64,
     next_k: u64,
     prev: Option<Vec<f64>>,
+    gaps: u64,
+    largest_gap: Option<(f64, f64)>,
 }
 
+/// A table's default `max_gap_s`: the longest a log's columns are interpolated over.
+pub const DEFAULT_MAX_GAP_S: f64 = 10.0;
+
 impl LinearResampler {
-    /// A resampler to `rate_hz` (> 0); the grid starts at the first row's time.
-    pub fn new(time_index: usize, rate_hz: f64) -> Option<Self> {
-        (rate_hz.is_finite() && rate_hz > 0.0).then_some(Self {
+    /// A resampler to `rate_hz` (> 0); the grid starts at the first row's time. Rows
+    /// further apart than `max_gap_s` are not interpolated between: the grid rows inside
+    /// such a gap are NaN but for their time.
+    pub fn new(time_index: usize, rate_hz: f64, max_gap_s: f64) -> Option<Self> {
+        (rate_hz.is_finite() && rate_hz > 0.0 && max_gap_s >= 0.0).then_some(Self {
             time_index,
             rate_hz,
+            max_gap_s,
             start_s: 0.0,
             next_k: 0,
             prev: None,
+            gaps: 0,
+            largest_gap: None,
         })
+    }
+
+    /// Gaps longer than `max_gap_s` left NaN so far, and the largest: `(gap_s, ends_at_s)`.
+    pub fn gaps(&self) -> (u64, Option<(f64, f64)>) {
+        (self.gaps, self.largest_gap)
     }
 
     /// Feeds one input row; calls `emit` for every output row it completes, and stops
@@ -66,6 +82,13 @@ impl LinearResampler {
         if rows.is_nan() || rows >= MAX_ROWS_PER_GAP as f64 {
             return Err(GapTooLong { time_s: t, gap_s: t - t0 });
         }
+        let gap = t - t0 > self.max_gap_s;
+        if gap {
+            self.gaps += 1;
+            if self.largest_gap.is_none_or(|(g, _)| t - t0 > g) {
+                self.largest_gap = Some((t - t0, t));
+            }
+        }
         let mut out = vec![0.0; row.len()];
         loop {
             let tn = self.start_s + self.next_k as f64 / self.rate_hz;
@@ -74,7 +97,13 @@ impl LinearResampler {
             }
             let w = (tn - t0) / (t - t0);
             for (o, (a, b)) in out.iter_mut().zip(prev.iter().zip(row)) {
-                *o = a + w * (b - a);
+                // The rows themselves, never made-up values inside a gap.
+                *o = match (gap, tn == t0, tn == t) {
+                    (_, true, _) => *a,
+                    (_, _, true) => *b,
+                    (true, _, _) => f64::NAN,
+                    _ => a + w * (b - a),
+                };
             }
             out[self.time_index] = tn;
             self.next_k += 1;
@@ -92,8 +121,27 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_gap_beyond_max_gap_is_nan_not_a_ramp() {
+        // 1 s of samples, 59 s without any, 1 s more. Before: a 59 s ramp that never was.
+        let mut r = LinearResampler::new(0, 1.0, DEFAULT_MAX_GAP_S).unwrap();
+        let mut out = Vec::new();
+        for row in [[0.0, 0.0], [1.0, 0.0], [60.0, 100.0], [61.0, 100.0]] {
+            r.push(&row, |o| {
+                out.push(o.to_vec());
+                true
+            })
+            .unwrap();
+        }
+        assert_eq!(out.len(), 62);
+        assert_eq!(out[1], [1.0, 0.0]);
+        assert!(out[2..60].iter().all(|o| o[1].is_nan()), "inside the gap");
+        assert_eq!(out[60], [60.0, 100.0]);
+        assert_eq!(r.gaps(), (1, Some((59.0, 60.0))));
+    }
+
+    #[test]
     fn interpolates_onto_the_grid() {
-        let mut r = LinearResampler::new(0, 10.0).unwrap();
+        let mut r = LinearResampler::new(0, 10.0, DEFAULT_MAX_GAP_S).unwrap();
         let mut out = Vec::new();
         for row in [[0.0, 0.0], [0.25, 2.5], [0.3, 3.0], [0.3, 9.0], [0.52, 5.2]] {
             r.push(&row, |o| {
@@ -108,12 +156,12 @@ mod tests {
             assert!((row[0] - 0.1 * k as f64).abs() < 1e-12);
             assert!((row[1] - row[0] * 10.0).abs() < 1e-9, "{row:?}");
         }
-        assert!(LinearResampler::new(0, 0.0).is_none());
+        assert!(LinearResampler::new(0, 0.0, DEFAULT_MAX_GAP_S).is_none());
     }
 
     #[test]
     fn a_glitched_time_stamp_is_an_error_before_any_row_and_infinity_is_skipped() {
-        let mut r = LinearResampler::new(0, 1000.0).unwrap();
+        let mut r = LinearResampler::new(0, 1000.0, DEFAULT_MAX_GAP_S).unwrap();
         let mut n = 0u64;
         let mut count = |_: &[f64]| {
             n += 1;
@@ -131,7 +179,7 @@ mod tests {
 
     #[test]
     fn a_failed_write_stops_the_filling() {
-        let mut r = LinearResampler::new(0, 1000.0).unwrap();
+        let mut r = LinearResampler::new(0, 1000.0, DEFAULT_MAX_GAP_S).unwrap();
         let mut n = 0;
         r.push(&[0.0], |_| true).unwrap();
         r.push(&[5.0], |_| {
