@@ -277,12 +277,22 @@ pub fn refuse_input_as_output<'a>(output: &Path, inputs: impl IntoIterator<Item 
         if same_file(output, input) {
             return Err(IoError::OutputIsInput { output: output.to_path_buf(), input: input.to_path_buf() });
         }
-        let inside = |f: &PathBuf| input.is_dir() && std::fs::canonicalize(input).is_ok_and(|d| f.starts_with(d));
+        let inside = |f: &PathBuf| is_bag_folder(input) && std::fs::canonicalize(input).is_ok_and(|d| f.starts_with(d));
         if folder.as_ref().is_some_and(inside) {
             return Err(IoError::OutputInInputFolder { output: output.to_path_buf(), input: input.to_path_buf() });
         }
     }
     Ok(())
+}
+
+/// Whether `path` is a folder a reader takes as a rosbag2 bag: it holds `metadata.yaml`
+/// or `.mcap` / `.db3` files.
+fn is_bag_folder(path: &Path) -> bool {
+    let bag_file = |p: &Path| {
+        p.file_name().is_some_and(|n| n == "metadata.yaml")
+            || p.extension().is_some_and(|e| e.eq_ignore_ascii_case("mcap") || e.eq_ignore_ascii_case("db3"))
+    };
+    std::fs::read_dir(path).is_ok_and(|entries| entries.flatten().any(|e| bag_file(&e.path())))
 }
 
 /// Refuses two outputs of one run that name one file, existing or not (`(flag, path)`

@@ -109,7 +109,7 @@ pub struct FilterSummary {
     pub extrapolated: u64,
     /// Warnings: skipped samples, time axis, sample rate.
     pub warnings: Vec<String>,
-    /// The do-no-harm guard's figures (`None`: guard off, or the smoother ran).
+    /// The do-no-harm guard's figures (`None`: guard off).
     pub health: Option<Health>,
 }
 
@@ -383,16 +383,17 @@ impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
         }
         let refs: Vec<&str> = columns.iter().map(String::as_str).collect();
         let mut check = ch.check(cfg, opts, r.columns());
+        // The output runs from the config's learned file whenever there is one (a `--learn`
+        // run learns beside it), so that file is the guard's evidence.
+        let mut canceller = Canceller::new(model, cfg.filter.guard, learned.is_some());
         if opts.smooth {
             let w = create(&refs)?;
-            return crate::smooth::smooth(opts, model, denoiser, r, w, &mut check, |row| {
+            let in_config = |e| in_config_terms(e, cfg.filter.model == ModelChoice::Orders, cfg.filter.sample_rate_hz);
+            return crate::smooth::smooth(opts, model, (canceller, &in_config), denoiser, r, w, &mut check, |row| {
                 (ch.input(&gear, &cal, row, velocity).0, ch.time.get(row))
             });
         }
         let mut w = create(&refs)?;
-        // The output runs from the config's learned file whenever there is one (a `--learn`
-        // run learns beside it), so that file is the guard's evidence.
-        let mut canceller = Canceller::new(model, cfg.filter.guard, learned.is_some());
         let mut denoiser = denoiser;
         let mut row = Vec::with_capacity(columns.len());
         let mut last_t: Option<f64> = None;

@@ -22,10 +22,11 @@ use strainwave_analysis::smoother::torque_ripple::{
 };
 use strainwave_analysis::smoother::{CheckpointStore, CheckpointedSmoother, SmootherError};
 use strainwave_core::denoise::TorqueDenoiser;
-use strainwave_core::ripple::{ReferenceValues, RippleInput, RippleModel, RippleState, StepFlags};
+use strainwave_core::ripple::{ReferenceValues, RippleInput, RippleModel, RippleOutput, RippleState, StepFlags};
 
+use crate::health::Health;
 use crate::row_check::RowCheck;
-use crate::run::{FilterOptions, FilterSummary, RowSink, RowSource};
+use crate::run::{Canceller, FilterOptions, FilterSummary, RowSink, RowSource};
 
 /// Rows per block of the backward pass. Memory: one block of the smoother's records
 /// (about 2.3 kB per row for the full model, so about 10 MB), whatever the length; the
@@ -37,8 +38,10 @@ pub const BLOCK_ROWS: usize = 4096;
 /// ripple, misalignment, innovation, nis, flags.
 const ADDED: usize = 6;
 /// The canceller's input as stored: torque, expected torque, three references, dt (NaN:
-/// none); then the causal denoised torque of the forward pass (NaN: none).
-const INPUT: usize = 7;
+/// none); then the causal denoised torque of the forward pass (NaN: none); then the
+/// guarded canceller's torque, ripple and misalignment, its `filter_flags` bits, and
+/// whether the guard applied what the canceller would (1) or held some of it back (0).
+const INPUT: usize = 12;
 
 /// A scratch file of `f64` records of one width: unlinked once open (Unix), else
 /// removed when dropped.
@@ -128,9 +131,19 @@ fn get(r: &mut impl Read, values: &mut [f64]) -> std::io::Result<()> {
     Ok(())
 }
 
-fn encode(i: &RippleInput<f64>, denoised_nm: f64) -> [f64; INPUT] {
-    let r = i.references;
-    [i.torque_nm, i.expected_torque_nm, r.relative, r.output, r.motor, i.dt_s.unwrap_or(f64::NAN), denoised_nm]
+fn encode(
+    i: &RippleInput<f64>,
+    denoised_nm: f64,
+    (guarded, bits): (&RippleOutput<f64>, u32),
+    trusted: bool,
+) -> [f64; INPUT] {
+    let (r, g) = (i.references, guarded);
+    let dt = i.dt_s.unwrap_or(f64::NAN);
+    let trusted = f64::from(u8::from(trusted));
+    let (torque, expected) = (i.torque_nm, i.expected_torque_nm);
+    let (g_torque, g_ripple, g_mis) = (g.torque_nm, g.ripple_nm, g.misalignment_nm);
+    let bits = f64::from(bits);
+    [torque, expected, r.relative, r.output, r.motor, dt, denoised_nm, g_torque, g_ripple, g_mis, bits, trusted]
 }
 
 fn decode(v: &[f64]) -> RippleInput<f64> {
@@ -141,9 +154,18 @@ fn decode(v: &[f64]) -> RippleInput<f64> {
 
 /// Runs the smoother over the whole recording and writes the smoothed columns (with
 /// `denoiser`, the causal denoised torque of the forward pass before them).
+///
+/// Do no harm: `canceller` (guarded unless `filter.guard = false`, with the error
+/// wording `in_config`) runs beside the smoother's forward pass. Where its guard holds
+/// back any of what the canceller would cancel, the rows get the guard's causal torque,
+/// ripple and misalignment, and that torque as `torque_smoothed` (its 1σ NaN): the
+/// smoother's numbers stand only where the guard trusts the model. `filter_flags` are
+/// the guarded canceller's, as without `--smooth`.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
     opts: &FilterOptions,
     model: &RippleModel<f64, M>,
+    (mut canceller, in_config): (Canceller<M>, &dyn Fn(strainwave_core::Error) -> String),
     mut denoiser: Option<TorqueDenoiser<f64>>,
     r: &mut S,
     mut w: W,
@@ -191,10 +213,15 @@ pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
         speed.push(sample.references.relative);
         let o = sm.push(&sample).map_err(smoother_error)?;
         check.flags(o.flags, r.rows_read());
+        let (g, bits) = canceller
+            .step(model, &sample)
+            .map_err(|e| anyhow!("{input}: data row {}: {}", r.rows_read(), in_config(e)))?;
+        // The guard applied the canceller's whole correction (same numbers to rounding).
+        let trusted = (g.torque_nm - o.torque_nm).abs() <= 1e-9 * (1.0 + sample.torque_nm.abs());
         let denoised =
-            denoiser.as_mut().map_or(f64::NAN, |d| d.step(o.torque_nm, o.flags.contains(StepFlags::LOAD_STEP)));
+            denoiser.as_mut().map_or(f64::NAN, |d| d.step(g.torque_nm, g.flags.contains(StepFlags::LOAD_STEP)));
         put(&mut spool, &row)
-            .and_then(|()| put(&mut spool, &encode(&sample, denoised)))
+            .and_then(|()| put(&mut spool, &encode(&sample, denoised, (&g, bits), trusted)))
             .with_context(|| rows.context())?;
     }
     spool.flush().with_context(|| rows.context())?;
@@ -249,10 +276,19 @@ pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
     for _ in 0..sm.len() {
         get(&mut rows_in, &mut line).with_context(|| rows.context())?;
         get(&mut added_in, &mut extra).with_context(|| added.context())?;
-        // The stored input: torque, expected torque, relative angle, …, denoised torque.
-        let (relative_rad, denoised) = (line[width + 2], line[width + INPUT - 1]);
+        // The stored input: torque, expected torque, relative angle, …, denoised torque,
+        // the guarded outputs and whether the guard trusted the model.
+        let stored = &line[width..];
+        let (relative_rad, denoised) = (stored[2], stored[6]);
+        let (guarded, trusted) = ([stored[7], stored[8], stored[9]], stored[11] == 1.0);
+        let flags = stored[10];
         line.truncate(width);
         line.extend_from_slice(&extra[..ADDED]);
+        // The flags of the run, the guard's included, as `filter` writes them.
+        line[width + ADDED - 1] = flags;
+        if !trusted {
+            line[width..width + 3].copy_from_slice(&guarded);
+        }
         if denoiser.is_some() {
             line.push(denoised);
         }
@@ -261,17 +297,14 @@ pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
             RippleTorqueEstimate::from_values(n_state, &extra[ADDED..]).unwrap_or(RippleTorqueEstimate::none(n_state));
         let (t, sd) =
             forward.filtered().combine(back).map_or((extra[0], f64::NAN), |e| (e.level_nm(), e.level_sd_nm()));
-        line.extend_from_slice(&[t, sd]);
+        line.extend_from_slice(&if trusted { [t, sd] } else { [guarded[0], f64::NAN] });
         w.write_row(&line)?;
         line.resize(width + INPUT, 0.0);
     }
     let rows = w.finish()?;
     let span = first_t.zip(last_t).map(|(t0, t1)| t1 - t0);
-    Ok(FilterSummary {
-        rows,
-        notes: Vec::new(),
-        extrapolated: 0,
-        warnings: check.warnings(input, rows, span),
-        health: None,
-    })
+    let health = canceller.health(model);
+    let mut warnings = check.warnings(input, rows, span);
+    warnings.extend(health.iter().flat_map(Health::warnings));
+    Ok(FilterSummary { rows, notes: Vec::new(), extrapolated: 0, warnings, health })
 }
