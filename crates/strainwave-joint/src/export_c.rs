@@ -109,8 +109,13 @@ impl ModelVisitor for Extract<'_> {
 pub fn export_c(cfg: &JointConfig, learned: Option<&Path>, name: &str, precision: Precision) -> Result<String> {
     check_identifier(name)?;
     let config = cfg.path.display().to_string();
+    // Errors of the learned file name where it came from: `--learned`, or the config's key.
+    let field = match learned {
+        Some(_) => "--learned".to_string(),
+        None => format!("{config}: `filter.learned`"),
+    };
+    let field = || field.clone();
     let learned = learned.or(cfg.filter.learned.as_deref());
-    let field = || format!("{config}: `filter.learned`");
     let file = learned.map(|p| LearnedFile::load_for(p, cfg).with_context(field)).transpose()?;
     let extras = match (&file, learned) {
         (Some((f, _)), Some(p)) => f.extras(p).with_context(field)?,

@@ -427,7 +427,7 @@ impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
             let outputs = [o.torque_nm, o.ripple_nm, o.misalignment_nm, o.innovation_nm, o.nis];
             if let Some(v) = outputs.iter().find(|v| v.is_infinite()) {
                 bail!(
-                    "{input}: data row {n}: the filter's output overflows ({v}) from a torque of {} N·m; \
+                    "{input}: data row {n}: the filter's output overflows ({v}) from a torque of {:?} N·m; \
                      check the calibration and `filter.noise_nm` in {config}",
                     sample.torque_nm
                 );

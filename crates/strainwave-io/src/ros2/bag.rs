@@ -549,7 +549,7 @@ impl BagReader {
                 let e = IoError::Csv {
                     path: self.path.clone(),
                     msg: format!(
-                        "stopped after message {} (log time {} s); the rows before were read: {e}",
+                        "stopped after message {} (log time {} s), the file is damaged from there: {e}",
                         self.messages,
                         self.last_log_ns as f64 / 1e9
                     ),
