@@ -59,10 +59,16 @@ pub fn run(a: &Args) -> Result<()> {
     let at = |name: &str| columns.iter().position(|c| c == name);
     let mut torque_cols: Vec<String> =
         TORQUE_COLUMNS.iter().filter(|c| at(c).is_some()).map(|c| c.to_string()).collect();
-    if let Some(c) = &cfg {
-        let name = c.channels.torque.column_name().to_string();
-        if at(&name).is_some() && !torque_cols.contains(&name) {
-            torque_cols.insert(0, name);
+    // The config's torque channel is a torque only when nothing turns it into one (no
+    // calibration, no scale or offset): a bridge voltage is not plotted as N·m.
+    let in_nm = |c: &JointConfig| {
+        let gain_one = c.calibration.as_ref().is_none_or(|k| k.gain_nm_per_v == Some(1.0) && k.file.is_none());
+        gain_one && c.channels.torque.scale_offset() == (1.0, 0.0)
+    };
+    let measured_nm = cfg.as_ref().filter(|c| in_nm(c)).map(|c| c.channels.torque.column_name().to_string());
+    if let Some(name) = &measured_nm {
+        if at(name).is_some() && !torque_cols.contains(name) {
+            torque_cols.insert(0, name.clone());
         }
     }
     let torque_at: Vec<usize> = torque_cols.iter().filter_map(|c| at(c)).collect();
@@ -71,8 +77,7 @@ pub fn run(a: &Args) -> Result<()> {
         let col = |ch: &Option<strainwave_io::Channel>| ch.as_ref().and_then(|ch| at(ch.column_name()));
         col(&c.channels.motor_angle).zip(col(&c.channels.output_angle))
     });
-    let measured_name =
-        cfg.as_ref().map_or("measured_torque".to_string(), |c| c.channels.torque.column_name().to_string());
+    let measured_name = measured_nm.unwrap_or("measured_torque".to_string());
     let mut smoothed = SmoothedTorque::new(&columns, &measured_name, PLOT_COLUMNS)
         .or_else(|| SmoothedTorque::new(&columns, "measured_torque", PLOT_COLUMNS));
     // The guard's figures when the recording has the filter's columns (and the config,

@@ -282,6 +282,13 @@ fn report_renders_sections_for_a_filtered_recording() {
         assert!(text.contains(s), "{s}");
     }
     assert!(!text.contains("<script"));
+    // The config's torque channel is a bridge voltage: not a torque to plot or to score in
+    // N·m (before: listed with an "RMS error" of 2.26 V against true_torque).
+    let errors = text.split("Errors against true_torque").nth(1).unwrap();
+    let errors = errors.split("<h2").next().unwrap();
+    assert!(errors.contains("measured_torque") && !errors.contains("bridge_voltage"), "{errors}");
+    let over_time = text.split("Torque over time").nth(1).unwrap().split("<h2").next().unwrap();
+    assert!(!over_time.contains("bridge_voltage"));
 }
 
 fn simulate_preset(d: &Path, preset: &str) -> PathBuf {
