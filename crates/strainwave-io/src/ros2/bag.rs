@@ -189,6 +189,8 @@ pub struct BagReader {
     rows_read: u64,
     finished: bool,
     stop: Option<IoError>,
+    /// Per column: samples, first and last time (ns) in the first pass.
+    column_spans: Vec<(u64, i64, i64)>,
     clock_topic: Option<String>,
 }
 
@@ -220,6 +222,7 @@ impl BagReader {
             rows_read: 0,
             finished: false,
             stop: None,
+            column_spans: Vec::new(),
             clock_topic: None,
         };
         r.first_pass()?;
@@ -254,6 +257,15 @@ impl BagReader {
             }
             stat.with_values += 1;
             stat.last_ns = stat.last_ns.max(t);
+            // Each column's own samples: topics shared by publishers at different rates
+            // (an arm and a gripper on `/joint_states`) give each column its own rate.
+            for &(id, _) in &self.values {
+                if self.column_spans.len() <= id {
+                    self.column_spans.resize(id + 1, (0, i64::MAX, i64::MIN));
+                }
+                let (n, first, last) = &mut self.column_spans[id];
+                (*n, *first, *last) = (*n + 1, (*first).min(t), (*last).max(t));
+            }
             newest = newest.max(t);
             self.lateness_ns = self.lateness_ns.max(newest - t);
         }
@@ -448,13 +460,14 @@ impl BagReader {
             }
             None => None,
         };
-        let gaps: Vec<i64> = self
-            .names
-            .entries
-            .iter()
-            .map(|(topic, _, _)| {
+        let column_rate = |k: usize| match self.column_spans.get(k) {
+            Some(&(n, first, last)) if n >= 2 && last > first => (n - 1) as f64 / ((last - first) as f64 * 1e-9),
+            _ => 0.0,
+        };
+        let gaps: Vec<i64> = (0..self.names.entries.len())
+            .map(|k| {
                 user_gap.unwrap_or_else(|| {
-                    let r = rate(&self.topics[*topic]);
+                    let r = column_rate(k);
                     if r > 0.0 {
                         ((DEFAULT_GAP_PERIODS * 1e9 / r).round() as i64).min(DEFAULT_GAP_MAX_NS)
                     } else {
@@ -464,6 +477,24 @@ impl BagReader {
             })
             .collect();
         self.aligner = Aligner::new(options.align, source, &gaps);
+        // A topic whose times miss the clock topic's altogether gives only NaN: most
+        // often header stamps and log times on different clocks.
+        if options.align != Align::None {
+            let c = &self.topics[clock];
+            let span = |s: &TopicStat| format!("{}–{} s", s.first_ns as f64 / 1e9, s.last_ns as f64 / 1e9);
+            for s in self.topics.iter().filter(|s| s.with_values > 0 && s.skipped.is_none()) {
+                if s.last_ns < c.first_ns || s.first_ns > c.last_ns {
+                    self.warnings.push(format!(
+                        "{}: its times ({}) miss those of the clock topic `{}` ({}), so its columns are NaN; \
+                         header stamps and log times on different clocks? `--time log` uses the log time throughout",
+                        s.head,
+                        span(s),
+                        c.name,
+                        span(c)
+                    ));
+                }
+            }
+        }
         for s in &self.topics {
             if let Some(why) = &s.skipped {
                 self.warnings.push(format!("{}: {why}; skipped {} message(s)", s.head, s.messages));
