@@ -216,8 +216,10 @@ pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
         let (g, bits) = canceller
             .step(model, &sample)
             .map_err(|e| anyhow!("{input}: data row {}: {}", r.rows_read(), in_config(e)))?;
-        // The guard applied the canceller's whole correction (same numbers to rounding).
-        let trusted = (g.torque_nm - o.torque_nm).abs() <= 1e-9 * (1.0 + sample.torque_nm.abs());
+        // The guard applied the canceller's whole correction (same numbers to rounding);
+        // a skipped sample (NaN torque) it does not judge, so the smoother fills it in.
+        let held_back = (g.torque_nm - o.torque_nm).abs() > 1e-9 * (1.0 + sample.torque_nm.abs());
+        let trusted = !held_back;
         let denoised =
             denoiser.as_mut().map_or(f64::NAN, |d| d.step(g.torque_nm, g.flags.contains(StepFlags::LOAD_STEP)));
         put(&mut spool, &row)
