@@ -251,6 +251,12 @@
 #define SW_GUARD_STANDSTILL_BOUND (1 << 3)
 
 /**
+ * `sw_output.guard_flags` bit: a load-scaled order was not applied on a sample that undid
+ * the load step of the one before (a glitch: the load that scales it is not known).
+ */
+#define SW_GUARD_LOAD_STEP_WITHHELD (1 << 4)
+
+/**
  * One joint's canceller state (double precision): fixed size, no heap, owned by the
  * caller (static, stack or a struct member). Opaque: set it up with `sw_init`.
  */

@@ -20,8 +20,9 @@ pub struct Args {
     #[arg(long = "in", required = true, num_args = 1..)]
     pub input: Vec<PathBuf>,
     /// Output recording: the input columns plus torque, ripple, misalignment, innovation, nis,
-    /// filter_flags (bits 0-7 the canceller's, 8-11 the do-no-harm guard's: pass-through,
-    /// order withheld, order contradicted, standstill bound; bit 16 + i: order i not
+    /// filter_flags (bits 0-7 the canceller's, 8-12 the do-no-harm guard's: pass-through,
+    /// order withheld, order contradicted, standstill bound, load-scaled order withheld
+    /// after a glitch; bit 16 + i: order i not
     /// applied); then torque_denoised when the config sets `filter.torque_bandwidth_hz`
     /// (causal, the clean torque filtered as a torque state: group delay at DC
     /// (1 − α)/(α fs) with α = 1 − exp(−2π f/fs), about 1/(2π f), e.g. 16 ms at 10 Hz; load

@@ -312,3 +312,23 @@ fn convert_reports_time_gaps_and_resamples_only_when_asked() {
     assert_eq!(rows.len(), 12, "{text}");
     assert_eq!(rows[5], "0.005,5");
 }
+
+/// `--resample-hz` far above the recording's rate (25 MHz typed for a 1 kHz log) is
+/// refused early, naming the option, instead of writing 100 million made-up rows; the
+/// output is not created.
+#[test]
+fn convert_refuses_up_sampling_beyond_reason() {
+    let d = tmp("upsample");
+    let f = d.join("rec.csv");
+    let text: String = std::iter::once("time,x\n".to_string())
+        .chain((0..4096).map(|k| format!("{},{k}\n", k as f64 * 1e-3)))
+        .collect();
+    std::fs::write(&f, text).unwrap();
+    let out = d.join("o.csv");
+    let o = run(&["convert", "--in", f.to_str().unwrap(), "--out", out.to_str().unwrap(), "--resample-hz", "2.5e7"]);
+    assert_user_error(&o, "--resample-hz 25000000 makes more than 1000 rows per input row");
+    assert!(!out.exists());
+    // A hundredfold is fine.
+    let o = run(&["convert", "--in", f.to_str().unwrap(), "--out", out.to_str().unwrap(), "--resample-hz", "1e5"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}

@@ -35,6 +35,11 @@
 //! had at its last moving sample (zero if it never moved), so what the filter removes
 //! there is bounded by what it learned while moving.
 //!
+//! A load step that the next sample undoes (two load steps in a row, their innovations of
+//! opposite signs) was a glitch, and the bias estimate that scales the load-scaled orders
+//! on that next sample is wrong by the glitch: those orders are not applied there. (A real
+//! step's innovations keep their sign while the bias settles, and the orders stay applied.)
+//!
 //! ```
 //! use strainwave_core::guard::{Guard, GuardSettings};
 //! use strainwave_core::ripple::{ReferenceValues, RippleInput, RippleModel};
@@ -59,7 +64,7 @@ mod order;
 mod stats;
 
 use crate::ripple::{
-    step_traced, OrderStatus, Reference, RippleInput, RippleModel, RippleOutput, RippleState, StepTrace,
+    step_traced, OrderStatus, Reference, RippleInput, RippleModel, RippleOutput, RippleState, StepFlags, StepTrace,
 };
 use crate::{Error, Real};
 use order::OrderGuard;
@@ -178,6 +183,9 @@ impl GuardFlags {
     pub const CONTRADICTED: Self = Self(1 << 2);
     /// At least one held order's contribution was clamped to its moving amplitude.
     pub const STANDSTILL_BOUND: Self = Self(1 << 3);
+    /// At least one load-scaled order was not applied: the sample undoes the load step of
+    /// the one before (a glitch), so the load that scales the order is not known.
+    pub const LOAD_STEP_WITHHELD: Self = Self(1 << 4);
 
     /// No flag.
     pub const fn empty() -> Self {
@@ -243,6 +251,8 @@ pub struct Guard<T: Real, const M: usize> {
     slow_alpha: T,
     mean_e2: T,
     pass_through: bool,
+    /// The innovation of the sample before if it was a load step, else 0, N·m.
+    step_innovation_nm: T,
     stats: GuardStats<M>,
 }
 
@@ -266,6 +276,7 @@ impl<T: Real, const M: usize> Guard<T, M> {
             slow_alpha: T::ONE / (settings.standstill_window_s * model.sample_rate_hz()).max(T::ONE),
             mean_e2: model.r_nm2,
             pass_through: false,
+            step_innovation_nm: T::ZERO,
             stats: GuardStats::new(),
         }
     }
@@ -295,6 +306,7 @@ impl<T: Real, const M: usize> Guard<T, M> {
             Err(e) => {
                 self.orders =
                     core::array::from_fn(|i| OrderGuard::new(&model.orders()[i], &self.settings, model.r_nm2));
+                self.step_innovation_nm = T::ZERO;
                 return Err(e);
             }
         };
@@ -340,6 +352,9 @@ impl<T: Real, const M: usize> Guard<T, M> {
         let mut applied = [false; M];
         let e = out.innovation_nm;
         let measured = e.is_finite() && out.nis.is_finite();
+        let load_step = out.flags.contains(StepFlags::LOAD_STEP);
+        let glitch_undone = load_step && self.step_innovation_nm * e < T::ZERO;
+        self.step_innovation_nm = if load_step { e } else { T::ZERO };
         for lead in 0..M {
             if self.group[lead] != lead {
                 continue;
@@ -354,7 +369,10 @@ impl<T: Real, const M: usize> Guard<T, M> {
             let (value, bounded) = g.bounded(line.contribution_nm, status);
             let held_ok = status != OrderStatus::Held || (complete && standstill_ok);
             let bounded = bounded || !held_ok;
-            let apply = verdict.apply && alone && held_ok && status != OrderStatus::Off;
+            let load_unknown =
+                glitch_undone && (lead..M).any(|i| self.group[i] == lead && model.orders()[i].is_load_scaled());
+            flags.set(GuardFlags::LOAD_STEP_WITHHELD, load_unknown && verdict.apply);
+            let apply = verdict.apply && alone && held_ok && status != OrderStatus::Off && !load_unknown;
             flags.set(GuardFlags::STANDSTILL_BOUND, bounded && verdict.apply && alone);
             for i in lead..M {
                 applied[i] |= apply && self.group[i] == lead;

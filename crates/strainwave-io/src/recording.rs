@@ -272,9 +272,29 @@ impl RecordingReader {
             if !kept {
                 rs.skipped += 1;
             }
+            // Up-sampling beyond reason (kHz typed for Hz) would fill the disk with
+            // made-up rows: stop early, with what to do.
+            let out_rows = self.rows_read + rs.ready.len() as u64;
+            if out_rows > MAX_RESAMPLED_PER_INPUT_ROW * self.input_rows + RESAMPLED_ROWS_ALLOWED {
+                let (hz, t) = (rs.resampler.rate_hz(), row.get(rs.resampler.time_index()).copied().unwrap_or(f64::NAN));
+                return Err(IoError::Csv {
+                    path: self.path.clone(),
+                    msg: format!(
+                        "data row {}: --resample-hz {hz} makes more than {MAX_RESAMPLED_PER_INPUT_ROW} rows per input \
+                         row ({out_rows} rows by time {t} s); choose a rate near the recording's own",
+                        self.input_rows
+                    ),
+                });
+            }
         }
     }
 }
+
+/// Most output rows `--resample-hz` may make per input row, beyond
+/// [`RESAMPLED_ROWS_ALLOWED`] (a short recording may be up-sampled further).
+const MAX_RESAMPLED_PER_INPUT_ROW: u64 = 1000;
+/// Output rows of any resampling, whatever the input's length.
+const RESAMPLED_ROWS_ALLOWED: u64 = 1_000_000;
 
 // One writer per command: the size difference between variants does not matter.
 #[allow(clippy::large_enum_variant)]

@@ -50,6 +50,16 @@ impl LinearResampler {
         })
     }
 
+    /// The output rate, Hz.
+    pub fn rate_hz(&self) -> f64 {
+        self.rate_hz
+    }
+
+    /// The time column's index.
+    pub fn time_index(&self) -> usize {
+        self.time_index
+    }
+
     /// Gaps longer than `max_gap_s` left NaN so far, and the largest: `(gap_s, ends_at_s)`.
     pub fn gaps(&self) -> (u64, Option<(f64, f64)>) {
         (self.gaps, self.largest_gap)

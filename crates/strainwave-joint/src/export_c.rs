@@ -268,23 +268,81 @@ fn channels(cfg: &JointConfig) -> [(&'static str, Option<&Channel>); 6] {
     ]
 }
 
-/// `--name`: a C identifier that is not a keyword.
+/// `--name`: a C identifier free to use at file scope: not a keyword (to C23), not
+/// reserved to the implementation (a leading `_`), not a name of `strainwave.h`'s, and
+/// short enough for `NAME_CHANNELS` to stay within 63 characters.
 fn check_identifier(name: &str) -> Result<()> {
     const KEYWORDS: &[&str] = &[
-        "auto", "break", "case", "char", "const", "continue", "default", "do", "double", "else", "enum", "extern",
-        "float", "for", "goto", "if", "inline", "int", "long", "register", "restrict", "return", "short", "signed",
-        "sizeof", "static", "struct", "switch", "typedef", "union", "unsigned", "void", "volatile", "while",
+        "alignas",
+        "alignof",
+        "auto",
+        "bool",
+        "break",
+        "case",
+        "char",
+        "const",
+        "constexpr",
+        "continue",
+        "default",
+        "do",
+        "double",
+        "else",
+        "enum",
+        "extern",
+        "false",
+        "float",
+        "for",
+        "goto",
+        "if",
+        "inline",
+        "int",
+        "long",
+        "nullptr",
+        "register",
+        "restrict",
+        "return",
+        "short",
+        "signed",
+        "sizeof",
+        "static",
+        "static_assert",
+        "struct",
+        "switch",
+        "thread_local",
+        "true",
+        "typedef",
+        "typeof",
+        "typeof_unqual",
+        "union",
+        "unsigned",
+        "void",
+        "volatile",
+        "while",
     ];
+    // strainwave.h's functions and types (its macros are upper case: a clash with one is
+    // a compile error of the file).
+    const HEADER_PREFIXES: [&str; 2] = ["sw_", "sw32_"];
     let mut chars = name.chars();
-    let ok = chars.next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
-        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
-        && name.len() <= 63
-        && !KEYWORDS.contains(&name);
-    if !ok {
-        bail!("--name `{name}`: must be a C identifier (letters, digits, `_`, not starting with a digit, at most 63 characters, not a keyword)");
-    }
-    Ok(())
+    let identifier = chars.next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_');
+    let why = if !identifier {
+        "must be a C identifier (letters, digits, `_`, not starting with a digit)"
+    } else if name.len() > MAX_NAME_CHARS {
+        "at most 54 characters (`NAME_CHANNELS` must stay within C's 63)"
+    } else if KEYWORDS.contains(&name) {
+        "a C keyword"
+    } else if name.starts_with('_') {
+        "a leading `_` is reserved to the C implementation at file scope"
+    } else if HEADER_PREFIXES.iter().any(|p| name.starts_with(p)) {
+        "`sw_` and `sw32_` name strainwave.h's functions and types"
+    } else {
+        return Ok(());
+    };
+    bail!("--name `{name}`: {why}");
 }
+
+/// The longest `--name`: with `_CHANNELS` appended, C's 63 significant characters.
+const MAX_NAME_CHARS: usize = 63 - "_CHANNELS".len();
 
 /// A C string literal: printable ASCII as is, everything else (and `"`, `\`, `?`) escaped.
 fn c_string(s: &str) -> String {
@@ -422,8 +480,10 @@ mod tests {
     #[test]
     fn identifiers_and_strings() {
         assert!(check_identifier("SW_MODEL").is_ok());
-        assert!(check_identifier("_joint3").is_ok());
-        for bad in ["", "3joint", "joint-3", "static", "ü"] {
+        assert!(check_identifier("joint_3").is_ok());
+        assert!(check_identifier(&"j".repeat(54)).is_ok());
+        let long = "j".repeat(55);
+        for bad in ["", "3joint", "joint-3", "static", "ü", "bool", "_joint3", "__x", "sw_step", "sw32_model", &long] {
             assert!(check_identifier(bad).unwrap_err().to_string().contains("--name"), "{bad}");
         }
         assert_eq!(c_string("a\"b\\c?d\né"), "\"a\\\"b\\\\c\\?d\\012\\303\\251\"");

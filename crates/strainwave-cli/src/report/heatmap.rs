@@ -3,7 +3,7 @@
 
 use std::fmt::Write as _;
 
-use super::plot::{esc, ticks};
+use super::plot::{esc, fmt_tick, ticks};
 
 /// A colour-coded grid in dB: `z[i][j]` at `x[i]`, `y[j]` (NaN: not drawn).
 pub struct HeatMap {
@@ -130,7 +130,7 @@ impl HeatMap {
                 MT + ph,
                 MT + ph + 5.0,
                 MT + ph + 18.0,
-                t
+                fmt_tick(t)
             );
         }
         for t in ticks(y0, y1, 6) {
@@ -142,7 +142,7 @@ impl HeatMap {
                 ML,
                 ML - 8.0,
                 sy(t) + 4.0,
-                t
+                fmt_tick(t)
             );
         }
         let _ = write!(
@@ -209,4 +209,29 @@ pub fn pool_freqs(freqs: &[f64], cols: &[Vec<f64>], max_hz: f64, max_rows: usize
         })
         .collect();
     (y, z)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Tick labels are short decimals: steps of 0.1 s would print `0.30000000000000004`
+    /// with `f64`'s own text.
+    #[test]
+    fn tick_labels_are_short_decimals() {
+        let map = HeatMap {
+            title: "t".into(),
+            x_label: "s".into(),
+            y_label: "Hz".into(),
+            z_label: "dB".into(),
+            x: (0..11).map(|i| i as f64 * 0.1).collect(),
+            y: vec![0.0, 1.0],
+            z: vec![vec![0.0; 2]; 11],
+            range_db: 60.0,
+            lines: Vec::new(),
+        };
+        let svg = map.to_svg();
+        assert!(svg.contains(">0.3<") || svg.contains(">0.4<"), "{svg}");
+        assert!(!svg.contains("0000000"), "a long tick label");
+    }
 }

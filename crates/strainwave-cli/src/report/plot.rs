@@ -71,7 +71,9 @@ pub(crate) fn ticks(lo: f64, hi: f64, target: usize) -> Vec<f64> {
     (0..=target * 2 + 2).map(|i| first + i as f64 * step).take_while(|v| *v <= hi + step * 1e-9).collect()
 }
 
-fn fmt_tick(v: f64) -> String {
+/// A tick's label: at most four decimals, trailing zeros dropped (`0.3`, not
+/// `0.30000000000000004`); the exponent form outside 1e-3–1e5.
+pub(crate) fn fmt_tick(v: f64) -> String {
     let a = v.abs();
     if a == 0.0 {
         "0".into()

@@ -106,3 +106,39 @@ fn default_settings() {
     assert_eq!((s.nis_pass_through, s.nis_recover, s.standstill_max_nis, s.complete_max_nis), (6.0, 3.0, 2.0, 3.0));
     assert!(!s.learned_prior);
 }
+
+/// One glitched sample (±1000 N·m) in a warm run: the canceller takes it for a load step
+/// and its bias jumps, which would scale the load-scaled orders on the next sample by a
+/// load that is not there. No sample after it is made worse than raw (beyond the noise):
+/// the next sample undoes the step, and the load-scaled line is withheld there.
+#[test]
+fn a_glitched_sample_makes_nothing_worse_than_raw() {
+    let model = RippleModel::<f64, 5>::full(1000.0, 0.01).unwrap();
+    let glitch_at = 20_000;
+    for glitch in [1000.0, -1000.0] {
+        let mut guard = Guard::new(&model, GuardSettings::default());
+        let mut withheld = 0;
+        for k in 0..glitch_at + 50 {
+            let phi = 0.05 * k as f64;
+            let load = 10.0 + 5.0 * (k as f64 * 1e-3).sin();
+            let noise = 0.01 * (((k as f64 * 12.9898).sin() * 43_758.545).fract() - 0.5);
+            // A load-scaled 2× ripple and a misalignment line.
+            let ripple = (0.3 + 0.02 * load) * (2.0 * phi + 0.3).cos() + 0.2 * (phi / 50.0 + 0.7).cos();
+            let y = load + ripple + noise + if k == glitch_at { glitch } else { 0.0 };
+            let o = guard.step(&model, &RippleInput::new(y, ReferenceValues::new(phi, phi / 50.0, phi))).unwrap();
+            if k == glitch_at - 1 {
+                assert!(o.applied[2], "the load-scaled order is applied before the glitch");
+            }
+            if k > glitch_at {
+                let (cleaned, raw) = ((o.output.torque_nm - load).abs(), (y - load).abs());
+                assert!(
+                    cleaned <= raw + 0.05,
+                    "glitch {glitch}, sample +{}: {cleaned} N·m against raw {raw}",
+                    k - glitch_at
+                );
+                withheld += usize::from(o.flags.contains(GuardFlags::LOAD_STEP_WITHHELD));
+            }
+        }
+        assert!(withheld >= 1, "glitch {glitch}");
+    }
+}

@@ -31,9 +31,15 @@ pub(super) fn push_f64(x: f64, out: &mut Vec<u8>) {
 /// Appends one CSV line: the cells as [`format_f64`] writes them, then `\n`.
 #[inline]
 pub fn format_row(row: &[f64], out: &mut Vec<u8>) {
+    format_row_with(row, b',', out);
+}
+
+/// [`format_row`] with the cells apart by `delimiter` (a tab for `.tsv`).
+#[inline]
+pub(super) fn format_row_with(row: &[f64], delimiter: u8, out: &mut Vec<u8>) {
     for (i, v) in row.iter().enumerate() {
         if i > 0 {
-            out.push(b',');
+            out.push(delimiter);
         }
         push_f64(*v, out);
     }

@@ -468,6 +468,25 @@ fn header_names_with_commas_quotes_and_line_breaks_read_back_as_written() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A `.tsv` output is tab-separated (a name with a tab quoted, one with a comma not),
+/// and reads back as written.
+#[test]
+fn a_tsv_output_is_tab_separated_and_reads_back() {
+    let dir = std::env::temp_dir().join(format!("sw-tsv-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("out.TSV");
+    let cols = ["time", "a,b", "c\td"];
+    let mut w = CsvWriter::create(&path, &cols).unwrap();
+    w.write_row(&[0.5, 1000.25, -2.0]).unwrap();
+    w.finish().unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    assert_eq!(text, "time\ta,b\t\"c\td\"\n0.5\t1000.25\t-2\n");
+    let t = read_table(&path).unwrap();
+    assert_eq!(t.columns, cols);
+    assert_eq!(t.data[1], [1000.25]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn a_line_longer_than_the_limit_is_an_error_not_an_allocation() {
     let dir = std::env::temp_dir().join(format!("sw-long-{}", std::process::id()));

@@ -92,10 +92,13 @@ pub struct CsvWriter {
     buf: Vec<u8>,
     limit: usize,
     rows: u64,
+    /// `\t` for a `.tsv` file, else `,`.
+    delimiter: u8,
 }
 
 impl CsvWriter {
-    /// Creates the output (standard output for `-`) and writes the header.
+    /// Creates the output (standard output for `-`) and writes the header. A `.tsv` file
+    /// is tab-separated, any other comma-separated.
     pub fn create(path: &Path, columns: &[&str]) -> Result<Self, IoError> {
         let os = |source| IoError::Os { path: path.to_path_buf(), source };
         let (sink, limit) = if path == Path::new("-") {
@@ -110,8 +113,11 @@ impl CsvWriter {
         };
         // Room for the last row past the limit, so the buffer never grows.
         let mut buf = Vec::with_capacity(limit + 4096);
-        write_header(columns, &mut buf);
-        let mut w = Self { path: path.to_path_buf(), sink: Some(sink), n_cols: columns.len(), buf, limit, rows: 0 };
+        let tsv = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("tsv"));
+        let delimiter = if tsv { b'\t' } else { b',' };
+        write_header(columns, delimiter, &mut buf);
+        let (path, n_cols) = (path.to_path_buf(), columns.len());
+        let mut w = Self { path, sink: Some(sink), n_cols, buf, limit, rows: 0, delimiter };
         if w.buf.len() >= w.limit {
             w.write_out()?;
         }
@@ -140,7 +146,7 @@ impl CsvWriter {
                 want: self.n_cols,
             });
         }
-        format_row(row, &mut self.buf);
+        format_row_with(row, self.delimiter, &mut self.buf);
         self.rows += 1;
         if self.buf.len() >= self.limit {
             self.write_out()?;
@@ -198,13 +204,14 @@ impl Drop for CsvWriter {
     }
 }
 
-/// The header line, each name quoted when CSV requires it (a comma, quote or line break), so that the reader gets back the names as written.
-pub(super) fn write_header(columns: &[&str], buf: &mut Vec<u8>) {
+/// The header line, each name quoted when CSV requires it (the delimiter, a quote or a
+/// line break), so that the reader gets back the names as written.
+pub(super) fn write_header(columns: &[&str], delimiter: u8, buf: &mut Vec<u8>) {
     for (i, c) in columns.iter().enumerate() {
         if i > 0 {
-            buf.push(b',');
+            buf.push(delimiter);
         }
-        if c.bytes().any(|b| matches!(b, b',' | b'"' | b'\n' | b'\r')) {
+        if c.bytes().any(|b| b == delimiter || matches!(b, b'"' | b'\n' | b'\r')) {
             buf.push(b'"');
             for b in c.bytes() {
                 if b == b'"' {
