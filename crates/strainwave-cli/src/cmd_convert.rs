@@ -19,7 +19,8 @@ pub struct Args {
     /// Output recording (.csv, .parquet or .mcap; `-` for CSV on standard output).
     #[arg(long)]
     pub out: PathBuf,
-    /// Name of the time column.
+    /// Name of a table's time column: read in seconds (from `ms`, `us`, `ns`, `min`, `h`
+    /// in its header) and the clock of `--resample-hz`.
     #[arg(long, default_value = "time")]
     pub time_column: String,
     /// No summary on stderr.

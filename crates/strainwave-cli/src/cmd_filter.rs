@@ -103,6 +103,7 @@ fn filter_one(a: &Args, cfg: &JointConfig, input: &Path, out: Option<&Path>) -> 
         scratch_dir,
     };
     let mut r = strainwave_io::RecordingReader::open(input)?;
+    r.set_time_channel(&cfg.channels.time);
     let progress = crate::progress::Progress::new("filter", a.quiet, None);
     let create = |columns: &[&str]| -> Result<Sink> {
         Ok(match out {

@@ -49,6 +49,9 @@ pub fn run(a: &Args) -> Result<()> {
         strainwave_io::output::refuse_input_as_output(&a.out, cfg.files_named())?;
     }
     let mut r = strainwave_io::RecordingReader::open(&a.input)?;
+    if let Some(c) = &cfg {
+        r.set_time_channel(&c.channels.time);
+    }
     let columns = r.columns().to_vec();
     let input = a.input.display().to_string();
     let time_name = cfg.as_ref().map_or("time".to_string(), |c| c.channels.time.column_name().to_string());

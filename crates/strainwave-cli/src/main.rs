@@ -130,7 +130,11 @@ fn main() -> ExitCode {
         }
     }));
     match cli.read.options() {
-        Ok(options) => {
+        Ok(mut options) => {
+            // `convert --time-column` names the clock of `--resample-hz` too.
+            if let Command::Convert(a) = &cli.command {
+                options.time_column = Some(a.time_column.clone());
+            }
             strainwave_io::set_default_read_options(options);
         }
         Err(e) => {

@@ -247,6 +247,7 @@ impl ReadArgs {
             max_gap_s: self.max_gap,
             resample_hz: self.resample_hz,
             delimiter,
+            time_column: None,
             print_warnings: true,
         })
     }

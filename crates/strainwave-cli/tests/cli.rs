@@ -313,6 +313,24 @@ fn convert_reports_time_gaps_and_resamples_only_when_asked() {
     assert_eq!(rows[5], "0.005,5");
 }
 
+/// `convert --time-column t` names the clock of `--resample-hz` too, and a time column in
+/// ms is read in seconds: 0, 2 and 4 ms resampled at 1 kHz are 5 rows, 1 ms apart.
+#[test]
+fn convert_resamples_on_the_named_time_column() {
+    let d = tmp("time-column");
+    let f = d.join("t.csv");
+    std::fs::write(&f, "t [ms],x\n0,0\n2,2\n4,4\n").unwrap();
+    let out = d.join("o.csv");
+    let args = ["convert", "--in", f.to_str().unwrap(), "--out", out.to_str().unwrap(), "--time-column", "t"];
+    let o = run(&[&args[..], &["--resample-hz", "1000"]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert_eq!(text, "t [s],x\n0,0\n0.001,1\n0.002,2\n0.003,3\n0.004,4\n");
+    // Without it, `--resample-hz` asks for the time column by name.
+    let o = run(&["convert", "--in", f.to_str().unwrap(), "--out", out.to_str().unwrap(), "--resample-hz", "1000"]);
+    assert_user_error(&o, "set --time-column");
+}
+
 /// `--resample-hz` far above the recording's rate (25 MHz typed for a 1 kHz log) is
 /// refused early, naming the option, instead of writing 100 million made-up rows; the
 /// output is not created.

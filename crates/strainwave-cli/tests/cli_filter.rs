@@ -521,3 +521,45 @@ fn the_smoother_fills_a_dropout_under_the_guard() {
         assert!((s[k] - truth[k]).abs() < 0.1, "data row {}: {} against {}", k + 1, s[k], truth[k]);
     }
 }
+
+/// A config whose time channel names a column in ms (`Timestamp [ms]`): `filter` reads it
+/// in seconds, and cleans the torque exactly as from the same recording in seconds.
+#[test]
+fn a_time_channel_in_ms_is_read_in_seconds() {
+    let d = tmp("time-ms");
+    let sim = simulate_preset(&d, "taghirad");
+    let text = std::fs::read_to_string(&sim).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap().replacen("time", "Timestamp [ms]", 1);
+    let mut ms = header + "\n";
+    for line in lines.take(2000) {
+        let (t, rest) = line.split_once(',').unwrap();
+        ms += &format!("{},{rest}\n", t.parse::<f64>().unwrap() * 1000.0);
+    }
+    let ms_path = d.join("ms.csv");
+    std::fs::write(&ms_path, ms).unwrap();
+    let cfg_text = std::fs::read_to_string(root().join("examples/joint-taghirad.toml")).unwrap();
+    assert!(cfg_text.contains("time = \"time\""));
+    let cfg = d.join("joint-ms.toml");
+    std::fs::copy(root().join("examples/joint-taghirad-learned.toml"), d.join("joint-taghirad-learned.toml")).unwrap();
+    std::fs::write(&cfg, cfg_text.replacen("time = \"time\"", "time = \"Timestamp\"", 1)).unwrap();
+    let (out_ms, out_s) = (d.join("out-ms.csv"), d.join("out-s.csv"));
+    let cfg_s = root().join("examples/joint-taghirad.toml");
+    for (c, i, o) in [(&cfg, &ms_path, &out_ms), (&cfg_s, &sim, &out_s)] {
+        let o = run(&[
+            "filter",
+            "--config",
+            c.to_str().unwrap(),
+            "--in",
+            i.to_str().unwrap(),
+            "--out",
+            o.to_str().unwrap(),
+            "-q",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let (h_ms, rows_ms) = read(&out_ms);
+    let (h_s, rows_s) = read(&out_s);
+    let torque_s = col(&h_s, &rows_s, "torque");
+    assert_eq!(col(&h_ms, &rows_ms, "torque"), torque_s[..2000].to_vec());
+}

@@ -34,6 +34,9 @@ pub struct ReadOptions {
     pub resample_hz: Option<f64>,
     /// Delimiter of text tables (default: detected from the header line).
     pub delimiter: Option<u8>,
+    /// A table's time column (default: `time`): read in seconds, and the clock of
+    /// `resample_hz`.
+    pub time_column: Option<String>,
     /// [`crate::RecordingReader::open`] prints the reader's warnings to standard error.
     pub print_warnings: bool,
 }

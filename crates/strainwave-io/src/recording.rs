@@ -111,7 +111,10 @@ impl RecordingReader {
         let bag = matches!(format, Format::Mcap | Format::Db3 | Format::RosbagFolder);
         let (inner, columns, units, warnings) = match format {
             Format::Csv => {
-                let r = CsvReader::open_with(path, options.delimiter)?;
+                let mut r = CsvReader::open_with(path, options.delimiter)?;
+                if let Some(name) = &options.time_column {
+                    r.set_time_column(name);
+                }
                 let (columns, units) = (r.columns().to_vec(), r.units().to_vec());
                 (Reader::Csv(r), columns, units, Vec::new())
             }
@@ -146,11 +149,12 @@ impl RecordingReader {
         // Logs resample in the aligner; tables here, between neighbouring rows.
         let resampled = match options.resample_hz {
             Some(hz) if !bag => {
-                let Some(ti) = columns.iter().position(|c| c == "time") else {
+                let time = options.time_column.as_deref().unwrap_or("time");
+                let Some(ti) = columns.iter().position(|c| c == time) else {
                     return Err(IoError::MissingColumn {
                         path: path.to_path_buf(),
-                        column: "time".into(),
-                        available: format!("{} (needed by --resample-hz)", columns.join(", ")),
+                        column: time.into(),
+                        available: format!("{} (needed by --resample-hz; set --time-column)", columns.join(", ")),
                     });
                 };
                 let max_gap_s = options.max_gap_s.unwrap_or(crate::resample::DEFAULT_MAX_GAP_S);
@@ -170,6 +174,20 @@ impl RecordingReader {
     /// Column names in file order.
     pub fn columns(&self) -> &[String] {
         &self.columns
+    }
+
+    /// Makes the column of a config's time channel the table's time column, read in
+    /// seconds whatever time unit its header gives (`Timestamp [ms]`), before any row is
+    /// read. Only for a channel without scale or offset: one with them already converts.
+    /// Logs and Parquet are unchanged (their times are seconds already).
+    pub fn set_time_channel(&mut self, channel: &crate::Channel) {
+        if channel.scale_offset() != (1.0, 0.0) || self.rows_read > 0 {
+            return;
+        }
+        if let Reader::Csv(r) = &mut self.inner {
+            r.set_time_column(channel.column_name());
+            self.units = r.units().to_vec();
+        }
     }
 
     /// The unit of each column where the file gives one (a text header's `[unit]` or

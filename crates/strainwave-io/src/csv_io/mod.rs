@@ -64,8 +64,18 @@ pub struct CsvReader {
     cells: Vec<f64>,
     next: usize,
     done: bool,
-    /// The `time` column and how its unit becomes seconds (`t · mul / div`).
+    /// The time column and how its unit becomes seconds (`t · mul / div`).
     time_to_s: Option<(usize, f64, f64)>,
+    /// The time column's unit as the header gave it.
+    time_unit: Option<String>,
+}
+
+/// Column `i`'s conversion to seconds if its unit is a time unit (its unit becomes `s`):
+/// `(i, mul, div)`, or `None` when it is in seconds already or not in a time unit.
+fn seconds(units: &mut [Option<String>], i: usize) -> Option<(usize, f64, f64)> {
+    let (mul, div) = dialect::seconds_per(units[i].as_deref()?)?;
+    units[i] = Some("s".to_string());
+    Some((i, mul, div)).filter(|_| (mul, div) != (1.0, 1.0))
 }
 
 impl CsvReader {
@@ -111,11 +121,9 @@ impl CsvReader {
         }
         let (columns, mut units): (Vec<String>, Vec<Option<String>>) = header.iter().map(split_unit).unzip();
         // A time in another unit (`Time [ms]`) is read in seconds, as every command takes it.
-        let time_to_s = columns.iter().position(|c| c == "time").and_then(|i| {
-            let (mul, div) = dialect::seconds_per(units[i].as_deref()?)?;
-            units[i] = Some("s".to_string());
-            Some((i, mul, div)).filter(|_| (mul, div) != (1.0, 1.0))
-        });
+        let time_index = columns.iter().position(|c| c == "time");
+        let time_unit = time_index.and_then(|i| units[i].clone());
+        let time_to_s = time_index.and_then(|i| seconds(&mut units, i));
         let mut seen = std::collections::HashSet::with_capacity(columns.len());
         if let Some(c) = columns.iter().find(|c| !seen.insert(c.as_str())) {
             return Err(IoError::DuplicateColumn { path, column: c.clone() });
@@ -138,7 +146,19 @@ impl CsvReader {
             next: 0,
             done: false,
             time_to_s,
+            time_unit,
         })
+    }
+
+    /// Makes `name` the time column (it is `time` by default), read in seconds whatever
+    /// time unit its header gives. No such column: nothing changes.
+    pub fn set_time_column(&mut self, name: &str) {
+        let Some(i) = self.columns.iter().position(|c| c == name) else { return };
+        if let Some((old, ..)) = self.time_to_s.take() {
+            self.units[old] = self.time_unit.take();
+        }
+        self.time_unit = self.units[i].clone();
+        self.time_to_s = seconds(&mut self.units, i);
     }
 
     /// Column names in file order (units taken off, see [`split_unit`]).

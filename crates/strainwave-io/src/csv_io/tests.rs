@@ -157,6 +157,21 @@ fn a_time_column_in_another_unit_is_read_in_seconds() {
     }
 }
 
+/// Another column named as the time column is read in seconds instead; `time` then
+/// keeps its own unit and values.
+#[test]
+fn a_named_time_column_is_read_in_seconds() {
+    let text = "Time [ms],t [us],x\n1500,250,7\n";
+    let mut r = CsvReader::from_reader(Path::new("rec.csv"), Box::new(std::io::Cursor::new(text))).unwrap();
+    r.set_time_column("t");
+    assert_eq!(r.units(), [Some("ms".to_string()), Some("s".to_string()), None]);
+    let mut row = Vec::new();
+    assert!(r.read_row(&mut row).unwrap());
+    assert_eq!(row, [1500.0, 250e-6, 7.0]);
+    r.set_time_column("missing");
+    assert_eq!(r.units()[1].as_deref(), Some("s"), "no such column: nothing changes");
+}
+
 #[test]
 fn values_are_bit_exact_and_quoted_cells_parse() {
     let text = "time,\"torque, N·m\" ,x\n\
