@@ -151,3 +151,27 @@ pub fn split_unit(cell: &str) -> (String, Option<String>) {
     }
     (name, unit)
 }
+
+/// A header cell as text: UTF-8, or else Windows-1252, as DAQ software on Windows writes
+/// it (`Drehmoment [N·m]` with `·` the byte 0xB7).
+pub(super) fn header_text(cell: &[u8]) -> String {
+    match std::str::from_utf8(cell) {
+        Ok(s) => s.to_string(),
+        Err(_) => cell.iter().map(|&b| windows_1252(b)).collect(),
+    }
+}
+
+/// One Windows-1252 byte as a character: Latin-1 but for 0x80–0x9F (the five bytes
+/// that code page leaves undefined keep their C1 control).
+fn windows_1252(b: u8) -> char {
+    const HIGH: [char; 32] = [
+        '\u{20ac}', '\u{81}', '\u{201a}', '\u{192}', '\u{201e}', '\u{2026}', '\u{2020}', '\u{2021}', '\u{2c6}',
+        '\u{2030}', '\u{160}', '\u{2039}', '\u{152}', '\u{8d}', '\u{17d}', '\u{8f}', '\u{90}', '\u{2018}', '\u{2019}',
+        '\u{201c}', '\u{201d}', '\u{2022}', '\u{2013}', '\u{2014}', '\u{2dc}', '\u{2122}', '\u{161}', '\u{203a}',
+        '\u{153}', '\u{9d}', '\u{17e}', '\u{178}',
+    ];
+    match b {
+        0x80..=0x9f => HIGH[usize::from(b - 0x80)],
+        _ => char::from(b),
+    }
+}

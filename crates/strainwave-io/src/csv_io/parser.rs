@@ -85,6 +85,10 @@ impl Parser {
         // `csv_core` drops a byte-order mark only when it sees it whole, and takes an
         // input that is nothing but the mark for the end of the input.
         while self.end < 4 && self.fill()? {}
+        if self.buf[..self.end].starts_with(b"\xff\xfe") || self.buf[..self.end].starts_with(b"\xfe\xff") {
+            let msg = "the text is UTF-16: save it as UTF-8 (or as CSV from the program that wrote it)".to_string();
+            return Err(IoError::Csv { path: self.path.clone(), msg });
+        }
         let (first, _) = self.next_quoted_record()?;
         let bytes = &self.buf[first..self.start];
         let mut csv = csv::ReaderBuilder::new()
@@ -93,7 +97,15 @@ impl Parser {
             .delimiter(self.delimiter)
             .comment(Some(b'#'))
             .from_reader(bytes);
-        csv.headers().cloned().map_err(|e| csv_error(&self.path, e))
+        match csv.headers() {
+            Ok(h) => Ok(h.clone()),
+            // Not UTF-8: the names in Windows-1252.
+            Err(e) if matches!(e.kind(), csv::ErrorKind::Utf8 { .. }) => {
+                let names = csv.byte_headers().map_err(|e| csv_error(&self.path, e))?;
+                Ok(names.iter().map(|n| dialect::header_text(n).trim().to_string()).collect())
+            }
+            Err(e) => Err(csv_error(&self.path, e)),
+        }
     }
 
     pub(super) fn run(mut self) {
