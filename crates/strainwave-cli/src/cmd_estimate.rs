@@ -34,6 +34,9 @@ pub fn run(a: &Args) -> Result<()> {
     let est = Estimator::load(&a.config)?;
     // The reader's errors name the file.
     let mut reader = RecordingReader::open(&a.input)?;
+    if let Some(time) = est.time_channel() {
+        reader.set_time_channel(time);
+    }
     let input = a.input.display().to_string();
     let s = est.run(&mut reader, |names| Ok(RecordingWriter::create(&a.out, names)?), &input)?;
     for w in s.warning().iter().flat_map(|w| w.lines()) {

@@ -48,8 +48,10 @@ fn method_parser() -> impl clap::builder::TypedValueParser<Value = Method> {
 pub fn run(a: &Args) -> Result<()> {
     strainwave_io::output::refuse_input_as_output(&a.out, [a.input.as_path(), a.config.as_path()])?;
     let cfg = BenchConfig::load(&a.config)?;
+    let time = strainwave_io::Channel::column(&cfg.channels.time);
     let fuse = Fuse::new(cfg, &a.config, a.method)?;
     let mut rdr = RecordingReader::open(&a.input)?;
+    rdr.set_time_channel(&time);
     // What `fuse` says goes to standard output, or to standard error when the recording does.
     let mut say = |text: &str| -> Result<()> {
         if a.out == Path::new("-") {

@@ -315,3 +315,32 @@ fn default_fuse_is_flat_on_the_sweep() {
     }
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// A bench config whose time channel names a column in ms (`t [ms]`): `fuse` reads it in
+/// seconds and fuses exactly as from the recording in seconds.
+#[test]
+fn a_time_channel_in_ms_is_read_in_seconds() {
+    let d = tmp("time-ms");
+    let sim = simulate(&d);
+    let ms = d.join("ms.csv");
+    rewrite(&sim, &ms, "time", |t| t * 1000.0, 2000);
+    let text = std::fs::read_to_string(&ms).unwrap().replacen("time", "t [ms]", 1);
+    std::fs::write(&ms, text).unwrap();
+    let secs = d.join("s.csv");
+    rewrite(&sim, &secs, "time", |t| t, 2000);
+    let cfg_text = std::fs::read_to_string(config()).unwrap();
+    assert!(cfg_text.contains("time = \"time\""));
+    let cfg = d.join("bench-ms.toml");
+    std::fs::write(&cfg, cfg_text.replacen("time = \"time\"", "time = \"t\"", 1)).unwrap();
+    let (out_ms, out_s) = (d.join("out-ms.csv"), d.join("out-s.csv"));
+    for (c, i, o) in [(s(&cfg), &ms, &out_ms), (config().as_str(), &secs, &out_s)] {
+        let o = run(&["fuse", "--config", c, "--in", s(i), "--out", s(o)]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let ((h_ms, rows_ms), (h_s, rows_s)) = (read(&out_ms), read(&out_s));
+    let fused = |h: &[String], rows: &[Vec<f64>]| {
+        let i = h.iter().position(|c| c == "fused_torque").unwrap_or_else(|| panic!("{h:?}"));
+        rows.iter().map(|r| r[i]).collect::<Vec<f64>>()
+    };
+    assert_eq!(fused(&h_ms, &rows_ms), fused(&h_s, &rows_s));
+}

@@ -213,6 +213,13 @@ fn the_time_column_must_move_forward_at_the_models_rate() {
     std::fs::write(&input, rows(&close.iter().map(String::as_str).collect::<Vec<_>>())).unwrap();
     let run = estimate(&model, &input, &out);
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    // A model time channel `t` over a column in ms (`t [ms]`) is read in seconds: 1 kHz.
+    let ms_model = d.join("model-ms.toml");
+    std::fs::write(&ms_model, MODEL.replacen("[channels]\n", "[channels]\ntime = \"t\"\n", 1)).unwrap();
+    let body: String = (0..50).map(|k| format!("{k},0,0\n")).collect();
+    std::fs::write(&input, format!("t [ms],motor_angle,link_angle\n{body}")).unwrap();
+    let run = estimate(&ms_model, &input, &out);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
     // A repeated stamp and a pause do not change the median step.
     let paused: Vec<String> =
         (0..50).map(|k| format!("{}", 0.001 * k as f64 + if k >= 25 { 3.0 } else { 0.0 })).collect();

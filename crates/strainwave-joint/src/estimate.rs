@@ -77,6 +77,11 @@ pub struct Estimator {
 }
 
 impl Estimator {
+    /// The model's time channel, if it names one.
+    pub fn time_channel(&self) -> Option<&strainwave_io::Channel> {
+        self.model.channels.time.as_ref()
+    }
+
     /// Reads the model file `config` (written by `identify`) and builds its estimator;
     /// errors name the file.
     pub fn load(config: &Path) -> Result<Self> {
