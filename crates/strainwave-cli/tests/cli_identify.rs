@@ -373,3 +373,28 @@ fn a_no_load_run_under_one_revolution_fits_mesh_harmonics_only() {
     let model = std::fs::read_to_string(d.join("m.toml")).unwrap();
     assert!(model.contains("mesh_angle = \"motor\""), "{model}");
 }
+
+/// A time channel over a column in ms (`Timestamp [ms]`) is read in seconds: the
+/// identified model is the one from the log in seconds.
+#[test]
+fn a_time_channel_in_ms_is_read_in_seconds() {
+    let d = dir("time-ms");
+    let text = std::fs::read_to_string(log("validate")).unwrap();
+    let mut lines = text.lines();
+    let mut ms = lines.next().unwrap().replacen("Timestamp", "Timestamp [ms]", 1) + "\n";
+    for line in lines {
+        let (t, rest) = line.split_once(',').unwrap();
+        ms += &format!("{},{rest}\n", t.parse::<f64>().unwrap() * 1000.0);
+    }
+    let ms_log = d.join("validate-ms.csv");
+    std::fs::write(&ms_log, ms).unwrap();
+    let (o, model_s, _) = identify(&d, &example(3), &log("validate"), &["--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let seconds = std::fs::read_to_string(model_s).unwrap();
+    let (o, model_ms, _) = identify(&d, &example(3), &ms_log, &["--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let from_ms = std::fs::read_to_string(model_ms).unwrap();
+    let rate = |m: &str| m.lines().find(|l| l.starts_with("sample_rate_hz")).map(String::from);
+    assert!(rate(&seconds).is_some(), "{seconds}");
+    assert_eq!(rate(&from_ms), rate(&seconds));
+}

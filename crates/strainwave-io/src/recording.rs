@@ -412,7 +412,16 @@ impl RecordingWriter {
 
 /// Reads a whole recording (any format) into memory.
 pub fn read_all(path: &Path) -> Result<crate::Table, IoError> {
+    read_all_with_time(path, None)
+}
+
+/// [`read_all`] with a config's time channel read in seconds (see
+/// [`RecordingReader::set_time_channel`]).
+pub fn read_all_with_time(path: &Path, time: Option<&crate::Channel>) -> Result<crate::Table, IoError> {
     let mut r = RecordingReader::open(path)?;
+    if let Some(time) = time {
+        r.set_time_channel(time);
+    }
     let mut data = vec![Vec::new(); r.columns().len()];
     let mut row = Vec::new();
     while r.read_row(&mut row)? {
