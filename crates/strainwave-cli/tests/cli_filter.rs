@@ -562,4 +562,14 @@ fn a_time_channel_in_ms_is_read_in_seconds() {
     let (h_s, rows_s) = read(&out_s);
     let torque_s = col(&h_s, &rows_s, "torque");
     assert_eq!(col(&h_ms, &rows_ms, "torque"), torque_s[..2000].to_vec());
+    // A channel that scales ms to s itself is not converted twice.
+    let scaled = cfg_text.replacen("time = \"time\"", "time = { column = \"Timestamp\", scale = 0.001 }", 1);
+    std::fs::write(&cfg, scaled).unwrap();
+    let o = run(&["filter", "--config", cfg.to_str().unwrap(), "--in", ms_path.to_str().unwrap(), "--out"]
+        .into_iter()
+        .chain([out_ms.to_str().unwrap(), "-q"])
+        .collect::<Vec<_>>());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (h_ms, rows_ms) = read(&out_ms);
+    assert_eq!(col(&h_ms, &rows_ms, "torque"), torque_s[..2000].to_vec());
 }

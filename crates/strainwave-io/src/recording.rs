@@ -178,14 +178,18 @@ impl RecordingReader {
 
     /// Makes the column of a config's time channel the table's time column, read in
     /// seconds whatever time unit its header gives (`Timestamp [ms]`), before any row is
-    /// read. Only for a channel without scale or offset: one with them already converts.
-    /// Logs and Parquet are unchanged (their times are seconds already).
+    /// read. A channel with its own scale or offset converts it itself: the column is then
+    /// read as written. Logs and Parquet are unchanged (their times are seconds already).
     pub fn set_time_channel(&mut self, channel: &crate::Channel) {
-        if channel.scale_offset() != (1.0, 0.0) || self.rows_read > 0 {
+        if self.rows_read > 0 {
             return;
         }
         if let Reader::Csv(r) = &mut self.inner {
-            r.set_time_column(channel.column_name());
+            if channel.scale_offset() == (1.0, 0.0) {
+                r.set_time_column(channel.column_name());
+            } else {
+                r.keep_time_as_written();
+            }
             self.units = r.units().to_vec();
         }
     }

@@ -154,11 +154,17 @@ impl CsvReader {
     /// time unit its header gives. No such column: nothing changes.
     pub fn set_time_column(&mut self, name: &str) {
         let Some(i) = self.columns.iter().position(|c| c == name) else { return };
+        self.keep_time_as_written();
+        self.time_unit = self.units[i].clone();
+        self.time_to_s = seconds(&mut self.units, i);
+    }
+
+    /// Reads the time column as the file gives it, unconverted (a config's scale
+    /// converts it instead).
+    pub fn keep_time_as_written(&mut self) {
         if let Some((old, ..)) = self.time_to_s.take() {
             self.units[old] = self.time_unit.take();
         }
-        self.time_unit = self.units[i].clone();
-        self.time_to_s = seconds(&mut self.units, i);
     }
 
     /// Column names in file order (units taken off, see [`split_unit`]).

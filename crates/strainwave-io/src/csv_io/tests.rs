@@ -170,6 +170,13 @@ fn a_named_time_column_is_read_in_seconds() {
     assert_eq!(row, [1500.0, 250e-6, 7.0]);
     r.set_time_column("missing");
     assert_eq!(r.units()[1].as_deref(), Some("s"), "no such column: nothing changes");
+    // A config that scales its time channel itself gets the column as written.
+    let text = "time [ms],x\n1500,7\n";
+    let mut r = CsvReader::from_reader(Path::new("rec.csv"), Box::new(std::io::Cursor::new(text))).unwrap();
+    r.keep_time_as_written();
+    assert_eq!(r.units()[0].as_deref(), Some("ms"));
+    assert!(r.read_row(&mut row).unwrap());
+    assert_eq!(row, [1500.0, 7.0]);
 }
 
 /// DAQ software on Windows writes headers in Windows-1252: they read as the characters
