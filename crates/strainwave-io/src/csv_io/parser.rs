@@ -335,12 +335,11 @@ impl Parser {
         record
     }
 
-    /// A row that does not parse at once: the values and errors of a text-record reader
-    /// with trimmed cells. The record's UTF-8 comes first, then its length, then each cell
-    /// with Unicode whitespace trimmed.
+    /// A row that does not parse at once: its length, then each cell with Unicode
+    /// whitespace trimmed. A cell that is not UTF-8 is not a number, shown with `�` for
+    /// the bytes that are not text.
     #[cold]
     pub(super) fn slow_row(&mut self, record: &csv::ByteRecord) -> Result<(), IoError> {
-        utf8_check(&self.path, record)?;
         self.rows += 1;
         if record.len() != self.columns.len() {
             return Err(IoError::RowLength {
@@ -352,7 +351,8 @@ impl Parser {
         }
         let before = self.batch.len();
         for (i, cell) in record.iter().enumerate() {
-            let cell = std::str::from_utf8(cell).unwrap_or_default().trim();
+            let text = String::from_utf8_lossy(cell);
+            let cell = text.trim();
             let value = if self.decimal_comma && cell.contains(',') {
                 parse_decimal_comma(cell).ok_or(())
             } else {
@@ -377,29 +377,4 @@ impl Parser {
 
 pub(super) fn csv_error(path: &Path, e: csv::Error) -> IoError {
     IoError::Csv { path: path.to_path_buf(), msg: e.to_string() }
-}
-
-/// The error the text-record reader gives for a record that is not UTF-8 (after
-/// trimming ASCII whitespace around its cells), with the same message.
-pub(super) fn utf8_check(path: &Path, record: &csv::ByteRecord) -> Result<(), IoError> {
-    if record.as_slice().is_ascii() {
-        return Ok(());
-    }
-    let mut trimmed = record.clone();
-    trimmed.trim();
-    let Err(e) = csv::StringRecord::from_byte_record(trimmed) else {
-        return Ok(());
-    };
-    let err = e.utf8_error();
-    let msg = match record.position() {
-        Some(pos) => format!(
-            "CSV parse error: record {} (line {}, field: {}, byte: {}): {err}",
-            pos.record(),
-            pos.line(),
-            err.field(),
-            pos.byte()
-        ),
-        None => format!("CSV parse error: field {}: {err}", err.field()),
-    };
-    Err(IoError::Csv { path: path.to_path_buf(), msg })
 }
