@@ -523,3 +523,22 @@ def test_topics_on_different_clocks_are_named_in_a_warning(binary, tmp_path):
     run(binary, "convert", "--in", tmp_path / "mixed", "--time", "log", "--out", tmp_path / "log.csv", "--quiet")
     header, rows = read_csv(tmp_path / "log.csv")
     assert not np.isnan(rows[:491, header.index("/torque/data")]).any()
+
+
+def test_a_missing_part_of_a_split_bag_is_an_error_naming_it(binary, tmp_path):
+    # Before: the parts listed in metadata.yaml but absent were skipped without a word,
+    # leaving a jump in time.
+    msgs = [
+        ("/joint_states", "sensor_msgs/msg/JointState", T0_NS + k * 1_000_000, joint_state(T0_NS + k * 1_000_000, "j1", k))
+        for k in range(100)
+    ]
+    humble_writer(tmp_path / "split", msgs)
+    meta = tmp_path / "split" / "metadata.yaml"
+    text = meta.read_text()
+    assert "- split.db3" in text, text
+    meta.write_text(text.replace("- split.db3", "- split.db3\n  - split_1.db3", 1))
+    res = run(binary, "convert", "--in", tmp_path / "split", "--out", tmp_path / "split.csv", ok=False)
+    err = [l for l in res.stderr.splitlines() if l.startswith("error:")]
+    assert res.returncode == 1 and len(err) == 1, res.stderr
+    assert "metadata.yaml lists `split_1.db3`, which is not in the folder" in err[0], err
+    assert not (tmp_path / "split.csv").exists()

@@ -75,3 +75,37 @@ def test_timestamp_columns_are_seconds_since_the_epoch(binary, tmp_path, unit):
     assert rows[:, 1].tolist() == signal().astype(np.float16).astype(np.float64).tolist()
     assert rows[:, 2].tolist() == (np.arange(N) % 3).tolist()
     assert np.isnan(rows[::100, 3]).all() and (rows[1::100, 3] == 20.5).all()
+
+
+@pytest.mark.parametrize("unit, per_s", [("ms", 1e3), ("us", 1e6), ("min", 1 / 60)])
+def test_a_time_field_in_another_unit_is_read_in_seconds(binary, tmp_path, unit, per_s):
+    # Before: the values were kept as written and taken for seconds (`--resample-hz 2000`
+    # on 0.5 s in ms gave 1e6 rows 0.5 ms apart, headed `time [ms]`).
+    fields = [pa.field("time", pa.float64(), metadata={"unit": unit}), pa.field("torque", pa.float64())]
+    t_s = np.arange(N) / RATE_HZ
+    table = pa.Table.from_arrays([pa.array(t_s * per_s), pa.array(signal())], schema=pa.schema(fields))
+    path = tmp_path / f"time_{unit}.parquet"
+    pq.write_table(table, path)
+    header, rows = convert(binary, path, tmp_path)
+    assert header == ["time", "torque"]  # seconds, the unit of a time column by default
+    assert np.max(np.abs(rows[:, 0] - t_s)) < 1e-12
+    out = tmp_path / "resampled.csv"
+    res = subprocess.run(
+        [str(binary), "convert", "--in", str(path), "--out", str(out), "--resample-hz", "2000", "--quiet"],
+        capture_output=True, text=True, timeout=120,
+    )
+    assert res.returncode == 0, res.stderr
+    resampled = np.loadtxt(out, delimiter=",", skiprows=1)
+    assert len(resampled) == 2 * N - 1
+    assert np.max(np.abs(np.diff(resampled[:, 0]) - 0.5e-3)) < 1e-12
+
+
+def test_a_timestamp_is_seconds_whatever_its_unit_metadata_says(binary, tmp_path):
+    ticks = EPOCH_S * 1000 + np.arange(N, dtype=np.int64)
+    fields = [pa.field("time", pa.timestamp("ms"), metadata={"unit": "ms"}), pa.field("torque", pa.float64())]
+    table = pa.Table.from_arrays([pa.array(ticks, type=pa.timestamp("ms")), pa.array(signal())], schema=pa.schema(fields))
+    path = tmp_path / "stamp.parquet"
+    pq.write_table(table, path)
+    header, rows = convert(binary, path, tmp_path)
+    assert header == ["time", "torque"]  # seconds, the unit of a time column by default
+    assert np.max(np.abs(rows[:, 0] - (EPOCH_S + np.arange(N) / 1000))) < 1e-6

@@ -266,6 +266,30 @@ fn an_impossible_gear_ratio_is_refused_by_its_key() {
     }
 }
 
+/// Before: a huge `--holdout` or basis size panicked (capacity overflow).
+#[test]
+fn sizes_beyond_reason_are_refused_by_their_option_or_key() {
+    let d = dir("sizes");
+    for k in ["922337203685477581", "18446744073709551615"] {
+        let (o, model, _) = identify(&d, &example(3), &log("validate"), &["--holdout", k, "--quiet"]);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{e}");
+        assert!(e.contains("holdout blocks (20 samples each)") && !e.contains("panicked"), "{e}");
+        assert!(!model.exists());
+    }
+    for (from, to, want) in [
+        ("mesh_harmonics = 4", "mesh_harmonics = 4611686018427387904", "kinematic.mesh_harmonics: at most 64"),
+        ("order = 0", "order = 65", "kinematic.order: at most 64, got 65"),
+    ] {
+        let cfg = config_with(&d, 3, &[(from, to)]);
+        let (o, model, _) = identify(&d, &cfg, &log("validate"), &["--quiet"]);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{e}");
+        assert!(e.contains(&format!("joint3-edited.toml: {want}")), "{e}");
+        assert!(!model.exists());
+    }
+}
+
 #[test]
 fn encoder_directions_are_checked_and_the_fix_proposed() {
     let d = dir("dir");

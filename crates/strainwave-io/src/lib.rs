@@ -20,6 +20,7 @@ pub mod recording;
 pub mod resample;
 pub mod ros2;
 pub mod time_axis;
+mod time_unit;
 
 pub use channels::{BoundChannel, Channel, ChannelTable};
 pub use csv_io::{read_table, CsvReader, CsvWriter, Table, DEFAULT_CHUNK_ROWS};

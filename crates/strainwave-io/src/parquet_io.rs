@@ -3,7 +3,8 @@
 //! nulls become NaN; any other type is an error naming the column),
 //! written as non-nullable `Float64` columns with snappy compression, in row groups
 //! of [`crate::DEFAULT_CHUNK_ROWS`] rows, so both directions stream in constant memory.
-//! A column's unit is its field's metadata `unit` (both ways).
+//! A column's unit is its field's metadata `unit` (both ways); a `time` column in another
+//! time unit (`ms`) is read in seconds, as from a text header.
 
 use std::collections::HashMap;
 use std::fs::File;
@@ -24,6 +25,7 @@ use parquet::basic::Compression;
 use parquet::file::properties::WriterProperties;
 
 use crate::error::IoError;
+use crate::time_unit::TimeInSeconds;
 
 /// The field metadata key of a column's unit.
 pub const UNIT_KEY: &str = "unit";
@@ -114,6 +116,7 @@ pub struct ParquetReader {
     path: PathBuf,
     columns: Vec<String>,
     units: Vec<Option<String>>,
+    time: TimeInSeconds,
     batches: ParquetRecordBatchReader,
     batch: Option<RecordBatch>,
     row_in_batch: usize,
@@ -151,15 +154,17 @@ impl ParquetReader {
         if let Some(dup) = columns.iter().find(|c| !seen.insert(c.as_str())) {
             return Err(IoError::DuplicateColumn { path: path.to_path_buf(), column: dup.clone() });
         }
+        // A timestamp is read in seconds, whatever its metadata says.
         let unit = |f: &Field| match f.data_type() {
-            DataType::Timestamp(..) => f.metadata().get(UNIT_KEY).cloned().or(Some("s".to_string())),
+            DataType::Timestamp(..) => Some("s".to_string()),
             _ => f.metadata().get(UNIT_KEY).cloned(),
         };
-        let units = schema.fields().iter().map(|f| unit(f)).collect();
+        let mut units: Vec<Option<String>> = schema.fields().iter().map(|f| unit(f)).collect();
+        let time = TimeInSeconds::new(&columns, &mut units);
         let batches = crate::guard::guarded(|| builder.with_batch_size(crate::DEFAULT_CHUNK_ROWS).build())
             .map_err(|e| pq_err(path, e))?
             .map_err(|e| pq_err(path, e))?;
-        Ok(Self { path: path.to_path_buf(), columns, units, batches, batch: None, row_in_batch: 0, rows_read: 0 })
+        Ok(Self { path: path.to_path_buf(), columns, units, time, batches, batch: None, row_in_batch: 0, rows_read: 0 })
     }
 
     /// Column names in file order.
@@ -170,6 +175,18 @@ impl ParquetReader {
     /// Each column's unit (field metadata `unit`), if it has one.
     pub fn units(&self) -> &[Option<String>] {
         &self.units
+    }
+
+    /// Makes `name` the time column (it is `time` by default), read in seconds whatever
+    /// time unit its metadata gives. No such column: nothing changes.
+    pub fn set_time_column(&mut self, name: &str) {
+        self.time.set_column(&self.columns, &mut self.units, name);
+    }
+
+    /// Reads the time column as the file gives it, unconverted (a config's scale
+    /// converts it instead).
+    pub fn keep_time_as_written(&mut self) {
+        self.time.keep_as_written(&mut self.units);
     }
 
     /// Data rows read so far.
@@ -186,6 +203,7 @@ impl ParquetReader {
                     for c in b.columns() {
                         row.push(value(c.as_ref(), self.row_in_batch));
                     }
+                    self.time.apply(row);
                     self.row_in_batch += 1;
                     self.rows_read += 1;
                     return Ok(true);

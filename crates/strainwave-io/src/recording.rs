@@ -68,6 +68,30 @@ impl Reader {
             Reader::Bag(r) => r.read_row(row),
         }
     }
+
+    /// A table's time column: `Some(name)` read in seconds, `None` the time column as
+    /// written; the table's units after it. A log's time is in seconds already: `None`.
+    fn set_time_column(&mut self, name: Option<&str>) -> Option<Vec<Option<String>>> {
+        match self {
+            Reader::Csv(r) => {
+                match name {
+                    Some(name) => r.set_time_column(name),
+                    None => r.keep_time_as_written(),
+                }
+                Some(r.units().to_vec())
+            }
+            #[cfg(feature = "parquet")]
+            Reader::Parquet(r) => {
+                match name {
+                    Some(name) => r.set_time_column(name),
+                    None => r.keep_time_as_written(),
+                }
+                Some(r.units().to_vec())
+            }
+            #[cfg(feature = "mcap")]
+            Reader::Bag(_) => None,
+        }
+    }
 }
 
 /// A table's rows interpolated onto a uniform clock (`--resample-hz`).
@@ -120,7 +144,10 @@ impl RecordingReader {
             }
             #[cfg(feature = "parquet")]
             Format::Parquet => {
-                let r = crate::parquet_io::ParquetReader::open(path)?;
+                let mut r = crate::parquet_io::ParquetReader::open(path)?;
+                if let Some(name) = &options.time_column {
+                    r.set_time_column(name);
+                }
                 let (columns, units) = (r.columns().to_vec(), r.units().to_vec());
                 (Reader::Parquet(r), columns, units, Vec::new())
             }
@@ -179,18 +206,14 @@ impl RecordingReader {
     /// Makes the column of a config's time channel the table's time column, read in
     /// seconds whatever time unit its header gives (`Timestamp [ms]`), before any row is
     /// read. A channel with its own scale or offset converts it itself: the column is then
-    /// read as written. Logs and Parquet are unchanged (their times are seconds already).
+    /// read as written. Logs are unchanged (their times are seconds already).
     pub fn set_time_channel(&mut self, channel: &crate::Channel) {
         if self.rows_read > 0 {
             return;
         }
-        if let Reader::Csv(r) = &mut self.inner {
-            if channel.scale_offset() == (1.0, 0.0) {
-                r.set_time_column(channel.column_name());
-            } else {
-                r.keep_time_as_written();
-            }
-            self.units = r.units().to_vec();
+        let name = (channel.scale_offset() == (1.0, 0.0)).then(|| channel.column_name());
+        if let Some(units) = self.inner.set_time_column(name) {
+            self.units = units;
         }
     }
 

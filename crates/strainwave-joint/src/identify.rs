@@ -274,6 +274,24 @@ fn check_config(cfg: &ArmConfig, windup_offset: bool) -> Result<()> {
     }
     compliance_options(cfg, windup_offset)?;
     stribeck_candidates(cfg)?;
+    kinematic_sizes(&cfg.kinematic)
+}
+
+/// Most harmonics (or highest power) of a kinematic-error basis: beyond it the fit's
+/// design matrix would take gigabytes, and no gear's error needs it.
+const MAX_KINEMATIC_ORDER: usize = 64;
+
+/// Refuses a kinematic basis larger than [`MAX_KINEMATIC_ORDER`].
+fn kinematic_sizes(k: &KinematicConfig) -> Result<()> {
+    let order = match k.order {
+        Order::Fixed(n) => Some(n),
+        Order::CrossValidated => None,
+    };
+    for (key, n) in [("kinematic.order", order), ("kinematic.mesh_harmonics", k.mesh_harmonics)] {
+        if let Some(n) = n.filter(|&n| n > MAX_KINEMATIC_ORDER) {
+            bail!("{key}: at most {MAX_KINEMATIC_ORDER}, got {n}");
+        }
+    }
     Ok(())
 }
 

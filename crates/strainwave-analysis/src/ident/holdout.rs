@@ -13,8 +13,10 @@ pub fn holdout_blocks(n: usize, blocks: usize) -> Result<Vec<Range<usize>>, Anal
     if blocks < 2 {
         return Err(invalid("holdout", format!("needs at least 2 blocks, got {blocks}")));
     }
-    if n < 20 * blocks {
-        return Err(AnalysisError::TooShort { what: "holdout blocks (20 samples each)", needed: 20 * blocks, got: n });
+    // `n / 20` blocks at most (no product to overflow for a huge `blocks`).
+    if blocks > n / 20 {
+        let needed = blocks.saturating_mul(20);
+        return Err(AnalysisError::TooShort { what: "holdout blocks (20 samples each)", needed, got: n });
     }
     Ok((0..blocks).map(|b| b * n / blocks..(b + 1) * n / blocks).collect())
 }

@@ -109,20 +109,6 @@ fn looks_like_unit(u: &str) -> bool {
         && u.chars().any(|c| c.is_alphabetic() || "°%Ω".contains(c))
 }
 
-/// A time unit as `(mul, div)`: a time `t` in it is `t · mul / div` seconds (each step
-/// exact or correctly rounded). `None`: not a time unit.
-pub(super) fn seconds_per(unit: &str) -> Option<(f64, f64)> {
-    Some(match unit {
-        "s" | "sec" => (1.0, 1.0),
-        "ms" => (1.0, 1e3),
-        "us" | "µs" | "μs" => (1.0, 1e6),
-        "ns" => (1.0, 1e9),
-        "min" => (60.0, 1.0),
-        "h" => (3600.0, 1.0),
-        _ => return None,
-    })
-}
-
 /// A header cell as `(name, unit)`: `Time [s]` → (`time`, `s`), `torque (N·m)` →
 /// (`torque`, `N·m`). A unit is in square brackets, or in parentheses when it looks like
 /// one; a column named `time` in any case is `time`. Other names are kept as written.

@@ -17,6 +17,7 @@ use std::sync::mpsc::{self, Receiver, Sender, SyncSender};
 
 use crate::error::IoError;
 use crate::output::AtomicFile;
+use crate::time_unit::TimeInSeconds;
 
 /// Rows per chunk when streaming.
 pub const DEFAULT_CHUNK_ROWS: usize = 8192;
@@ -64,18 +65,8 @@ pub struct CsvReader {
     cells: Vec<f64>,
     next: usize,
     done: bool,
-    /// The time column and how its unit becomes seconds (`t · mul / div`).
-    time_to_s: Option<(usize, f64, f64)>,
-    /// The time column's unit as the header gave it.
-    time_unit: Option<String>,
-}
-
-/// Column `i`'s conversion to seconds if its unit is a time unit (its unit becomes `s`):
-/// `(i, mul, div)`, or `None` when it is in seconds already or not in a time unit.
-fn seconds(units: &mut [Option<String>], i: usize) -> Option<(usize, f64, f64)> {
-    let (mul, div) = dialect::seconds_per(units[i].as_deref()?)?;
-    units[i] = Some("s".to_string());
-    Some((i, mul, div)).filter(|_| (mul, div) != (1.0, 1.0))
+    /// The time column, read in seconds.
+    time: TimeInSeconds,
 }
 
 impl CsvReader {
@@ -121,9 +112,7 @@ impl CsvReader {
         }
         let (columns, mut units): (Vec<String>, Vec<Option<String>>) = header.iter().map(split_unit).unzip();
         // A time in another unit (`Time [ms]`) is read in seconds, as every command takes it.
-        let time_index = columns.iter().position(|c| c == "time");
-        let time_unit = time_index.and_then(|i| units[i].clone());
-        let time_to_s = time_index.and_then(|i| seconds(&mut units, i));
+        let time = TimeInSeconds::new(&columns, &mut units);
         let mut seen = std::collections::HashSet::with_capacity(columns.len());
         if let Some(c) = columns.iter().find(|c| !seen.insert(c.as_str())) {
             return Err(IoError::DuplicateColumn { path, column: c.clone() });
@@ -145,26 +134,20 @@ impl CsvReader {
             cells: Vec::new(),
             next: 0,
             done: false,
-            time_to_s,
-            time_unit,
+            time,
         })
     }
 
     /// Makes `name` the time column (it is `time` by default), read in seconds whatever
     /// time unit its header gives. No such column: nothing changes.
     pub fn set_time_column(&mut self, name: &str) {
-        let Some(i) = self.columns.iter().position(|c| c == name) else { return };
-        self.keep_time_as_written();
-        self.time_unit = self.units[i].clone();
-        self.time_to_s = seconds(&mut self.units, i);
+        self.time.set_column(&self.columns, &mut self.units, name);
     }
 
     /// Reads the time column as the file gives it, unconverted (a config's scale
     /// converts it instead).
     pub fn keep_time_as_written(&mut self) {
-        if let Some((old, ..)) = self.time_to_s.take() {
-            self.units[old] = self.time_unit.take();
-        }
+        self.time.keep_as_written(&mut self.units);
     }
 
     /// Column names in file order (units taken off, see [`split_unit`]).
@@ -213,9 +196,7 @@ impl CsvReader {
         }
         row.clear();
         row.extend_from_slice(&self.cells[self.next..self.next + n]);
-        if let Some((i, mul, div)) = self.time_to_s {
-            row[i] = row[i] * mul / div;
-        }
+        self.time.apply(row);
         self.next += n;
         self.rows_read += 1;
         Ok(true)

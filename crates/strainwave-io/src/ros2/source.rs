@@ -82,7 +82,17 @@ pub fn log_files(path: &Path) -> Result<Vec<PathBuf>, IoError> {
             }
         }
     }
-    files.retain(|f| f.is_file());
+    // A part listed but missing would leave a silent jump in time.
+    if let Some(missing) = files.iter().find(|f| !f.is_file()) {
+        let name = missing.file_name().unwrap_or_default().to_string_lossy();
+        return Err(IoError::Csv {
+            path: path.to_path_buf(),
+            msg: format!(
+                "metadata.yaml lists `{name}`, which is not in the folder (a part of the bag is missing; \
+                 give each part that is there with --in to read it alone)"
+            ),
+        });
+    }
     if files.is_empty() {
         for e in std::fs::read_dir(path).map_err(os)? {
             let p = e.map_err(os)?.path();
