@@ -542,3 +542,22 @@ def test_a_missing_part_of_a_split_bag_is_an_error_naming_it(binary, tmp_path):
     assert res.returncode == 1 and len(err) == 1, res.stderr
     assert "metadata.yaml lists `split_1.db3`, which is not in the folder" in err[0], err
     assert not (tmp_path / "split.csv").exists()
+
+
+def test_messages_at_one_time_are_counted_in_a_warning(binary, tmp_path):
+    # A driver that stamps two messages alike: on one clock the second gives no row.
+    # Before: 100 messages gave 90 rows without a word.
+    msgs = []
+    for k in range(100):
+        stamp = T0_NS + (k - k % 10 // 9) * 1_000_000  # k = 9, 19, … repeat the stamp before
+        msgs.append(("/joint_states", "sensor_msgs/msg/JointState", T0_NS + k * 1_000_000, joint_state(stamp, "j1", k)))
+    humble_writer(tmp_path / "dup", msgs)
+    res = run(binary, "convert", "--in", tmp_path / "dup", "--out", tmp_path / "dup.csv")
+    header, rows = read_csv(tmp_path / "dup.csv")
+    assert len(rows) == 90
+    warn = [l for l in res.stderr.splitlines() if l.startswith("warning:")]
+    assert len(warn) == 1, res.stderr
+    assert "topic `/joint_states`: 10 message(s) at the same time as the message before" in warn[0], warn
+    assert f"(the first at {(T0_NS + 8_000_000) / 1e9} s)" in warn[0], warn
+    res = run(binary, "convert", "--in", tmp_path / "dup", "--align", "none", "--out", tmp_path / "all.csv")
+    assert len(read_csv(tmp_path / "all.csv")[1]) == 100 and "warning" not in res.stderr, res.stderr

@@ -10,6 +10,7 @@ and the warning that names the skipped topic and schema.
 import csv
 import json
 import math
+import struct
 
 import pytest
 
@@ -133,3 +134,50 @@ def test_unknown_schema_is_skipped_with_a_warning_naming_it(converted):
     assert "skipped 6 message" in camera[0], camera[0]
     # the JSON strings and booleans ("mode", "ok") are not columns and raise no warning
     assert not any("/status" in line for line in warnings), warnings
+
+
+def float64_log(path, n, chunked):
+    """`n` std_msgs/Float64 messages on /torque (value k at log time T0 + k ms), written by
+    the `mcap` package in 512-byte zstd chunks or unchunked; the file's bytes."""
+    with open(path, "wb") as f:
+        w = mcap_writer.Writer(f, chunk_size=512, use_chunking=chunked)
+        w.start(profile="ros2")
+        schema = w.register_schema(name="std_msgs/msg/Float64", encoding="ros2msg", data=b"float64 data\n")
+        channel = w.register_channel(topic="/torque", message_encoding="cdr", schema_id=schema)
+        for k in range(n):
+            t = T0_NS + k * 1_000_000
+            cdr = b"\x00\x01\x00\x00" + struct.pack("<d", float(k))
+            w.add_message(channel_id=channel, log_time=t, publish_time=t, data=cdr, sequence=k)
+        w.finish()
+    return path.read_bytes()
+
+
+@pytest.mark.parametrize("chunked", [True, False])
+def test_a_log_cut_short_gives_the_messages_before_the_cut_with_a_warning(tmp_path, cli, chunked):
+    # A recorder killed before it closed its file leaves no summary or footer, and a copy
+    # can stop anywhere. Before: exit 1 and no output, though every message was read.
+    data = float64_log(tmp_path / "full.mcap", 300, chunked)
+    for fraction in (0.97, 0.6):
+        cut = tmp_path / "cut.mcap"
+        cut.write_bytes(data[: int(len(data) * fraction)])
+        out = tmp_path / "cut.csv"
+        res = cli("convert", "--in", cut, "--out", out, "--align", "none", "--time", "log")
+        assert res.returncode == 0, res.stderr
+        warn = [l for l in res.stderr.splitlines() if l.startswith("warning:")]
+        assert len(warn) == 1 and "ends before its footer" in warn[0], res.stderr
+        with open(out, newline="") as f:
+            rows = [[float(x) for x in r] for r in list(csv.reader(f))[1:]]
+        assert 0 < len(rows) <= 300 and (fraction > 0.9 or len(rows) < 300), len(rows)
+        assert [r[1] for r in rows] == [float(k) for k in range(len(rows))]
+        assert [r[0] for r in rows] == [(T0_NS + k * 1_000_000) / 1e9 for k in range(len(rows))]
+
+
+def test_a_log_without_messages_is_an_error_not_a_crash(tmp_path, cli):
+    # Before: a panic (exit 101) on an MCAP with no messages, or cut before the first.
+    data = float64_log(tmp_path / "none.mcap", 0, True)
+    res = cli("convert", "--in", tmp_path / "none.mcap", "--out", tmp_path / "none.csv")
+    assert res.returncode == 1 and "none.mcap: no messages in the log" in res.stderr, res.stderr
+    (tmp_path / "head.mcap").write_bytes(float64_log(tmp_path / "one.mcap", 5, True)[:20])
+    res = cli("convert", "--in", tmp_path / "head.mcap", "--out", tmp_path / "head.csv")
+    assert res.returncode == 1 and "ends before its first message" in res.stderr, res.stderr
+    assert data and not (tmp_path / "none.csv").exists() and not (tmp_path / "head.csv").exists()

@@ -109,6 +109,9 @@ pub struct RecordingReader {
     columns: Vec<String>,
     units: Vec<Option<String>>,
     warnings: Vec<String>,
+    /// The reader's warnings taken so far, and whether those found while reading go to
+    /// standard error.
+    reader_warnings: (usize, bool),
     resampled: Option<Resampled>,
     input_rows: u64,
     rows_read: u64,
@@ -120,11 +123,12 @@ impl RecordingReader {
     /// say so.
     pub fn open(path: &Path) -> Result<Self, IoError> {
         let options = default_read_options();
-        let r = Self::open_with(path, &options)?;
+        let mut r = Self::open_with(path, &options)?;
         if options.print_warnings {
             for w in r.warnings() {
                 eprintln!("warning: {}: {w}", path.display());
             }
+            r.reader_warnings.1 = true;
         }
         Ok(r)
     }
@@ -195,7 +199,18 @@ impl RecordingReader {
             }
             _ => None,
         };
-        Ok(Self { inner, path: path.to_path_buf(), columns, units, warnings, resampled, input_rows: 0, rows_read: 0 })
+        let reader_warnings = (warnings.len(), false);
+        Ok(Self {
+            inner,
+            path: path.to_path_buf(),
+            columns,
+            units,
+            warnings,
+            reader_warnings,
+            resampled,
+            input_rows: 0,
+            rows_read: 0,
+        })
     }
 
     /// Column names in file order.
@@ -223,9 +238,25 @@ impl RecordingReader {
         &self.units
     }
 
-    /// Warnings of the reader (skipped log channels, …).
+    /// Warnings of the reader (skipped log channels, …); those found while reading
+    /// (a log's messages at one time) once the last row is read.
     pub fn warnings(&self) -> &[String] {
         &self.warnings
+    }
+
+    /// The warnings the reader found while reading, printed as those at the start were.
+    fn take_reader_warnings(&mut self) {
+        #[cfg(feature = "mcap")]
+        if let Reader::Bag(r) = &self.inner {
+            let (taken, print) = self.reader_warnings;
+            for w in r.warnings().iter().skip(taken) {
+                if print {
+                    eprintln!("warning: {}: {w}", self.path.display());
+                }
+                self.warnings.push(w.clone());
+            }
+            self.reader_warnings.0 = r.warnings().len();
+        }
     }
 
     /// Input rows read so far: a table's data rows (before `--resample-hz`), a log's
@@ -284,6 +315,9 @@ impl RecordingReader {
             let more = self.inner.read_row(row)?;
             self.rows_read += u64::from(more);
             self.input_rows = self.rows_read;
+            if !more {
+                self.take_reader_warnings();
+            }
             return Ok(more);
         };
         loop {
@@ -293,6 +327,7 @@ impl RecordingReader {
                 return Ok(true);
             }
             if !self.inner.read_row(row)? {
+                self.take_reader_warnings();
                 return Ok(false);
             }
             self.input_rows += 1;

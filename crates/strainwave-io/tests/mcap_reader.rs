@@ -186,10 +186,17 @@ fn bad_files_are_errors_naming_the_file() {
     assert!(e.to_string().contains("not-mcap.mcap") && e.to_string().contains("not an MCAP"), "{e}");
 
     let good = std::fs::read(write_log("cut.mcap", &mixed_messages(), mcap::WriteOptions::new())).unwrap();
+    // Cut short (a recorder killed): the messages before the cut, with a warning; cut
+    // before the first message, an error naming the file.
+    let full = read_mcap(&temp_path("cut.mcap")).unwrap().table.data[0].len();
     let cut = temp_path("cut-short.mcap");
-    std::fs::write(&cut, &good[..good.len() / 2]).unwrap();
+    std::fs::write(&cut, &good[..good.len() - 40]).unwrap();
+    let t = read_mcap(&cut).unwrap();
+    assert!(t.warnings.iter().any(|w| w.contains("ends before its footer")), "{:?}", t.warnings);
+    assert!((1..=full).contains(&t.table.data[0].len()));
+    std::fs::write(&cut, &good[..20]).unwrap();
     let e = read_mcap(&cut).unwrap_err();
-    assert!(e.to_string().contains("cut-short.mcap"), "{e}");
+    assert!(e.to_string().contains("cut-short.mcap") && e.to_string().contains("cut short"), "{e}");
 
     let missing = temp_path("missing.mcap");
     assert!(matches!(read_mcap(&missing), Err(IoError::Os { .. })));

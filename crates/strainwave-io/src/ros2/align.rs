@@ -127,6 +127,11 @@ impl Aligner {
         row
     }
 
+    /// How the columns meet the clock.
+    pub fn mode(&self) -> Align {
+        self.mode
+    }
+
     fn add_clock_row(&mut self, t_ns: i64) {
         if self.last_clock_ns.is_some_and(|l| t_ns <= l) {
             return;

@@ -18,7 +18,8 @@
 //! times run out of order; the second decodes again and streams rows. Memory is one
 //! decompressed chunk (or SQLite page), the messages within the largest out-of-order
 //! step (zero when times increase), and the clock rows within the largest `max_gap`.
-//! A damaged file gives its rows up to the damage, then an error naming where it stopped.
+//! A damaged file gives its rows up to the damage, then an error naming where it stopped;
+//! an MCAP file cut short (no footer) gives the messages before the cut, with a warning.
 
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, HashMap};
@@ -69,6 +70,11 @@ struct TopicStat {
     last_ns: i64,
     long_arrays: Vec<String>,
     skipped: Option<String>,
+    /// The time of the last message given to the clock, ns.
+    aligned_ns: Option<i64>,
+    /// Messages at the same time as the one before them (on one clock only the first
+    /// value at a time is kept), and the first such time, ns.
+    same_time: (u64, i64),
 }
 
 /// Column ids by (topic, name as decoded).
@@ -269,6 +275,17 @@ impl BagReader {
             newest = newest.max(t);
             self.lateness_ns = self.lateness_ns.max(newest - t);
         }
+        for (file, last_ns) in self.stream.cut_short() {
+            let name = match file == &self.path {
+                true => "the file".to_string(),
+                false => format!("`{}`", file.file_name().unwrap_or_default().to_string_lossy()),
+            };
+            self.warnings.push(format!(
+                "{name} ends before its footer (a recorder stopped before closing it, or a copy cut short): \
+                 the messages before the cut are read, up to log time {} s",
+                *last_ns as f64 / 1e9
+            ));
+        }
         Ok(())
     }
 
@@ -398,12 +415,19 @@ impl BagReader {
 
     /// Column names, the clock and the warnings, from the first pass.
     fn plan(&mut self, options: &ReadOptions) -> Result<(), IoError> {
+        if self.topics.is_empty() {
+            let msg = match self.stream.cut_short().is_empty() {
+                true => "no messages in the log",
+                false => "the file ends before its first message (cut short)",
+            };
+            return Err(IoError::Csv { path: self.path.clone(), msg: msg.into() });
+        }
         for want in &options.topics {
             if !self.topic_index.contains_key(want) {
                 let have: Vec<&str> = self.topics.iter().map(|t| t.name.as_str()).collect();
                 return Err(IoError::Csv {
                     path: self.path.clone(),
-                    msg: format!("--topic: no topic `{want}` in the log (topics: {})", have.join(", ")),
+                    msg: format!("--topic: no message of topic `{want}` in the log (topics: {})", have.join(", ")),
                 });
             }
         }
@@ -552,7 +576,8 @@ impl BagReader {
     }
 
     /// Reads the next row; `Ok(false)` at the end. A damaged file gives every row before
-    /// the damage, then the error.
+    /// the damage, then the error. Warnings found while reading are added to
+    /// [`BagReader::warnings`] by the end.
     pub fn read_row(&mut self, row: &mut Vec<f64>) -> Result<bool, IoError> {
         loop {
             if let Some(mut r) = self.aligner.pop() {
@@ -613,6 +638,11 @@ impl BagReader {
     /// One message's values (`None`: those just decoded) into the aligner.
     fn align(&mut self, t_ns: i64, topic: usize, values: Option<&[(usize, f64)]>) -> Result<(), IoError> {
         let values = values.unwrap_or(&self.values);
+        let stat = &mut self.topics[topic];
+        if stat.aligned_ns == Some(t_ns) {
+            stat.same_time = (stat.same_time.0 + 1, if stat.same_time.0 == 0 { t_ns } else { stat.same_time.1 });
+        }
+        stat.aligned_ns = Some(t_ns);
         self.aligner.push(t_ns, topic, values).map_err(|e| IoError::Csv {
             path: self.path.clone(),
             msg: format!("topic `{}`, message at {} s: {e}", self.topics[topic].name, t_ns as f64 / 1e9),
@@ -624,6 +654,17 @@ impl BagReader {
             self.align(h.t_ns, h.topic, Some(&h.values))?;
         }
         self.aligner.finish();
+        if self.aligner.mode() != Align::None {
+            for s in self.topics.iter().filter(|s| s.same_time.0 > 0) {
+                self.warnings.push(format!(
+                    "topic `{}`: {} message(s) at the same time as the message before (the first at {} s); \
+                     on one clock a time has one row, with the first message's values (`--align none` keeps every message)",
+                    s.name,
+                    s.same_time.0,
+                    s.same_time.1 as f64 / 1e9
+                ));
+            }
+        }
         self.finished = true;
         self.stop = error;
         Ok(())

@@ -149,17 +149,28 @@ enum FileStream {
     Db3(super::db3::Db3Stream),
 }
 
-/// Every message of a log's files, in file order.
+/// Every message of a log's files, in file order. An MCAP file that ends before its
+/// footer (a recorder stopped before closing it, or a copy cut short) gives the messages
+/// before the cut, and is listed in [`MessageStream::cut_short`].
 pub struct MessageStream {
     files: Vec<PathBuf>,
     next_file: usize,
     current: Option<FileStream>,
+    /// The log time of the last message given, ns.
+    last_log_ns: u64,
+    cut_short: Vec<(PathBuf, u64)>,
 }
 
 impl MessageStream {
     /// Opens the log at `path` (a file or a rosbag2 folder).
     pub fn open(path: &Path) -> Result<Self, IoError> {
-        Ok(Self { files: log_files(path)?, next_file: 0, current: None })
+        Ok(Self { files: log_files(path)?, next_file: 0, current: None, last_log_ns: 0, cut_short: Vec::new() })
+    }
+
+    /// The files read so far that end before their footer, each with the log time of
+    /// its last message read (ns).
+    pub fn cut_short(&self) -> &[(PathBuf, u64)] {
+        &self.cut_short
     }
 
     fn open_next(&mut self, registry: &mut Registry) -> Result<bool, IoError> {
@@ -193,6 +204,10 @@ impl MessageStream {
                 }
                 Some(FileStream::Mcap { path, reader, ids }) => match reader.next() {
                     None => self.current = None,
+                    Some(Err(mcap::McapError::UnexpectedEof)) => {
+                        self.cut_short.push((path.clone(), self.last_log_ns));
+                        self.current = None;
+                    }
                     Some(Err(e)) => return Err(mcap_error(path, e)),
                     Some(Ok(m)) => {
                         let ch = &m.channel;
@@ -215,6 +230,7 @@ impl MessageStream {
                                 c
                             }
                         };
+                        self.last_log_ns = m.log_time;
                         return Ok(Some(RawMessage { channel, log_time_ns: m.log_time, data: m.data }));
                     }
                 },
