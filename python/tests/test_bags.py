@@ -561,3 +561,32 @@ def test_messages_at_one_time_are_counted_in_a_warning(binary, tmp_path):
     assert f"(the first at {(T0_NS + 8_000_000) / 1e9} s)" in warn[0], warn
     res = run(binary, "convert", "--in", tmp_path / "dup", "--align", "none", "--out", tmp_path / "all.csv")
     assert len(read_csv(tmp_path / "all.csv")[1]) == 100 and "warning" not in res.stderr, res.stderr
+
+
+@pytest.mark.parametrize("storage", sorted(STORAGES))
+def test_a_bag_compressed_message_by_message_reads_and_by_file_is_named(binary, tmp_path, storage):
+    # rosbag2's `--compression-mode message`: each message a zstd frame. Before: "CDR
+    # representation 0x28b5 is not supported" (the frame's magic taken for CDR).
+    store = typesys.get_typestore(typesys.Stores.ROS2_HUMBLE)
+    kind = "std_msgs/msg/Float64"
+    for mode in ("MESSAGE", "FILE"):
+        path = tmp_path / f"{storage}_{mode.lower()}"
+        w = rosbag2.Writer(path, version=8, storage_plugin=getattr(rosbag2.StoragePlugin, STORAGES[storage]))
+        w.set_compression(getattr(rosbag2.CompressionMode, mode), rosbag2.CompressionFormat.ZSTD)
+        with w:
+            c = w.add_connection("/torque", kind, typestore=store)
+            for k in range(100):
+                data = store.serialize_cdr(store.types[kind](data=float(k) / 3), kind)
+                w.write(c, T0_NS + k * 1_000_000, data)
+        out = tmp_path / f"{storage}_{mode.lower()}.csv"
+        res = run(binary, "convert", "--in", path, "--out", out, "--quiet", ok=(mode == "MESSAGE"))
+        if mode == "MESSAGE":
+            header, rows = read_csv(out)
+            assert header == ["time", "/torque/data"]
+            assert rows[:, 1].tolist() == [k / 3 for k in range(100)]
+            assert rows[:, 0].tolist() == [(T0_NS + k * 1_000_000) / 1e9 for k in range(100)]
+        else:
+            err = [l for l in res.stderr.splitlines() if l.startswith("error:")]
+            assert res.returncode == 1 and len(err) == 1, res.stderr
+            assert ".zstd: compressed file by file" in err[0] and "zstd -d" in err[0], err
+            assert not out.exists()

@@ -59,6 +59,22 @@ pub struct RawMessage {
     pub data: Cow<'static, [u8]>,
 }
 
+/// The first bytes of a zstd frame (a CDR message starts with its encapsulation `00 0x`,
+/// a JSON one with text).
+const ZSTD_MAGIC: [u8; 4] = [0x28, 0xb5, 0x2f, 0xfd];
+
+/// A message compressed on its own, decompressed (at most [`MAX_RECORD_BYTES`]).
+fn unzstd(path: &Path, data: &[u8]) -> Result<Vec<u8>, IoError> {
+    let bad = |why: String| IoError::Csv { path: path.to_path_buf(), msg: format!("a zstd-compressed message: {why}") };
+    let mut out = Vec::new();
+    let decoder = zstd::stream::read::Decoder::with_buffer(data).map_err(|e| bad(e.to_string()))?;
+    decoder.take(MAX_RECORD_BYTES as u64 + 1).read_to_end(&mut out).map_err(|e| bad(e.to_string()))?;
+    if out.len() > MAX_RECORD_BYTES {
+        return Err(bad(format!("it decompresses to more than {MAX_RECORD_BYTES} bytes")));
+    }
+    Ok(out)
+}
+
 /// The files of a log, by the path the user gave.
 pub fn log_files(path: &Path) -> Result<Vec<PathBuf>, IoError> {
     if !path.is_dir() {
@@ -176,6 +192,14 @@ impl MessageStream {
     fn open_next(&mut self, registry: &mut Registry) -> Result<bool, IoError> {
         let Some(path) = self.files.get(self.next_file).cloned() else { return Ok(false) };
         self.next_file += 1;
+        if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("zstd") || e.eq_ignore_ascii_case("zst")) {
+            return Err(IoError::Csv {
+                path,
+                msg: "compressed file by file (rosbag2 `compression_mode: file`), which is not read: \
+                      decompress it with `zstd -d` and read the .db3 or .mcap file it gives"
+                    .into(),
+            });
+        }
         let is_db3 = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("db3"));
         self.current = Some(if is_db3 {
             #[cfg(feature = "sqlite")]
@@ -193,8 +217,21 @@ impl MessageStream {
         Ok(true)
     }
 
-    /// The next message; `Ok(None)` at the end of the last file.
+    /// The next message; `Ok(None)` at the end of the last file. A message compressed on
+    /// its own (rosbag2's `compression_mode: message`, zstd) is decompressed.
     pub fn next(&mut self, registry: &mut Registry) -> Result<Option<RawMessage>, IoError> {
+        let Some(mut msg) = self.next_stored(registry)? else { return Ok(None) };
+        // Only CDR and JSON are decoded, and neither starts like a zstd frame.
+        let encoding = registry.channels.get(msg.channel).map_or("", |c| c.message_encoding.as_str());
+        if msg.data.starts_with(&ZSTD_MAGIC) && ["cdr", "json"].contains(&encoding.to_ascii_lowercase().as_str()) {
+            let path = self.files.get(self.next_file.saturating_sub(1)).map_or(Path::new(""), PathBuf::as_path);
+            msg.data = Cow::Owned(unzstd(path, &msg.data)?);
+        }
+        Ok(Some(msg))
+    }
+
+    /// The next message as stored.
+    fn next_stored(&mut self, registry: &mut Registry) -> Result<Option<RawMessage>, IoError> {
         loop {
             match self.current.as_mut() {
                 None => {
