@@ -106,7 +106,13 @@ impl CsvReader {
         let (out, batches) = mpsc::sync_channel(BATCHES_AHEAD);
         let (spent, spent_rx) = mpsc::channel();
         let mut parser = Parser::new(path.clone(), input, out, spent_rx, delimiter);
-        let header = parser.header()?;
+        let mut header = parser.header()?;
+        // A delimiter at the end of the header line names no column.
+        let unnamed = header.iter().rev().take_while(|h| h.trim().is_empty()).count();
+        if header.len() > 1 && unnamed < header.len() {
+            header.truncate(header.len() - unnamed);
+            parser.unnamed_tail = unnamed;
+        }
         if header.is_empty() || (header.len() == 1 && header[0].is_empty()) {
             return Err(IoError::Empty(path));
         }

@@ -21,6 +21,9 @@ pub(super) enum Batch {
 pub(super) struct Parser {
     path: PathBuf,
     pub(super) columns: Vec<String>,
+    /// Cells after the last column that the header leaves unnamed (a delimiter at the end
+    /// of each line, as spreadsheet and DAQ exports write): they must be empty.
+    pub(super) unnamed_tail: usize,
     input: Box<dyn Read + Send>,
     /// Input bytes; `buf[start..end]` is not consumed yet.
     buf: Vec<u8>,
@@ -59,6 +62,7 @@ impl Parser {
         Self {
             path,
             columns: Vec::new(),
+            unnamed_tail: 0,
             input,
             buf: vec![0; READ_BUFFER_BYTES],
             start: 0,
@@ -252,7 +256,13 @@ impl Parser {
     /// Parses the quote-free record `buf[from..to]` into the batch.
     #[inline]
     pub(super) fn fast_row(&mut self, from: usize, to: usize, pos: csv::Position) -> Result<(), IoError> {
-        let line = &self.buf[from..to];
+        let mut line = &self.buf[from..to];
+        for _ in 0..self.unnamed_tail {
+            match line.trim_ascii_end().strip_suffix(&[self.delimiter]) {
+                Some(rest) => line = rest,
+                None => break,
+            }
+        }
         let n = self.columns.len();
         let before = self.batch.len();
         let mut cells = 0;
@@ -341,7 +351,10 @@ impl Parser {
     #[cold]
     pub(super) fn slow_row(&mut self, record: &csv::ByteRecord) -> Result<(), IoError> {
         self.rows += 1;
-        if record.len() != self.columns.len() {
+        let n = self.columns.len();
+        let unnamed_empty = |r: &csv::ByteRecord| r.iter().skip(n).all(|c| c.trim_ascii().is_empty());
+        let tail_empty = record.len() > n && record.len() <= n + self.unnamed_tail && unnamed_empty(record);
+        if record.len() != n && !tail_empty {
             return Err(IoError::RowLength {
                 path: self.path.clone(),
                 row: self.rows,
@@ -350,7 +363,7 @@ impl Parser {
             });
         }
         let before = self.batch.len();
-        for (i, cell) in record.iter().enumerate() {
+        for (i, cell) in record.iter().take(n).enumerate() {
             let text = String::from_utf8_lossy(cell);
             let cell = text.trim();
             let value = if self.decimal_comma && cell.contains(',') {

@@ -276,10 +276,14 @@ fn reference(data: &[u8]) -> Outcome {
         }
         Err(e) => return (Err(csv_error(path, e).to_string()), Vec::new()),
     };
-    if header.is_empty() || (header.len() == 1 && header[0].is_empty()) {
+    let mut columns: Vec<String> = header.iter().map(str::to_string).collect();
+    // Empty names at the end of the header: no columns, their cells empty.
+    let unnamed = columns.iter().rev().take_while(|c| c.trim().is_empty()).count();
+    let tail = if columns.len() > 1 && unnamed < columns.len() { unnamed } else { 0 };
+    columns.truncate(columns.len() - tail);
+    if columns.is_empty() || (columns.len() == 1 && columns[0].is_empty()) {
         return (Err(IoError::Empty(path.into()).to_string()), Vec::new());
     }
-    let columns: Vec<String> = header.iter().map(str::to_string).collect();
     if let Some(c) = columns.iter().enumerate().find_map(|(i, c)| columns[..i].contains(c).then_some(c)) {
         return (Err(IoError::DuplicateColumn { path: path.into(), column: c.clone() }.to_string()), Vec::new());
     }
@@ -292,12 +296,15 @@ fn reference(data: &[u8]) -> Outcome {
             Err(e) => Err(csv_error(path, e).to_string()),
             Ok(true) => {
                 n += 1;
-                if record.len() != columns.len() {
+                let width = columns.len();
+                let unnamed_empty = record.iter().skip(width).all(|c| c.trim_ascii().is_empty());
+                if !(record.len() == width || (record.len() > width && record.len() <= width + tail && unnamed_empty)) {
                     let (got, want) = (record.len(), columns.len());
                     Err(IoError::RowLength { path: path.into(), row: n, got, want }.to_string())
                 } else {
                     record
                         .iter()
+                        .take(width)
                         .enumerate()
                         .map(|(i, cell)| {
                             let text = String::from_utf8_lossy(cell);
@@ -541,4 +548,33 @@ fn a_line_longer_than_the_limit_is_an_error_not_an_allocation() {
     let e = read_table(&path).unwrap_err().to_string();
     assert!(e.contains("long.csv: row 2 is longer than 64 MiB"), "{e}");
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Spreadsheet and DAQ exports end each line with a delimiter: the header's empty names at
+/// the end are no columns, and their cells must be empty. Before: refused (``row 1,
+/// column ``: `` is not a number``, or ``column `` appears twice``).
+#[test]
+fn a_delimiter_at_the_end_of_each_line_names_no_column() {
+    let read = |text: &str| {
+        let mut r = CsvReader::from_reader(Path::new("daq.txt"), Box::new(std::io::Cursor::new(text.to_string())))?;
+        let mut rows = Vec::new();
+        let mut row = Vec::new();
+        while r.read_row(&mut row)? {
+            rows.push(row.clone());
+        }
+        Ok::<_, IoError>((r.columns().to_vec(), r.units().to_vec(), rows))
+    };
+    for text in [
+        "Time [s];Torque [N·m];\n0,0;1,5;\n0,001;-2,25;\n",
+        "Time [s];Torque [N·m];;;\r\n0,0;1,5;;;\r\n0,001;-2,25;\r\n",
+        "Time [s]\tTorque [N·m]\t\n0.0\t1.5\t \n0.001\t-2.25\n",
+        "time,Torque,\n0,1.5,\n\"0.001\",-2.25,\"\"\n",
+    ] {
+        let (columns, units, rows) = read(text).unwrap();
+        assert_eq!(columns, ["time", "Torque"], "{text:?}");
+        assert_eq!(units[1].as_deref().unwrap_or("N·m"), "N·m");
+        assert_eq!(rows, [vec![0.0, 1.5], vec![0.001, -2.25]], "{text:?}");
+    }
+    let e = read("time;torque;\n0;1;\n1;2;7\n").unwrap_err().to_string();
+    assert!(e.starts_with("daq.txt: row 2 has 3 cells, the header has 2 (truncated or malformed line)"), "{e}");
 }
