@@ -139,15 +139,7 @@ pub fn run(a: &Args) -> Result<()> {
     let table_rows: Vec<Vec<String>> = columns
         .iter()
         .zip(&stats)
-        .map(|(c, s)| {
-            vec![
-                c.clone(),
-                format!("{}", s.non_finite),
-                format!("{:.6}", s.mean()),
-                format!("{:.6}", s.rms()),
-                format!("{:.6}", s.max_abs),
-            ]
-        })
+        .map(|(c, s)| vec![c.clone(), format!("{}", s.non_finite), stat(s.mean()), stat(s.rms()), stat(s.max_abs)])
         .collect();
     let mut body = format!("<p>{rows} rows, {span_s:.3} s, {fs:.1} Hz mean rate, {} columns.</p>", columns.len());
     body += &table(&["column", "non-finite", "mean", "rms", "max |x|"], &table_rows);
@@ -270,4 +262,14 @@ fn order_labels(cfg: &JointConfig) -> Vec<String> {
         }
     }
     strainwave_joint::canceller::build_model(cfg, false, Labels).unwrap_or_default()
+}
+
+/// A figure of the recording table: six decimals, or six significant digits in the
+/// exponent form where six decimals would show nothing or hundreds of digits.
+fn stat(v: f64) -> String {
+    if v == 0.0 || (1e-3..1e9).contains(&v.abs()) {
+        format!("{v:.6}")
+    } else {
+        format!("{v:.5e}")
+    }
 }

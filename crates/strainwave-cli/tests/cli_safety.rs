@@ -193,6 +193,21 @@ fn report_to_standard_output_creates_no_file_named_dash() {
     assert_eq!(names(&d), ["rec.csv"]);
 }
 
+/// Before: one sample of 1e308 overflowed the column's sum of squares, and the table said
+/// `inf` (and printed the mean in 300 digits).
+#[test]
+fn report_writes_no_infinity_it_created() {
+    let d = tmp("huge");
+    let rec = d.join("rec.csv");
+    recording(&rec, 2048, |k, r| r[2] = if k == 100 { 1e308 } else { 600.0 });
+    let o = bin().current_dir(&d).args(["report", "--in", "rec.csv", "--out", "-"]).output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let html = String::from_utf8_lossy(&o.stdout).into_owned();
+    let row = html.split("<tr>").find(|r| r.contains("<td>speed</td>")).expect("the speed row");
+    assert!(row.contains("<td>4.88281e304</td><td>2.20971e306</td><td>1.00000e308</td>"), "{row}");
+    assert!(!row.contains("inf") && row.len() < 400, "{row}");
+}
+
 #[test]
 fn a_learn_file_that_cannot_be_written_leaves_the_output_as_it_was() {
     let d = tmp("learn");

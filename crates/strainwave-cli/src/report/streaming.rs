@@ -4,15 +4,18 @@
 
 use strainwave_analysis::spectrum::amplitude_spectrum;
 
-/// Count, non-finite count, sum, sum of squares and largest magnitude of a column.
+/// Count, non-finite count, mean, mean square and largest magnitude of a column, kept so
+/// that no finite input overflows them: the mean as a running mean, the squares scaled by
+/// the largest magnitude so far.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct ColumnStats {
     /// Finite values.
     pub finite: u64,
     /// Non-finite values.
     pub non_finite: u64,
-    sum: f64,
-    sum_sq: f64,
+    mean: f64,
+    /// `Σ (x / max_abs)²`.
+    scaled_sum_sq: f64,
     /// Largest |x|.
     pub max_abs: f64,
 }
@@ -20,23 +23,27 @@ pub struct ColumnStats {
 impl ColumnStats {
     /// Adds one value.
     pub fn push(&mut self, v: f64) {
-        if v.is_finite() {
-            self.finite += 1;
-            self.sum += v;
-            self.sum_sq += v * v;
-            self.max_abs = self.max_abs.max(v.abs());
-        } else {
+        if !v.is_finite() {
             self.non_finite += 1;
+            return;
+        }
+        self.finite += 1;
+        let n = self.finite as f64;
+        self.mean += v / n - self.mean / n;
+        let a = v.abs();
+        if a > self.max_abs {
+            let r = self.max_abs / a;
+            self.scaled_sum_sq = self.scaled_sum_sq * r * r + 1.0;
+            self.max_abs = a;
+        } else if a > 0.0 {
+            let r = a / self.max_abs;
+            self.scaled_sum_sq += r * r;
         }
     }
 
     /// Mean of the finite values (0 for none).
     pub fn mean(&self) -> f64 {
-        if self.finite == 0 {
-            0.0
-        } else {
-            self.sum / self.finite as f64
-        }
+        self.mean
     }
 
     /// RMS of the finite values (0 for none).
@@ -44,7 +51,7 @@ impl ColumnStats {
         if self.finite == 0 {
             0.0
         } else {
-            (self.sum_sq / self.finite as f64).sqrt()
+            self.max_abs * (self.scaled_sum_sq / self.finite as f64).sqrt()
         }
     }
 }
@@ -195,6 +202,26 @@ mod tests {
         assert!(x.windows(2).all(|w| w[0] <= w[1]));
         assert_eq!(y.iter().cloned().fold(f64::MIN, f64::max), 5.0);
         assert_eq!(x[y.iter().position(|v| *v == 5.0).unwrap()], 777_777.0);
+    }
+
+    /// Before: the sum of squares of `1e308` overflowed, and `report` printed an rms of
+    /// `inf` for a column of finite values.
+    #[test]
+    fn column_stats_are_finite_for_finite_values_and_match_the_plain_sums() {
+        let mut s = ColumnStats::default();
+        for v in [1e308, -1e308, 1e308, f64::NAN, 0.0] {
+            s.push(v);
+        }
+        assert_eq!((s.finite, s.non_finite, s.max_abs), (4, 1, 1e308));
+        assert!((s.mean() - 0.25e308).abs() <= 1e293, "{}", s.mean());
+        assert!((s.rms() - 3f64.sqrt() / 2.0 * 1e308).abs() <= 1e294, "{}", s.rms());
+        let xs: Vec<f64> = (0..10_000).map(|k| (k as f64 * 0.37).sin() * 3.0 + 0.5).collect();
+        let mut s = ColumnStats::default();
+        xs.iter().for_each(|&v| s.push(v));
+        let n = xs.len() as f64;
+        let (mean, rms) = (xs.iter().sum::<f64>() / n, (xs.iter().map(|v| v * v).sum::<f64>() / n).sqrt());
+        assert!((s.mean() - mean).abs() < 1e-12 && (s.rms() - rms).abs() < 1e-12, "{} {}", s.mean(), s.rms());
+        assert_eq!((ColumnStats::default().mean(), ColumnStats::default().rms()), (0.0, 0.0));
     }
 
     #[test]
