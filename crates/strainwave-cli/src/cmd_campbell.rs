@@ -36,16 +36,19 @@ pub struct Args {
 /// Runs `campbell`.
 pub fn run(a: &Args) -> Result<()> {
     strainwave_io::output::refuse_input_as_output(&a.out, [a.source.input.as_path()])?;
+    if let Some(f) = a.max_hz.filter(|f| !(f.is_finite() && *f > 0.0)) {
+        bail!("--max-hz: must be positive, got {f:?}");
+    }
     let (t, fs) = a.source.read()?;
     let signal = a.source.signal(&t)?;
     let speed = a.speed.rpm(&t, &a.source.input)?;
     check_window(signal.len(), a.nperseg)?;
     if !(a.speed_bin.is_finite() && a.speed_bin > 0.0) {
-        bail!("--speed-bin: must be positive, got {}", a.speed_bin);
+        bail!("--speed-bin: must be positive, got {:?}", a.speed_bin);
     }
     crate::recording_args::speed_bins(&speed, a.speed_bin, &a.speed.speed, &a.source.input)?;
     if let Some(o) = a.orders.iter().find(|o| !(o.is_finite() && **o > 0.0)) {
-        bail!("--orders: must be positive, got {o}");
+        bail!("--orders: must be positive, got {o:?}");
     }
     let c = campbell(signal, &speed, fs, &CampbellConfig::new(a.nperseg, a.speed_bin))?;
     let amp_db: Vec<Vec<f64>> =

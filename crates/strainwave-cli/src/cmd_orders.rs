@@ -62,7 +62,7 @@ pub fn run(a: &Args) -> Result<()> {
     let x = a.source.signal(&t)?;
     let speed = a.speed.rpm(&t, &a.source.input)?;
     if !(a.speed_bin.is_finite() && a.speed_bin > 0.0) {
-        bail!("--speed-bin: must be positive, got {}", a.speed_bin);
+        bail!("--speed-bin: must be positive, got {:?}", a.speed_bin);
     }
     crate::recording_args::speed_bins(&speed, a.speed_bin, &a.speed.speed, &a.source.input)?;
     let cfg = OrderSliceConfig { revs_per_block: a.revs_per_block, ..Default::default() };

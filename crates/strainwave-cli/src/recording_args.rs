@@ -123,7 +123,7 @@ pub fn speed_bins(speed_rpm: &[f64], bin_rpm: f64, name: &str, path: &Path) -> R
     let bins = (top / bin_rpm).floor() + 1.0;
     if bins.is_nan() || bins > max as f64 {
         bail!(
-            "{}: row {}, column `{name}`: {top} rpm in --speed-bin {bin_rpm} rpm bins needs more than {max} bins \
+            "{}: row {}, column `{name}`: {top:?} rpm in --speed-bin {bin_rpm:?} rpm bins needs more than {max} bins \
              (a glitch in the speed? fix it, or widen --speed-bin)",
             path.display(),
             k + 1
@@ -138,7 +138,7 @@ pub fn speed_rpm(t: &Table, name: &str, unit: SpeedUnit, path: &Path) -> Result<
     let k = if unit == SpeedUnit::RadS { 60.0 / std::f64::consts::TAU } else { 1.0 };
     let v: Vec<f64> = raw.iter().map(|x| x * k).collect();
     if let Some(i) = v.iter().position(|x| !x.is_finite()) {
-        bail!("{}: row {}, column `{name}`: speed {} is not finite", path.display(), i + 1, raw[i]);
+        bail!("{}: row {}, column `{name}`: speed {:?} is not finite", path.display(), i + 1, raw[i]);
     }
     let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
     if mean.is_nan() || mean <= 0.0 {

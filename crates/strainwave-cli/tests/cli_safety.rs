@@ -408,7 +408,15 @@ fn one_glitched_speed_sample_or_a_tiny_speed_bin_is_an_error_naming_it() {
         "--out",
         s(&out),
     ]);
-    assert_error(&o, &["--speed-bin"]);
+    // In the shortest form: before, 1e-20 was written out in 24 digits.
+    assert_error(&o, &["--speed-bin 1e-20 rpm"]);
+    assert!(!out.exists());
+    // Before: `campbell --max-hz -100` (or 0, or NaN) drew an empty plot and exited 0.
+    for max_hz in ["-100", "0", "NaN"] {
+        let flag = format!("--max-hz={max_hz}");
+        let args = [&["campbell", "--nperseg", "512", flag.as_str()][..], &base].concat();
+        assert_error(&run(&args), &["--max-hz: must be positive"]);
+    }
     assert!(!out.exists());
 }
 
