@@ -12,7 +12,8 @@ mod bench;
 /// Arguments of `simulate`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// A built-in scenario: taghirad (Taghirad rig) or flexspline-fixed (embedded-sensor rig).
+    /// A built-in scenario: taghirad (Taghirad rig), flexspline-fixed (embedded-sensor
+    /// rig), kit-bench (motor test bench) or hda-arm (robot arm), and their variants.
     #[arg(long, conflicts_with = "scenario", required_unless_present = "scenario")]
     pub preset: Option<String>,
     /// A scenario TOML file (start one from `--preset NAME --print-scenario`).
@@ -38,6 +39,52 @@ pub struct Args {
     /// No summary on stderr.
     #[arg(long, short)]
     pub quiet: bool,
+}
+
+/// The twin a scenario is for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Twin {
+    Joint,
+    Arm,
+    Bench,
+}
+
+/// Which twin `--preset` or `--scenario` names: a preset by its name, a file by the tables
+/// only that twin's scenario has (`[mechanics]` the bench's, `[controller]` the arm's).
+fn twin(a: &Args) -> Result<Twin> {
+    if let Some(name) = a.preset.as_deref() {
+        return Ok(if strainwave_sim::bench::PRESET_NAMES.contains(&name) {
+            Twin::Bench
+        } else if arm::arm_preset(name).is_some() {
+            Twin::Arm
+        } else if presets::PRESETS.iter().any(|(n, _)| *n == name) {
+            Twin::Joint
+        } else {
+            bail!("unknown preset `{name}` (known: {})", preset_names().join(", "))
+        });
+    }
+    let Some(path) = a.scenario.as_deref() else { return Ok(Twin::Joint) };
+    let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
+    let Ok(table) = text.parse::<toml::Table>() else { return Ok(Twin::Joint) };
+    Ok(if table.contains_key("mechanics") {
+        Twin::Bench
+    } else if table.contains_key("controller") {
+        Twin::Arm
+    } else {
+        Twin::Joint
+    })
+}
+
+/// Every preset of every twin.
+fn preset_names() -> Vec<String> {
+    let joint = presets::PRESETS.iter().map(|(n, _)| n.to_string());
+    let bench = strainwave_sim::bench::PRESET_NAMES.iter().map(|n| n.to_string());
+    joint.chain(bench).chain(arm::preset_names()).collect()
+}
+
+/// The text of a `--scenario` file (for the arm and bench twins).
+fn scenario_text(path: &Path) -> Result<String> {
+    std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))
 }
 
 /// Loads the scenario named by `--preset` or `--scenario`, with overrides applied.
@@ -104,9 +151,11 @@ pub fn run(a: &Args) -> Result<()> {
     if let Some(out) = &a.out {
         strainwave_io::output::refuse_input_as_output(out, a.scenario.as_deref())?;
     }
-    // The arm and bench twins have their own presets.
-    if arm::run(a)? || bench::run(a)? {
-        return Ok(());
+    // The arm and bench twins have their own presets and scenarios.
+    match twin(a)? {
+        Twin::Arm => return arm::run(a),
+        Twin::Bench => return bench::run(a),
+        Twin::Joint => {}
     }
     if a.print_scenario {
         match (&a.preset, &a.scenario) {

@@ -97,6 +97,41 @@ fn print_scenario_round_trips_through_a_file() {
     assert_eq!(std::fs::read(out).unwrap(), std::fs::read(d.join("p.csv")).unwrap());
 }
 
+/// Before: the bench's and the arm's printed scenarios could not be read back (``unknown
+/// field `mechanics` ``), `--procedure` was ignored for the bench, and an unknown preset's
+/// list left out the bench's and the arm's.
+#[test]
+fn every_twin_s_printed_scenario_runs_as_its_preset() {
+    let d = tmp("twins");
+    for preset in ["kit-bench", "hda-arm"] {
+        let o = run(&["simulate", "--preset", preset, "--print-scenario"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let f = d.join(format!("{preset}.toml"));
+        std::fs::write(&f, &o.stdout).unwrap();
+        let (from_file, from_preset) = (d.join(format!("{preset}-file.csv")), d.join(format!("{preset}.csv")));
+        for (source, out) in [(["--scenario", f.to_str().unwrap()], &from_file), (["--preset", preset], &from_preset)] {
+            let o =
+                run(&[&["simulate"][..], &source, &["--duration", "0.05", "--out", out.to_str().unwrap(), "-q"]]
+                    .concat());
+            assert!(o.status.success(), "{preset}: {}", stderr(&o));
+        }
+        assert_eq!(std::fs::read(&from_file).unwrap(), std::fs::read(&from_preset).unwrap(), "{preset}");
+        let o = run(&[
+            "simulate",
+            "--preset",
+            preset,
+            "--procedure",
+            "locked-wg",
+            "--out",
+            d.join("x.csv").to_str().unwrap(),
+        ]);
+        assert_user_error(&o, "--procedure applies to the joint twin");
+    }
+    let o = run(&["simulate", "--preset", "nope", "--out", d.join("x.csv").to_str().unwrap()]);
+    assert_user_error(&o, "flexspline-fixed-dynamic, kit-bench, kit-bench-sweep, hda-arm, hda-arm-no-load");
+    assert!(!d.join("x.csv").exists());
+}
+
 fn scenario_with(d: &Path, from: &str, to: &str) -> PathBuf {
     let text = String::from_utf8(run(&["simulate", "--preset", "taghirad", "--print-scenario"]).stdout).unwrap();
     assert!(text.contains(from), "{from}");

@@ -17,18 +17,29 @@ pub fn arm_preset(name: &str) -> Option<Result<ArmScenario>> {
     Some(ArmScenario::experiment(e).with_context(|| format!("preset {name}")))
 }
 
-/// Runs the preset when it is one of this twin's; `Ok(false)` otherwise.
-pub fn run(a: &super::Args) -> Result<bool> {
-    let Some(name) = a.preset.as_deref() else { return Ok(false) };
-    let Some(scenario) = arm_preset(name) else { return Ok(false) };
-    let mut s = scenario?;
+/// The arm presets' names.
+pub fn preset_names() -> impl Iterator<Item = String> {
+    std::iter::once("hda-arm".to_string()).chain(ArmExperiment::ALL.iter().map(|e| format!("hda-arm-{}", e.name())))
+}
+
+/// Runs the arm preset or scenario file of `a`.
+pub fn run(a: &super::Args) -> Result<()> {
+    let (mut s, name) = match (a.preset.as_deref(), a.scenario.as_deref()) {
+        (Some(name), _) => (arm_preset(name).context("not an arm preset")??, name.to_string()),
+        (None, Some(path)) => {
+            let s = ArmScenario::from_toml(&super::scenario_text(path)?)
+                .with_context(|| format!("scenario {}", path.display()))?;
+            (s, path.display().to_string())
+        }
+        (None, None) => bail!("give --preset NAME or --scenario FILE"),
+    };
     super::overridden(&mut s, a.duration, a.seed)?;
     if a.print_scenario {
         crate::stdout::print(&s.to_toml())?;
-        return Ok(true);
+        return Ok(());
     }
     if a.procedure.is_some() {
-        bail!("--procedure applies to the joint presets, not to `{name}`");
+        bail!("--procedure applies to the joint twin, not to the arm (`{name}`)");
     }
     let Some(out) = a.out.as_deref() else { bail!("--out FILE is required") };
     let mut sim = ArmSimulator::new(&s)?;
@@ -48,5 +59,5 @@ pub fn run(a: &super::Args) -> Result<bool> {
             out.display()
         );
     }
-    Ok(true)
+    Ok(())
 }

@@ -1,18 +1,26 @@
 //! `strainwave simulate` for the bench presets (`kit-bench`, `kit-bench-sweep`).
 
-use anyhow::{bail, Result};
-use strainwave_sim::bench::{preset, BenchSimulator, PRESET_NAMES};
+use anyhow::{bail, Context, Result};
+use strainwave_sim::bench::{preset, BenchScenario, BenchSimulator};
 
-/// Runs the preset when it is one of this twin's; `Ok(false)` otherwise.
-pub fn run(a: &super::Args) -> Result<bool> {
-    let Some(name) = a.preset.as_deref().filter(|n| PRESET_NAMES.contains(n)) else {
-        return Ok(false);
+/// Runs the bench preset or scenario file of `a`.
+pub fn run(a: &super::Args) -> Result<()> {
+    let (mut s, name) = match (a.preset.as_deref(), a.scenario.as_deref()) {
+        (Some(name), _) => (preset(name)?, name.to_string()),
+        (None, Some(path)) => {
+            let s = BenchScenario::from_toml(&super::scenario_text(path)?)
+                .with_context(|| format!("scenario {}", path.display()))?;
+            (s, path.display().to_string())
+        }
+        (None, None) => bail!("give --preset NAME or --scenario FILE"),
     };
-    let mut s = preset(name)?;
     super::overridden(&mut s, a.duration, a.seed)?;
     if a.print_scenario {
         crate::stdout::print(&s.to_toml())?;
-        return Ok(true);
+        return Ok(());
+    }
+    if a.procedure.is_some() {
+        bail!("--procedure applies to the joint twin, not to the bench (`{name}`)");
     }
     let Some(out) = a.out.as_deref() else {
         bail!("--out: give the output recording");
@@ -36,5 +44,5 @@ pub fn run(a: &super::Args) -> Result<bool> {
             s.seed
         );
     }
-    Ok(true)
+    Ok(())
 }
