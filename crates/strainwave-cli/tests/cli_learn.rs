@@ -209,3 +209,31 @@ fn a_bad_row_in_a_later_run_names_its_file_and_row() {
     last_line_error(&o, &format!("{}: data row 7: time 0.0001 s is not after", back.display()));
     std::fs::remove_dir_all(&d).unwrap();
 }
+
+/// A learned file damaged to a coefficient a million times too large: the guard passes the
+/// raw torque through from the first sample, and no sample is made worse than raw. Before:
+/// the first 40 rows were about 1e6 N·m off, until the running mean NIS stepped back.
+#[test]
+fn a_damaged_learned_coefficient_makes_no_sample_worse_than_raw() {
+    let d = tmp("damaged");
+    let rec = simulate(&d, "taghirad", "2");
+    let text = std::fs::read_to_string(root().join("examples/joint-taghirad-learned.toml")).unwrap();
+    let at = text.find("cos_nm = ").unwrap();
+    let end = at + text[at..].find('\n').unwrap();
+    let learned = d.join("learned.toml");
+    std::fs::write(&learned, format!("{}cos_nm = 1e6{}", &text[..at], &text[end..])).unwrap();
+    let out = d.join("out.csv");
+    let o = run(&["filter", "--config", s(&config(&d, &learned, |t| t)), "--in", s(&rec), "--out", s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("passed the raw torque through for 100.0 %"), "{}", stderr(&o));
+    let table = std::fs::read_to_string(&out).unwrap();
+    let mut lines = table.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (clean, raw, truth) = (col("torque"), col("measured_torque"), col("true_torque"));
+    for (k, line) in lines.enumerate() {
+        let v: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
+        let (cleaned, raw) = ((v[clean] - v[truth]).abs(), (v[raw] - v[truth]).abs());
+        assert!(cleaned <= raw + 0.05, "row {}: {cleaned} N·m against raw {raw}", k + 1);
+    }
+}

@@ -29,7 +29,9 @@
 //! - **health of the model**: the running mean of the NIS (`χ²(1)`, mean 1 when the
 //!   model is right) is below [`GuardSettings::nis_pass_through`]; above it every order
 //!   steps back to pass-through (output = raw) until the mean falls below
-//!   [`GuardSettings::nis_recover`].
+//!   [`GuardSettings::nis_recover`]. In the first window of motion, before the model has a
+//!   track record, one sample with NIS above [`GROSS_NIS`] steps it back at once, from
+//!   that sample.
 //!
 //! At a standstill (order held) the contribution is clamped to the amplitude the order
 //! had at its last moving sample (zero if it never moved), so what the filter removes
@@ -69,6 +71,12 @@ use crate::ripple::{
 use crate::{Error, Real};
 use order::OrderGuard;
 pub use stats::GuardStats;
+
+/// NIS of one sample (a thousand σ) that makes the model pass through at once while it has
+/// run under one window ([`GuardSettings::window_s`]) in motion: with no track record yet,
+/// such a misfit says the model is wrong, not the data. (Later a load step or a collision
+/// can give it; the running mean then decides.)
+pub const GROSS_NIS: f64 = 1e6;
 
 /// Initial variance of each component of an order learned from zero, N·m² (1σ 0.1 N·m).
 /// With a larger one (the models' 1 N·m²) the ripple orders take the torque of a first
@@ -251,6 +259,8 @@ pub struct Guard<T: Real, const M: usize> {
     slow_alpha: T,
     mean_e2: T,
     pass_through: bool,
+    /// Measured samples in motion so far (saturating): the track record of the model.
+    moving_samples: u32,
     /// The innovation of the sample before if it was a load step, else 0, N·m.
     step_innovation_nm: T,
     stats: GuardStats<M>,
@@ -276,6 +286,7 @@ impl<T: Real, const M: usize> Guard<T, M> {
             slow_alpha: T::ONE / (settings.standstill_window_s * model.sample_rate_hz()).max(T::ONE),
             mean_e2: model.r_nm2,
             pass_through: false,
+            moving_samples: 0,
             step_innovation_nm: T::ZERO,
             stats: GuardStats::new(),
         }
@@ -340,6 +351,13 @@ impl<T: Real, const M: usize> Guard<T, M> {
             let v = self.orders[i].verdict(false);
             complete &= self.group[i] != i || status[i] == OrderStatus::Off || v.apply;
         }
+        // Early in a run there is no track record: a misfit of a thousand σ then says the
+        // model is wrong (a learned file of another joint, or a damaged one), not the load.
+        let early = T::from_f64(f64::from(self.moving_samples)) * self.alpha < T::ONE;
+        if early && out.nis > T::from_f64(GROSS_NIS) {
+            self.pass_through = true;
+            self.mean_nis = self.mean_nis.max(s.nis_clip);
+        }
         let pass_through = self.pass_through;
         let moving = status.contains(&OrderStatus::Active);
         // Held orders are applied only when the model fitted well while it moved: at a
@@ -392,6 +410,7 @@ impl<T: Real, const M: usize> Guard<T, M> {
         // Only motion can confirm or contradict the orders: at a standstill the bias takes
         // whatever they leave, so the verdicts of the last motion stand.
         if measured && moving {
+            self.moving_samples = self.moving_samples.saturating_add(1);
             let nis = out.nis.min(s.nis_clip);
             self.mean_nis += self.alpha * (nis - self.mean_nis);
             self.slow_mean_nis += self.slow_alpha * (nis - self.slow_mean_nis);
