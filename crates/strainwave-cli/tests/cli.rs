@@ -275,6 +275,13 @@ fn design_prints_the_figures_and_rejects_bad_configs() {
         ("gauge_factor = 2.0", "gauge_factor = 1e308", "`sensor.gauge_factor` = 1e308: at most 1e3"),
         ("excitation_v = 10.0", "excitation_v = 1e308", "`sensor.excitation_v` = 1e308: at most 1e2"),
         ("shear_modulus_pa = 80.0e9", "shear_modulus_pa = 1e308", "`sensor.shear_modulus_pa` = 1e308: at most 1e12"),
+        // Before: a sensitivity of `inf` mV/V per N·m, or a strain of `inf` µε, and exit 0.
+        ("shear_modulus_pa = 80.0e9", "shear_modulus_pa = 1e-300", "`sensor.shear_modulus_pa` = 1e-300: at least 1e5"),
+        (
+            "rated_torque_nm = 40.0",
+            "rated_torque_nm = 1e308",
+            "`rated_torque_nm` gives a strain at rated torque of inf",
+        ),
     ];
     for (from, to, needle) in absurd {
         assert!(text.contains(from), "{from}");

@@ -91,6 +91,37 @@ pub struct DesignReport {
     pub studies: Vec<ResidualStudy>,
 }
 
+impl DesignReport {
+    /// An error naming the key behind the first figure that is not finite: a sensor or
+    /// rated torque whose figures overflow is no design (the check of last resort, after
+    /// each key's own limits).
+    fn finite(&self) -> Result<(), SimError> {
+        let rated = [
+            ("strain at rated torque", self.strain_at_rated_microstrain),
+            ("bridge output at rated torque", self.output_at_rated_mv_per_v),
+        ];
+        if let Some((what, v)) = rated.into_iter().find(|(_, v)| !v.is_finite()) {
+            return Err(SimError::invalid("rated_torque_nm", format!("gives a {what} of {v:?}: check its unit")));
+        }
+        let mut sensor = vec![
+            ("sensitivity", self.sensitivity_mv_per_v_per_nm),
+            ("amplified sensitivity", self.amplified_v_per_nm),
+            ("full scale", self.full_scale_nm),
+            ("resolution", self.resolution_nm),
+            ("2× residual", self.ideal_residual_nm.0),
+            ("4× residual", self.ideal_residual_nm.1),
+        ];
+        for s in &self.studies {
+            let (a, b) = (&s.line_2x_nm, &s.line_4x_nm);
+            sensor.extend([("placement residual", a.p99), ("placement residual", b.p99)]);
+        }
+        match sensor.into_iter().find(|(_, v)| !v.is_finite()) {
+            Some((what, v)) => Err(SimError::invalid("sensor", format!("gives a {what} of {v:?}: check its values"))),
+            None => Ok(()),
+        }
+    }
+}
+
 fn percentiles(mut v: Vec<f64>) -> Percentiles {
     v.sort_by(f64::total_cmp);
     let at = |q: f64| {
@@ -180,7 +211,7 @@ impl DesignConfig {
                 samples_2x_nm: r2,
             });
         }
-        Ok(DesignReport {
+        let report = DesignReport {
             sensitivity_mv_per_v_per_nm: 1e3 * s_v_per_nm / p.excitation_v,
             amplified_v_per_nm: s_v_per_nm * p.amplifier_gain,
             full_scale_nm: chain.full_scale_nm(s_v_per_nm),
@@ -189,7 +220,9 @@ impl DesignConfig {
             output_at_rated_mv_per_v: 1e3 * s_v_per_nm * self.rated_torque_nm / p.excitation_v,
             ideal_residual_nm,
             studies,
-        })
+        };
+        report.finite()?;
+        Ok(report)
     }
 }
 

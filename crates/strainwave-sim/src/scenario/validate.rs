@@ -86,6 +86,13 @@ impl Scenario {
         }
         pos(s.thickness_m, "sensor.thickness_m")?;
         pos(s.shear_modulus_pa, "sensor.shear_modulus_pa")?;
+        // Under that of the softest elastomers (about 1e5 Pa) no diaphragm carries torque.
+        if s.shear_modulus_pa < 1e5 {
+            return Err(SimError::invalid(
+                "sensor.shear_modulus_pa",
+                format!("= {:e}: at least 1e5", s.shear_modulus_pa),
+            ));
+        }
         pos(s.gauge_radius_m, "sensor.gauge_radius_m")?;
         if !(s.hub_radius_m < s.gauge_radius_m && s.gauge_radius_m < s.outer_radius_m) {
             let msg = format!(
