@@ -41,6 +41,21 @@ fn rate_from_time(t0: f64, t1: f64, name: &str, input: &str) -> Result<f64> {
     Ok(1.0 / dt)
 }
 
+/// The sample rate `sample_rate_hz` gives, checked against the step between data rows 1
+/// and 2 of the time column `name`: a rate off by more than a factor of 2 is a wrong rate
+/// or unit (the filters would be designed for another rate), not jitter.
+fn configured_rate(fs: f64, t0: f64, t1: f64, name: &str, input: &str, config: &str) -> Result<f64> {
+    let from_time = rate_from_time(t0, t1, name, input)?;
+    if !(0.5..=2.0).contains(&(fs / from_time)) {
+        bail!(
+            "{config}: `sample_rate_hz` = {fs:?} Hz, but {input} steps {:?} s between rows 1 and 2 of `{name}` \
+             ({from_time:?} Hz): fix the rate, or leave it out to take it from the time column",
+            t1 - t0
+        );
+    }
+    Ok(fs)
+}
+
 /// The fusion methods.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Method {
@@ -269,7 +284,10 @@ impl Job<'_> {
             bail!("{}: needs at least 2 samples", self.input);
         }
         let (fs, fs_from) = match cfg.sample_rate_hz {
-            Some(fs) => (fs, "`sample_rate_hz`".to_string()),
+            Some(fs) => {
+                let (t0, t1, name) = (first[idx.time], second[idx.time], &cfg.channels.time);
+                (configured_rate(fs, t0, t1, name, self.input, config)?, "`sample_rate_hz`".to_string())
+            }
             None => (
                 rate_from_time(first[idx.time], second[idx.time], &cfg.channels.time, self.input)?,
                 format!("{}: rows 1–2, column `{}`", self.input, cfg.channels.time),
@@ -358,9 +376,10 @@ impl Job<'_> {
                 time[k]
             );
         }
+        let (t0, t1, name) = (table.data[idx.time][0], table.data[idx.time][1], &cfg.channels.time);
         let fs = match cfg.sample_rate_hz {
-            Some(fs) => fs,
-            None => rate_from_time(table.data[idx.time][0], table.data[idx.time][1], &cfg.channels.time, self.input)?,
+            Some(fs) => configured_rate(fs, t0, t1, name, self.input, config)?,
+            None => rate_from_time(t0, t1, name, self.input)?,
         };
         cfg.check_crossover(fs, config)?;
         let mut row = vec![0.0; table.columns.len()];

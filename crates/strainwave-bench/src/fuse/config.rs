@@ -151,19 +151,22 @@ impl BenchConfig {
     pub fn load(path: &Path) -> Result<Self> {
         let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
         let c: Self = toml::from_str(&text).map_err(|e| strainwave_joint::toml_error::one_line(path, &text, &e))?;
-        // The largest a test bench has: a stator of a megawatt machine, a mounting radius of
-        // metres (beyond these a typo or a unit slip, not a bench).
-        for (v, key, most) in [
-            (c.stator_inertia_kg_m2, "stator_inertia_kg_m2", (1e4, "kg·m²")),
-            (c.radius_m, "radius_m", (10.0, "m")),
-            (c.crossover_hz, "crossover_hz", (f64::INFINITY, "Hz")),
+        // What a test bench has: from the stator of a servo motor the size of a thumb to
+        // that of a megawatt machine, accelerometers from a millimetre off the axis to metres
+        // (beyond these a typo or a unit slip, not a bench).
+        for (v, key, (least, most, unit)) in [
+            (c.stator_inertia_kg_m2, "stator_inertia_kg_m2", (1e-8, 1e4, "kg·m²")),
+            (c.radius_m, "radius_m", (1e-3, 10.0, "m")),
+            (c.crossover_hz, "crossover_hz", (0.0, f64::INFINITY, "Hz")),
         ] {
             if !(v.is_finite() && v > 0.0) {
-                bail!("{}: `{key}` must be positive, got {v}", path.display());
+                bail!("{}: `{key}` must be positive, got {v:?}", path.display());
             }
-            let (most, unit) = most;
             if v > most {
                 bail!("{}: `{key}` = {v:e} {unit}: at most {most:e} {unit}", path.display());
+            }
+            if v < least {
+                bail!("{}: `{key}` = {v:e} {unit}: at least {least:e} {unit}", path.display());
             }
         }
         if !matches!(c.crossover_order, 1 | 2) {
