@@ -237,3 +237,30 @@ fn a_damaged_learned_coefficient_makes_no_sample_worse_than_raw() {
         assert!(cleaned <= raw + 0.05, "row {}: {cleaned} N·m against raw {raw}", k + 1);
     }
 }
+
+/// A bad key of the config is named as the config's, not under `filter.learned` (before:
+/// ``joint.toml: `filter.learned`: joint.toml: `filter.noise_nm` must be positive``), and
+/// an output that overflows from a learned coefficient names the learned file.
+#[test]
+fn errors_name_the_file_that_holds_the_value() {
+    let d = tmp("which-file");
+    let rec = simulate(&d, "taghirad", "1");
+    let learned = root().join("examples/joint-taghirad-learned.toml");
+    let cfg = config(&d, &learned, |t| t.replace("noise_nm = 0.0162", "noise_nm = -1.0"));
+    for args in [
+        vec!["filter", "--config", s(&cfg), "--in", s(&rec), "--out", s(&d.join("x.csv"))],
+        vec!["export-c", "--config", s(&cfg), "--out", s(&d.join("x.c"))],
+    ] {
+        let o = run(&args);
+        assert_user_error(&o, &["joint.toml: `filter.noise_nm` must be positive"]);
+        assert!(!stderr(&o).contains("filter.learned"), "{}", stderr(&o));
+    }
+    let text = std::fs::read_to_string(&learned).unwrap();
+    let at = text.find("cos_nm = ").unwrap();
+    let end = at + text[at..].find('\n').unwrap();
+    let huge = d.join("huge.toml");
+    std::fs::write(&huge, format!("{}cos_nm = 1e300{}", &text[..at], &text[end..])).unwrap();
+    let o = run(&["filter", "--config", s(&config(&d, &huge, |t| t)), "--in", s(&rec), "--out", s(&d.join("x.csv"))]);
+    assert_user_error(&o, &["overflows", "and the coefficients in", "huge.toml"]);
+    assert!(!d.join("x.csv").exists() && !d.join("x.c").exists());
+}

@@ -116,6 +116,8 @@ pub fn export_c(cfg: &JointConfig, learned: Option<&Path>, name: &str, precision
     };
     let field = || field.clone();
     let learned = learned.or(cfg.filter.learned.as_deref());
+    // The config's own errors name the config alone, not as the learned file's.
+    crate::identity::JointIdentity::of(cfg)?;
     let file = learned.map(|p| LearnedFile::load_for(p, cfg).with_context(field)).transpose()?;
     let extras = match (&file, learned) {
         (Some((f, _)), Some(p)) => f.extras(p).with_context(field)?,

@@ -242,6 +242,8 @@ impl OutputPrior {
         if learning && !path.exists() {
             return Ok(None);
         }
+        // The config's own errors name the config alone, not as the learned file's.
+        crate::identity::JointIdentity::of(cfg)?;
         let field = || format!("{}: `filter.learned`", cfg.path.display());
         let (file, note) = LearnedFile::load_for(path, cfg).with_context(field)?;
         let extras = file.extras(path).with_context(field)?;
@@ -426,9 +428,11 @@ impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
             // NaN marks a skipped sample; an infinity is an overflow the filter made.
             let outputs = [o.torque_nm, o.ripple_nm, o.misalignment_nm, o.innovation_nm, o.nis];
             if let Some(v) = outputs.iter().find(|v| v.is_infinite()) {
+                let coefficients =
+                    learned.map_or(String::new(), |(_, p)| format!(", and the coefficients in {}", p.display()));
                 bail!(
                     "{input}: data row {n}: the filter's output overflows ({v}) from a torque of {:?} N·m; \
-                     check the calibration and `filter.noise_nm` in {config}",
+                     check the calibration and `filter.noise_nm` in {config}{coefficients}",
                     sample.torque_nm
                 );
             }
