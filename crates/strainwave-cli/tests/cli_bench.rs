@@ -180,15 +180,29 @@ fn bad_inputs_give_one_line_errors() {
     assert_user_error(&o, "`crossover_hz` = 1e308 Hz is at or above the Nyquist frequency");
     // Before: accepted, with a fused torque of 5.8e297 N·m (radius) or a 60 times larger
     // error (a rate for another recording), and exit 0.
-    for (from, to, needle) in [
-        ("radius_m = 0.6727", "radius_m = 1e-300", "`radius_m` = 1e-300 m: at least 1e-3 m"),
-        ("stator_inertia_kg_m2 = 1.305e-3", "stator_inertia_kg_m2 = 1e-300", "`stator_inertia_kg_m2` = 1e-300"),
-        ("# sample_rate_hz = 20000.0", "sample_rate_hz = 1000.0", "`sample_rate_hz` = 1000.0 Hz, but"),
+    let every = ["online-corrected", "complementary", "spectral"];
+    for (from, to, needle, methods) in [
+        ("radius_m = 0.6727", "radius_m = 1e-300", "`radius_m` = 1e-300 m: at least 1e-3 m", &every[..]),
+        ("stator_inertia_kg_m2 = 1.305e-3", "stator_inertia_kg_m2 = 1e-300", "`stator_inertia_kg_m2` = 1e-300", &every),
+        ("# sample_rate_hz = 20000.0", "sample_rate_hz = 1000.0", "`sample_rate_hz` = 1000.0 Hz, but", &every),
+        // Named as the file spells them (before: the shaft model's `damping_nm_s_per_rad`).
+        (
+            "bearing_damping_nm_s_per_rad = 424e-6",
+            "bearing_damping_nm_s_per_rad = -1",
+            "`bearing_damping_nm_s_per_rad`",
+            &every[..1],
+        ),
+        (
+            "shaft_stiffness_nm_per_rad = 258.0",
+            "shaft_stiffness_nm_per_rad = 0",
+            "`shaft_stiffness_nm_per_rad`",
+            &every[..1],
+        ),
     ] {
         let text = std::fs::read_to_string(config()).unwrap();
         assert!(text.contains(from), "{from}");
         std::fs::write(&cfg, text.replacen(from, to, 1)).unwrap();
-        for method in ["online-corrected", "complementary", "spectral"] {
+        for method in methods {
             let o =
                 run(&["fuse", "--config", s(&cfg), "--in", s(&sim), "--out", s(&d.join("x.csv")), "--method", method]);
             assert_user_error(&o, needle);

@@ -210,6 +210,26 @@ fn log_with(d: &Path, row: usize, column: &str, value: &str) -> PathBuf {
     p
 }
 
+/// Before: ``edited.csv: edited.csv: column …`` (the file named twice), and a fit on too
+/// short a run named no file.
+#[test]
+fn errors_name_the_run_once() {
+    let d = dir("named");
+    let p = log_with(&d, 0, "State", "Timestamp");
+    let (o, model, _) = identify(&d, &example(3), &p, &["--quiet"]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(e.contains("edited.csv: column `Timestamp` appears twice") && !e.contains("edited.csv: edited.csv"), "{e}");
+    let text = std::fs::read_to_string(log("validate")).unwrap();
+    let short = d.join("short.csv");
+    std::fs::write(&short, text.lines().take(31).collect::<Vec<_>>().join("\n") + "\n").unwrap();
+    let (o, _, _) = identify(&d, &example(3), &short, &["--quiet"]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(e.contains("short.csv: compliance fit: "), "{e}");
+    assert!(!model.exists());
+}
+
 #[test]
 fn a_non_finite_count_names_its_row_or_is_skipped_with_lenient() {
     let d = dir("nan");

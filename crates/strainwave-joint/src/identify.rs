@@ -416,19 +416,20 @@ pub fn identify(
     let nl_angles =
         nl.as_ref().map(|r| JointAngles { motor_angle_rad: &r.motor, link_angle_rad: &r.link, sample_rate_hz: fs });
     let mut notes = Vec::new();
-    let (plan, cv) =
-        plan_kinematic(cfg, &gear, nl_angles.as_ref(), &ld_angles, &mut notes).context("kinematic-error fit")?;
+    let (plan, cv) = plan_kinematic(cfg, &gear, nl_angles.as_ref(), &ld_angles, &mut notes)
+        .with_context(|| format!("{}: kinematic-error fit", loaded.name()))?;
     let n = reference.len();
     let all: Vec<usize> = (0..n).collect();
-    let kin = plan.fit(&gear, &ld_angles, &all).context("kinematic-error fit")?;
+    let kin = plan.fit(&gear, &ld_angles, &all).with_context(|| format!("{}: kinematic-error fit", loaded.name()))?;
     // Without a no-load run nothing fixes the zero of the wind-up: fit it.
     let mut fit_opts = compliance_options(cfg, nl.is_none())?;
     let stribeck = stribeck_candidates(cfg)?;
+    let loaded_name = loaded.name();
     let fit_all = |o: &ComplianceFitOptions| {
         fit_compliance(&gear, &kin, &ld_angles, &reference, o)
             .map_err(anyhow::Error::from)
             .map_err(stiffness_hint)
-            .context("compliance fit")
+            .with_context(|| format!("{loaded_name}: compliance fit"))
     };
     // The first candidate's fit comes first: a wrong direction or a still joint is
     // reported as such, not as a failed choice.

@@ -83,13 +83,21 @@ impl Model {
         config: &str,
     ) -> Result<(TorsionShaftModel<f64>, AccelerometerModel<f64>)> {
         let bad = |e: strainwave_core::Error| anyhow::anyhow!("{config}: [model]: {e}");
+        // The shaft model's own names for its stiffness and damping, as the file spells them.
+        let shaft_keys = |e: strainwave_core::Error| {
+            let e = e.to_string().replace("`stiffness_nm_per_rad`", "`shaft_stiffness_nm_per_rad`");
+            anyhow::anyhow!(
+                "{config}: [model]: {}",
+                e.replace("`damping_nm_s_per_rad`", "`bearing_damping_nm_s_per_rad`")
+            )
+        };
         let ts = TorsionShaftModel::new(
             self.rotor_inertia_kg_m2,
             self.brake_inertia_kg_m2,
             self.shaft_stiffness_nm_per_rad,
             self.bearing_damping_nm_s_per_rad,
         )
-        .map_err(bad)?;
+        .map_err(shaft_keys)?;
         let acc = AccelerometerModel::new(
             stator_inertia_kg_m2,
             self.coupling_stiffness_nm_per_rad,

@@ -92,8 +92,8 @@ pub fn load_run(cfg: &ArmConfig, input: RunInput<'_>, with_reference: bool, leni
     let read;
     let (table, path) = match input {
         RunInput::File(p) => {
-            read = strainwave_io::read_all_with_time(p, cfg.channels.time.as_ref())
-                .with_context(|| format!("{}", p.display()))?;
+            // The reader's errors name the file.
+            read = strainwave_io::read_all_with_time(p, cfg.channels.time.as_ref())?;
             (&read, p.display().to_string())
         }
         RunInput::Table { table, name } => (table, name.to_string()),
