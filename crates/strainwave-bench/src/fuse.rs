@@ -36,7 +36,7 @@ fn column(cols: &[String], name: &str, key: &str, path: &str) -> Result<usize> {
 fn rate_from_time(t0: f64, t1: f64, name: &str, input: &str) -> Result<f64> {
     let dt = t1 - t0;
     if !(dt.is_finite() && dt > 0.0) {
-        bail!("{input}: row 2, column `{name}`: time {t1} s does not come after {t0} s");
+        bail!("{input}: row 2, column `{name}`: time {t1:?} s does not come after {t0:?} s");
     }
     Ok(1.0 / dt)
 }
@@ -311,7 +311,10 @@ impl Job<'_> {
             let input = self.input;
             let time = row[idx.time];
             if !(time.is_finite() && time > last_t) {
-                bail!("{input}: row {n}, column `{}`: time {time} s does not come after {last_t} s", cfg.channels.time);
+                bail!(
+                    "{input}: row {n}, column `{}`: time {time:?} s does not come after {last_t:?} s",
+                    cfg.channels.time
+                );
             }
             last_t = time;
             if let Some(what) = idx.implausible(cfg, row) {
@@ -369,7 +372,7 @@ impl Job<'_> {
         let time = &table.data[idx.time];
         if let Some(k) = (0..n).find(|&k| !(time[k].is_finite() && (k == 0 || time[k] > time[k - 1]))) {
             bail!(
-                "{}: row {}, column `{}`: time {} s does not come after the row before",
+                "{}: row {}, column `{}`: time {:?} s does not come after the row before",
                 self.input,
                 k + 1,
                 cfg.channels.time,

@@ -100,7 +100,7 @@ pub fn run(a: &Args) -> Result<()> {
         let n = r.rows_read();
         let t = row[time_at];
         if !(t.is_finite() && t > prev_t) {
-            bail!("{input}: row {n}, column `{time_name}`: time {t} s does not come after the row before ({prev_t} s)");
+            bail!("{input}: row {n}, column `{time_name}`: time {t:?} s does not come after the row before ({prev_t:?} s)");
         }
         prev_t = t;
         for (s, v) in stats.iter_mut().zip(&row) {

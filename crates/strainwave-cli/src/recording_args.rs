@@ -87,7 +87,7 @@ pub fn sample_rate(t: &Table, path: &Path) -> Result<f64> {
         if !(w[1].is_finite() && dt > 0.0) {
             let row = k + 2;
             bail!(
-                "{}: row {row}, column `time`: {} s does not come after {} s of the row before",
+                "{}: row {row}, column `time`: {:?} s does not come after {:?} s of the row before",
                 path.display(),
                 w[1],
                 w[0]

@@ -321,7 +321,7 @@ impl JointConfig {
         let Some(f) = self.filter.torque_bandwidth_hz else { return Ok(None) };
         TorqueDenoiser::new(f, self.filter.sample_rate_hz).map(Some).map_err(|_| {
             anyhow::anyhow!(
-                "`filter.torque_bandwidth_hz` must be positive and below 0.45 × `filter.sample_rate_hz` ({} Hz), got {f}",
+                "`filter.torque_bandwidth_hz` must be positive and below 0.45 × `filter.sample_rate_hz` ({:?} Hz), got {f:?}",
                 0.45 * self.filter.sample_rate_hz
             )
         })

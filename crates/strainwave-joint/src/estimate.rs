@@ -173,7 +173,7 @@ impl Estimator {
             let r = match &model.encoders {
                 Some(_) => {
                     if !(m.is_finite() && l.is_finite() && m.fract() == 0.0 && l.fract() == 0.0) {
-                        bail!("{input}: data row {k}: encoder counts {m}, {l} are not whole numbers");
+                        bail!("{input}: data row {k}: encoder counts {m:?}, {l:?} are not whole numbers");
                     }
                     est.step_counts(&mut st, m as i64, l as i64)
                 }

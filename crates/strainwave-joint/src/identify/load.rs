@@ -70,8 +70,12 @@ fn angles_from_counts(
     let (mut ma, mut la) = (Vec::with_capacity(rows.len()), Vec::with_capacity(rows.len()));
     for &k in rows {
         let (mc, lc) = (motor[k], link[k]);
-        if mc.fract() != 0.0 || lc.fract() != 0.0 || mc.abs() > 9.0e15 || lc.abs() > 9.0e15 {
-            bail!("{path}: data row {}: encoder counts {mc}, {lc} are not whole numbers", k + 1);
+        if mc.fract() != 0.0 || lc.fract() != 0.0 {
+            bail!("{path}: data row {}: encoder counts {mc:?}, {lc:?} are not whole numbers", k + 1);
+        }
+        // Beyond 2^53 counts a float no longer holds every whole number.
+        if mc.abs() > 9.0e15 || lc.abs() > 9.0e15 {
+            bail!("{path}: data row {}: encoder counts {mc:?}, {lc:?}: beyond ±9e15, not a counter", k + 1);
         }
         let e = est
             .step_counts(&mut st, mc as i64, lc as i64)
