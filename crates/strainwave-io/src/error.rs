@@ -107,6 +107,22 @@ pub enum IoError {
         /// Cell text.
         value: String,
     },
+    /// The first data row is text in every cell: most likely the line read as the header
+    /// is a preamble above it (a DAQ's device and date lines).
+    #[error(
+        "{path}: row 1, column `{}`: `{}` is not a number, nor is any cell of row 1: lines above the \
+         header (a preamble)? Start them with `#`, or remove them",
+        shown(column),
+        shown(value)
+    )]
+    TextRow {
+        /// File.
+        path: PathBuf,
+        /// Column name.
+        column: String,
+        /// Cell text.
+        value: String,
+    },
     /// A row with the wrong number of cells (e.g. a truncated last line).
     #[error("{path}: row {row} has {got} cells, the header has {want} (truncated or malformed line)")]
     RowLength {

@@ -362,30 +362,40 @@ impl Parser {
                 want: self.columns.len(),
             });
         }
-        let before = self.batch.len();
-        for (i, cell) in record.iter().take(n).enumerate() {
+        let decimal_comma = self.decimal_comma;
+        let parse = |cell: &[u8]| {
             let text = String::from_utf8_lossy(cell);
             let cell = text.trim();
-            let value = if self.decimal_comma && cell.contains(',') {
-                parse_decimal_comma(cell).ok_or(())
+            if decimal_comma && cell.contains(',') {
+                parse_decimal_comma(cell)
             } else {
-                cell.parse().map_err(|_| ())
-            };
-            match value {
-                Ok(v) => self.batch.push(v),
-                Err(_) => {
+                cell.parse().ok()
+            }
+        };
+        let before = self.batch.len();
+        for (i, cell) in record.iter().take(n).enumerate() {
+            match parse(cell) {
+                Some(v) => self.batch.push(v),
+                None => {
                     self.batch.truncate(before);
-                    return Err(IoError::NotANumber {
-                        path: self.path.clone(),
-                        row: self.rows,
-                        column: self.columns[i].clone(),
-                        value: cell.chars().take(40).collect(),
-                    });
+                    let (column, value) = (self.columns[i].clone(), shown_cell(cell));
+                    let path = self.path.clone();
+                    // A first row of text alone: most likely the header is a preamble line.
+                    if self.rows == 1 && record.iter().take(n).all(|c| parse(c).is_none()) {
+                        return Err(IoError::TextRow { path, column, value });
+                    }
+                    return Err(IoError::NotANumber { path, row: self.rows, column, value });
                 }
             }
         }
         Ok(())
     }
+}
+
+/// A cell as an error shows it: trimmed, at most 40 characters, `�` for bytes that are
+/// not text.
+pub(super) fn shown_cell(cell: &[u8]) -> String {
+    String::from_utf8_lossy(cell).trim().chars().take(40).collect()
 }
 
 pub(super) fn csv_error(path: &Path, e: csv::Error) -> IoError {

@@ -302,17 +302,20 @@ fn reference(data: &[u8]) -> Outcome {
                     let (got, want) = (record.len(), columns.len());
                     Err(IoError::RowLength { path: path.into(), row: n, got, want }.to_string())
                 } else {
+                    let parse = |cell: &[u8]| String::from_utf8_lossy(cell).trim().parse::<f64>();
+                    // A first row of text alone is named as a likely preamble.
+                    let all_text = n == 1 && record.iter().take(width).all(|c| parse(c).is_err());
                     record
                         .iter()
                         .take(width)
                         .enumerate()
                         .map(|(i, cell)| {
-                            let text = String::from_utf8_lossy(cell);
-                            let cell = text.trim();
-                            cell.parse::<f64>().map(f64::to_bits).map_err(|_| {
-                                let value = cell.chars().take(40).collect();
-                                let column = columns[i].clone();
-                                IoError::NotANumber { path: path.into(), row: n, column, value }.to_string()
+                            parse(cell).map(f64::to_bits).map_err(|_| {
+                                let (path, value, column) = (path.into(), shown_cell(cell), columns[i].clone());
+                                match all_text {
+                                    true => IoError::TextRow { path, column, value }.to_string(),
+                                    false => IoError::NotANumber { path, row: n, column, value }.to_string(),
+                                }
                             })
                         })
                         .collect()
@@ -577,4 +580,28 @@ fn a_delimiter_at_the_end_of_each_line_names_no_column() {
     }
     let e = read("time;torque;\n0;1;\n1;2;7\n").unwrap_err().to_string();
     assert!(e.starts_with("daq.txt: row 2 has 3 cells, the header has 2 (truncated or malformed line)"), "{e}");
+}
+
+/// A DAQ export with device and date lines above its header: the first line is taken for
+/// the header, so row 1 is text in every cell, and the error says what is likely wrong.
+#[test]
+fn a_preamble_above_the_header_is_named_as_such() {
+    for (text, want) in [
+        (
+            "Device,NI 9237\nTime [s],Torque [N*m]\n0.0,1.5\n",
+            "row 1, column `Device`: `Time [s]` is not a number, nor is",
+        ),
+        (
+            "Device: NI 9237\nOperator: X\ntime\n0\n",
+            "row 1, column `Device: NI 9237`: `Operator: X` is not a number, nor is",
+        ),
+    ] {
+        let mut r =
+            CsvReader::from_reader(Path::new("daq.csv"), Box::new(std::io::Cursor::new(text.to_string()))).unwrap();
+        let e = r.read_row(&mut Vec::new()).unwrap_err().to_string();
+        assert!(e.starts_with(&format!("daq.csv: {want}")) && e.contains("preamble"), "{e}");
+    }
+    // A first row with one number in it is a bad cell, not a preamble.
+    let e = reader("time,a\n0,x\n").unwrap().read_row(&mut Vec::new()).unwrap_err().to_string();
+    assert_eq!(e, "rec.csv: row 1, column `a`: `x` is not a number");
 }
