@@ -96,6 +96,26 @@ fn errors_are_one_line() {
         &run(&["export-c", "--config", bad.to_str().unwrap(), "--out", out]),
         "needs `channels.motor_velocity`",
     );
+    // A value float cannot hold names where it comes from, in the shortest form. Before:
+    // the config and the C field (`alpha`, `prior_nm`), with the value in 301 digits.
+    let text = std::fs::read_to_string(&cfg).unwrap();
+    let gain = d.join("gain.toml");
+    let text = text.replace("\"joint-taghirad-learned.toml\"", &format!("{learned:?}"));
+    std::fs::write(&gain, text.replace("gain_nm_per_v = 6.611", "gain_nm_per_v = 1e300")).unwrap();
+    let f32 = ["--precision", "f32", "--out", out];
+    assert_user_error(
+        &run(&[&["export-c", "--config", gain.to_str().unwrap()][..], &f32].concat()),
+        "gain.toml: `calibration` (its gain and offset): `alpha` = 1e300 does not fit a float",
+    );
+    let learned_text = std::fs::read_to_string(&learned).unwrap();
+    let at = learned_text.find("cos_nm = ").unwrap();
+    let end = at + learned_text[at..].find('\n').unwrap();
+    let huge = d.join("huge.toml");
+    std::fs::write(&huge, format!("{}cos_nm = 1e308{}", &learned_text[..at], &learned_text[end..])).unwrap();
+    assert_user_error(
+        &run(&[&["export-c", "--config", &cfg, "--learned", huge.to_str().unwrap()][..], &f32].concat()),
+        "huge.toml: `orders[0]`: `prior_nm` = 1e308 does not fit a float",
+    );
     // An output folder that does not exist: the path is named.
     let missing = d.join("no/such/dir/model.h");
     assert_user_error(&run(&["export-c", "--config", &cfg, "--out", missing.to_str().unwrap()]), "no/such/dir/model.h");

@@ -158,7 +158,7 @@ pub fn export_c(cfg: &JointConfig, learned: Option<&Path>, name: &str, precision
     }
     let bits = if bits.is_empty() { "0".to_string() } else { bits.join(" | ") };
 
-    let mut w = Writer { out: String::new(), precision, config: &config };
+    let mut w = Writer { out: String::new(), precision, config: &config, from: None };
     let (ty, prefix) = match precision {
         Precision::F64 => ("sw_model", "sw"),
         Precision::F32 => ("sw32_model", "sw32"),
@@ -231,8 +231,11 @@ pub fn export_c(cfg: &JointConfig, learned: Option<&Path>, name: &str, precision
         w.real("multiple", ord.multiple, 12)?;
         w.real("q_per_sample_nm2", ord.q_per_sample_nm2, 12)?;
         w.real("q_per_rad_nm2", ord.q_per_rad_nm2, 12)?;
+        // The priors come from the learned file (its `cos_nm`, `sin_nm`, `variance_nm2`).
+        w.from = learned.map(|p| format!("{}: `orders[{i}]`", p.display()));
         w.array("prior_nm", &ord.prior_nm, 12)?;
         w.real("prior_variance_nm2", ord.prior_variance_nm2, 12)?;
+        w.from = None;
         writeln!(w.out, "        }},")?;
     }
     writeln!(w.out, "    }},")?;
@@ -376,21 +379,24 @@ struct Writer<'a> {
     out: String,
     precision: Precision,
     config: &'a str,
+    /// Where the values being written come from, when not the config (messages).
+    from: Option<String>,
 }
 
 impl Writer<'_> {
     /// One value in the struct's precision; an f32 export refuses a value that float
     /// cannot hold (overflow, or a non-zero value that would become 0).
     fn literal(&self, key: &str, x: f64) -> Result<String> {
+        let from = self.from.as_deref().unwrap_or(self.config);
         if x.is_nan() {
-            bail!("{}: `{key}` is not a number", self.config);
+            bail!("{from}: `{key}` is not a number");
         }
         match self.precision {
             Precision::F64 => Ok(f64_literal(x)),
             Precision::F32 => {
                 let y = x as f32;
                 if (y.is_infinite() && x.is_finite()) || (y == 0.0 && x != 0.0) {
-                    bail!("{}: `{key}` = {x} does not fit a float; export in double precision", self.config);
+                    bail!("{from}: `{key}` = {x:?} does not fit a float; export in double precision");
                 }
                 Ok(if y.is_infinite() { f64_literal(f64::from(y)) } else { format!("{y:?}f") })
             }
@@ -468,8 +474,11 @@ impl Writer<'_> {
         self.real("speed_min_rad_s", min, 8)?;
         self.real("speed_max_rad_s", max, 8)?;
         self.array("speed_rad_s", cal.speed_breakpoints_rad_s(), 8)?;
+        // The C fields of the calibration (`torque = alpha · V + beta`), from its gain and offset.
+        self.from = Some(format!("{}: `calibration` (its gain and offset)", self.config));
         self.array("alpha", alpha, 8)?;
         self.array("beta_nm", beta, 8)?;
+        self.from = None;
         writeln!(self.out, "    }},")?;
         Ok(())
     }
