@@ -516,7 +516,12 @@ fn gain_error(exps: &[ExperimentRows], cols: &rows::Columns, err: CalibrationErr
     };
     match which {
         Some(e) => rows::experiment_error(e, cols, &format!("fitting the gain of `{}`", e.label), err),
-        None => anyhow::anyhow!(err).context("fitting the gain"),
+        // Named by its experiment (its file) already, or else by the files of the fit.
+        None if err.to_string().contains("experiment `") => anyhow::anyhow!(err).context("fitting the gain"),
+        None => {
+            let files: Vec<&str> = exps.iter().map(|e| e.label.as_str()).collect();
+            anyhow::anyhow!(err).context(format!("{}: fitting the gain", files.join(", ")))
+        }
     }
 }
 

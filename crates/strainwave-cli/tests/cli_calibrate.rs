@@ -307,6 +307,21 @@ fn one_glitch_row_is_refused_not_fitted() {
     ok(&["calibrate", "--in", s(&p), "--reference", "torque", "--sensor", "volts", "--quiet"]);
 }
 
+/// A fit over every experiment that fails names their files. Before: `fitting the gain:
+/// gain: the mean gain is zero …`, with no file.
+#[test]
+fn a_failed_fit_over_the_experiments_names_their_files() {
+    let d = tmp("files");
+    let (a, b) = (d.join("plus.csv"), d.join("minus.csv"));
+    write_csv(&a, "torque,volts", &[vec![1.0, 1.0], vec![2.0, 2.0]]);
+    write_csv(&b, "torque,volts", &[vec![1.0, -1.0], vec![2.0, -2.0]]);
+    let e = user_error(&["calibrate", "--in", s(&a), "--in", s(&b), "--reference", "torque", "--sensor", "volts"]);
+    assert!(
+        e.contains("plus.csv, ") && e.contains("minus.csv: fitting the gain: ") && e.contains("mean gain is zero"),
+        "{e}"
+    );
+}
+
 #[test]
 fn a_hold_no_row_meets_is_named_with_what_to_change() {
     // Before: `fitting the gain: experiment `ramp.csv`: 0 rows, needs at least 1`.
