@@ -57,7 +57,7 @@ def sample_rate_hz(data: Any) -> float:
     if bad.size:
         k = int(bad[0])
         raise StrainwaveError(
-            f"{path}: row {k + 2}, column `time`: {_num(time[k + 1])} s does not come after {_num(time[k])} s of the row before"
+            f"{path}: row {k + 2}, column `time`: {_num_debug(time[k + 1])} s does not come after {_num_debug(time[k])} s of the row before"
         )
     if not math.isfinite(time[0]):
         raise StrainwaveError(f"{path}: row 1, column `time`: {_num(time[0])} is not a time")
@@ -87,8 +87,13 @@ def _num(v: float) -> str:
 
 
 def _num_debug(v: float) -> str:
-    """A finite float as Rust's `{:?}` prints it (shortest round trip, `1e308`, `4.0`)."""
-    r = repr(float(v))
+    """A float as Rust's `{:?}` prints it (shortest round trip, `1e308`, `4.0`, `inf`, `NaN`)."""
+    v = float(v)
+    if math.isnan(v):
+        return "NaN"
+    if math.isinf(v):
+        return "inf" if v > 0 else "-inf"
+    r = repr(v)
     if "e" in r:
         mantissa, exponent = r.split("e")
         return f"{mantissa}e{int(exponent)}"
@@ -222,18 +227,18 @@ def orders(
     bad = np.flatnonzero(~np.isfinite(v))
     if bad.size:
         i = int(bad[0])
-        raise StrainwaveError(f"{path}: row {i + 1}, column `{speed}`: speed {_num(raw[i])} is not finite")
+        raise StrainwaveError(f"{path}: row {i + 1}, column `{speed}`: speed {_num_debug(raw[i])} is not finite")
     mean = math.fsum(v) / max(len(v), 1) if len(v) else float("nan")
     if math.isnan(mean) or mean <= 0.0:
         raise StrainwaveError(f"--speed: column `{speed}` is zero or negative (mean {mean:.3f} rpm); negate a reverse run")
     if not (math.isfinite(speed_bin) and speed_bin > 0):
-        raise StrainwaveError(f"--speed-bin: must be positive, got {_num(speed_bin)}")
+        raise StrainwaveError(f"--speed-bin: must be positive, got {_num_debug(speed_bin)}")
     top_k = int(np.argmax(v)) if len(v) else 0
     top = max(float(v[top_k]), 0.0) if len(v) else 0.0
     nbins = math.floor(top / speed_bin) + 1
     if nbins > MAX_SPEED_BINS:
         raise StrainwaveError(
-            f"{path}: row {top_k + 1}, column `{speed}`: {_num(top)} rpm in --speed-bin {_num(speed_bin)} rpm bins needs "
+            f"{path}: row {top_k + 1}, column `{speed}`: {_num_debug(top)} rpm in --speed-bin {_num_debug(speed_bin)} rpm bins needs "
             f"more than {MAX_SPEED_BINS} bins (a glitch in the speed? fix it, or widen --speed-bin)"
         )
     blocks = []

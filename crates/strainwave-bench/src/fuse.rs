@@ -32,25 +32,37 @@ fn column(cols: &[String], name: &str, key: &str, path: &str) -> Result<usize> {
         .with_context(|| format!("{path}: no column `{name}` ({key}); columns: {}", cols.join(", ")))
 }
 
-/// The sample rate from the first two times (data rows 1 and 2 of column `name`).
-fn rate_from_time(t0: f64, t1: f64, name: &str, input: &str) -> Result<f64> {
-    let dt = t1 - t0;
-    if !(dt.is_finite() && dt > 0.0) {
-        bail!("{input}: row 2, column `{name}`: time {t1:?} s does not come after {t0:?} s");
+/// Rows at the start of a recording whose time steps give its sample rate.
+const RATE_ROWS: usize = 65;
+
+/// The sample rate from the median step of `times` (the first data rows of column `name`,
+/// at most [`RATE_ROWS`]): one late or early sample does not move it.
+fn rate_from_time(times: &[f64], name: &str, input: &str) -> Result<f64> {
+    let mut steps = Vec::with_capacity(times.len());
+    for (k, w) in times.windows(2).enumerate() {
+        let dt = w[1] - w[0];
+        if !(dt.is_finite() && dt > 0.0) {
+            bail!("{input}: row {}, column `{name}`: time {:?} s does not come after {:?} s", k + 2, w[1], w[0]);
+        }
+        steps.push(dt);
     }
-    Ok(1.0 / dt)
+    steps.sort_by(f64::total_cmp);
+    match steps.get(steps.len() / 2) {
+        Some(dt) => Ok(1.0 / dt),
+        None => bail!("{input}: needs at least 2 samples"),
+    }
 }
 
-/// The sample rate `sample_rate_hz` gives, checked against the step between data rows 1
-/// and 2 of the time column `name`: a rate off by more than a factor of 2 is a wrong rate
-/// or unit (the filters would be designed for another rate), not jitter.
-fn configured_rate(fs: f64, t0: f64, t1: f64, name: &str, input: &str, config: &str) -> Result<f64> {
-    let from_time = rate_from_time(t0, t1, name, input)?;
+/// The sample rate `sample_rate_hz` gives, checked against the rate of the time column
+/// `name` ([`rate_from_time`]): a rate off by more than a factor of 2 is a wrong rate or
+/// unit (the filters would be designed for another rate), not jitter.
+fn configured_rate(fs: f64, times: &[f64], name: &str, input: &str, config: &str) -> Result<f64> {
+    let from_time = rate_from_time(times, name, input)?;
     if !(0.5..=2.0).contains(&(fs / from_time)) {
         bail!(
-            "{config}: `sample_rate_hz` = {fs:?} Hz, but {input} steps {:?} s between rows 1 and 2 of `{name}` \
-             ({from_time:?} Hz): fix the rate, or leave it out to take it from the time column",
-            t1 - t0
+            "{config}: `sample_rate_hz` = {fs:?} Hz, but the median time step of {input}'s first {} rows \
+             (`{name}`) gives {from_time:.1} Hz: fix the rate, or leave it out to take it from the time column",
+            times.len()
         );
     }
     Ok(fs)
@@ -277,20 +289,22 @@ impl Job<'_> {
         let cols = rdr.columns().to_vec();
         let idx = Idx::new(cfg, &cols, self.input)?;
         let reference = self.reference.map(|r| column(&cols, r, "--reference", self.input)).transpose()?;
-        // The first two rows give the sample rate; they are held back and written first.
-        let mut first = Vec::new();
-        let mut second = Vec::new();
-        if !rdr.read_row(&mut first)? || !rdr.read_row(&mut second)? {
+        // The first rows give the sample rate; they are held back and written first.
+        let mut head: Vec<Vec<f64>> = Vec::with_capacity(RATE_ROWS);
+        let mut row = Vec::with_capacity(cols.len());
+        while head.len() < RATE_ROWS && rdr.read_row(&mut row)? {
+            head.push(std::mem::take(&mut row));
+        }
+        if head.len() < 2 {
             bail!("{}: needs at least 2 samples", self.input);
         }
+        let times: Vec<f64> = head.iter().map(|r| r[idx.time]).collect();
+        let name = &cfg.channels.time;
         let (fs, fs_from) = match cfg.sample_rate_hz {
-            Some(fs) => {
-                let (t0, t1, name) = (first[idx.time], second[idx.time], &cfg.channels.time);
-                (configured_rate(fs, t0, t1, name, self.input, config)?, "`sample_rate_hz`".to_string())
-            }
+            Some(fs) => (configured_rate(fs, &times, name, self.input, config)?, "`sample_rate_hz`".to_string()),
             None => (
-                rate_from_time(first[idx.time], second[idx.time], &cfg.channels.time, self.input)?,
-                format!("{}: rows 1–2, column `{}`", self.input, cfg.channels.time),
+                rate_from_time(&times, name, self.input)?,
+                format!("{}: the median step of rows 1–{}, column `{name}`", self.input, times.len()),
             ),
         };
         let mut fusion = if self.method == Method::OnlineCorrected {
@@ -343,9 +357,9 @@ impl Job<'_> {
             wtr.write_row(&out_row)?;
             Ok(())
         };
-        emit(&first, 1, &mut wtr)?;
-        emit(&second, 2, &mut wtr)?;
-        let mut row = Vec::with_capacity(cols.len());
+        for (k, r) in head.iter().enumerate() {
+            emit(r, k as u64 + 1, &mut wtr)?;
+        }
         while rdr.read_row(&mut row)? {
             emit(&row, rdr.rows_read(), &mut wtr)?;
         }
@@ -379,10 +393,10 @@ impl Job<'_> {
                 time[k]
             );
         }
-        let (t0, t1, name) = (table.data[idx.time][0], table.data[idx.time][1], &cfg.channels.time);
+        let (times, name) = (&table.data[idx.time][..n.min(RATE_ROWS)], &cfg.channels.time);
         let fs = match cfg.sample_rate_hz {
-            Some(fs) => configured_rate(fs, t0, t1, name, self.input, config)?,
-            None => rate_from_time(t0, t1, name, self.input)?,
+            Some(fs) => configured_rate(fs, times, name, self.input, config)?,
+            None => rate_from_time(times, name, self.input)?,
         };
         cfg.check_crossover(fs, config)?;
         let mut row = vec![0.0; table.columns.len()];

@@ -209,6 +209,27 @@ fn bad_inputs_give_one_line_errors() {
         }
     }
     assert!(!d.join("x.csv").exists());
+    // One late first sample does not decide the rate (the median step of the first rows
+    // does): before, a right `sample_rate_hz` was refused, and without it the rate was
+    // taken as 952 Hz for a 20 kHz recording.
+    let late = d.join("late.csv");
+    let text = std::fs::read_to_string(&sim).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let t = lines[0].split(',').position(|h| h == "time").unwrap();
+    let mut cells: Vec<String> = lines[1].split(',').map(String::from).collect();
+    cells[t] = (cells[t].parse::<f64>().unwrap() - 0.001).to_string();
+    lines[1] = cells.join(",");
+    std::fs::write(&late, lines.join("\n") + "\n").unwrap();
+    let rate = d.join("rate.toml");
+    std::fs::write(&rate, std::fs::read_to_string(config()).unwrap().replace("# sample_rate_hz", "sample_rate_hz"))
+        .unwrap();
+    for cfg in [&rate, &PathBuf::from(config())] {
+        let o = run(&["fuse", "--config", s(cfg), "--in", s(&late), "--out", s(&d.join("late-out.csv"))]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        // The design at 20 kHz (at 952 Hz its band would end at 429 Hz).
+        let said = String::from_utf8_lossy(&o.stdout);
+        assert!(said.contains("1–4000 Hz: worst 0.04 dB"), "{said}");
+    }
     // The online corrected fusion has its own crossover, in [model].
     let text = std::fs::read_to_string(config())
         .unwrap()

@@ -30,8 +30,8 @@
 //!   model is right) is below [`GuardSettings::nis_pass_through`]; above it every order
 //!   steps back to pass-through (output = raw) until the mean falls below
 //!   [`GuardSettings::nis_recover`]. In the first window of motion, before the model has a
-//!   track record, one sample with NIS above [`GROSS_NIS`] steps it back at once, from
-//!   that sample.
+//!   track record, a sample with NIS above [`GROSS_NIS`] passes the raw torque, and two in
+//!   a row with innovations of one sign step the model back at once.
 //!
 //! At a standstill (order held) the contribution is clamped to the amplitude the order
 //! had at its last moving sample (zero if it never moved), so what the filter removes
@@ -72,10 +72,11 @@ use crate::{Error, Real};
 use order::OrderGuard;
 pub use stats::GuardStats;
 
-/// NIS of one sample (a thousand σ) that makes the model pass through at once while it has
-/// run under one window ([`GuardSettings::window_s`]) in motion: with no track record yet,
-/// such a misfit says the model is wrong, not the data. (Later a load step or a collision
-/// can give it; the running mean then decides.)
+/// NIS of a sample (a thousand σ) that, while the model has run under one window
+/// ([`GuardSettings::window_s`]) in motion, passes the raw torque on that sample; two such
+/// samples in a row with innovations of one sign put the model in pass-through. With no
+/// track record yet, they say the model is wrong; one alone, or two of opposite signs, is
+/// a glitch. (Later a load step or a collision can give them; the running mean decides.)
 pub const GROSS_NIS: f64 = 1e6;
 
 /// Initial variance of each component of an order learned from zero, N·m² (1σ 0.1 N·m).
@@ -261,6 +262,8 @@ pub struct Guard<T: Real, const M: usize> {
     pass_through: bool,
     /// Measured samples in motion so far (saturating): the track record of the model.
     moving_samples: u32,
+    /// The innovation of the sample before if it was a gross misfit, else 0, N·m.
+    gross_innovation_nm: T,
     /// The innovation of the sample before if it was a load step, else 0, N·m.
     step_innovation_nm: T,
     stats: GuardStats<M>,
@@ -287,6 +290,7 @@ impl<T: Real, const M: usize> Guard<T, M> {
             mean_e2: model.r_nm2,
             pass_through: false,
             moving_samples: 0,
+            gross_innovation_nm: T::ZERO,
             step_innovation_nm: T::ZERO,
             stats: GuardStats::new(),
         }
@@ -351,14 +355,18 @@ impl<T: Real, const M: usize> Guard<T, M> {
             let v = self.orders[i].verdict(false);
             complete &= self.group[i] != i || status[i] == OrderStatus::Off || v.apply;
         }
-        // Early in a run there is no track record: a misfit of a thousand σ then says the
-        // model is wrong (a learned file of another joint, or a damaged one), not the load.
+        // Early in a run there is no track record: a misfit of a thousand σ passes the raw
+        // torque on that sample, and two in a row with one sign (not a glitch and its
+        // undoing) say the model is wrong (a learned file of another joint, or a damaged
+        // one): it passes through from there.
         let early = T::from_f64(f64::from(self.moving_samples)) * self.alpha < T::ONE;
-        if early && out.nis > T::from_f64(GROSS_NIS) {
+        let gross = early && out.nis > T::from_f64(GROSS_NIS);
+        if gross && self.gross_innovation_nm * out.innovation_nm > T::ZERO {
             self.pass_through = true;
             self.mean_nis = self.mean_nis.max(s.nis_clip);
         }
-        let pass_through = self.pass_through;
+        self.gross_innovation_nm = if gross { out.innovation_nm } else { T::ZERO };
+        let pass_through = self.pass_through || gross;
         let moving = status.contains(&OrderStatus::Active);
         // Held orders are applied only when the model fitted well while it moved: at a
         // standstill a partial or wrong correction is a constant that nothing can check.

@@ -108,10 +108,10 @@ pub enum IoError {
         value: String,
     },
     /// The first data row is text in every cell: most likely the line read as the header
-    /// is a preamble above it (a DAQ's device and date lines).
+    /// is a preamble above it (a DAQ's device and date lines), or a units line follows it.
     #[error(
         "{path}: row 1, column `{}`: `{}` is not a number, nor is any cell of row 1: lines above the \
-         header (a preamble)? Start them with `#`, or remove them",
+         header (a preamble), or a units line below it? Start such lines with `#`, or remove them",
         shown(column),
         shown(value)
     )]
@@ -120,6 +120,21 @@ pub enum IoError {
         path: PathBuf,
         /// Column name.
         column: String,
+        /// Cell text.
+        value: String,
+    },
+    /// A value in a column after the named ones, which the header left unnamed (its line
+    /// ends with a delimiter).
+    #[error(
+        "{path}: row {row}: `{}` in a column the header does not name (the header line ends with a \
+         delimiter): name that column, or leave its cells empty",
+        shown(value)
+    )]
+    UnnamedCell {
+        /// File.
+        path: PathBuf,
+        /// 1-based data row.
+        row: u64,
         /// Cell text.
         value: String,
     },

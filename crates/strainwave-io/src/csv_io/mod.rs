@@ -237,7 +237,13 @@ impl CsvReader {
     /// A row error of a file read with another delimiter than a comma, or as one column,
     /// names the delimiter it was read with.
     fn with_dialect(&self, e: IoError) -> IoError {
-        let row_error = matches!(e, IoError::NotANumber { .. } | IoError::TextRow { .. } | IoError::RowLength { .. });
+        let row_error = matches!(
+            e,
+            IoError::NotANumber { .. }
+                | IoError::TextRow { .. }
+                | IoError::RowLength { .. }
+                | IoError::UnnamedCell { .. }
+        );
         let one_column = self.detected && self.columns.len() == 1;
         if !row_error || (self.delimiter == b',' && !one_column) {
             return e;

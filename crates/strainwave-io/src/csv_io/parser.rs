@@ -352,9 +352,11 @@ impl Parser {
     pub(super) fn slow_row(&mut self, record: &csv::ByteRecord) -> Result<(), IoError> {
         self.rows += 1;
         let n = self.columns.len();
-        let unnamed_empty = |r: &csv::ByteRecord| r.iter().skip(n).all(|c| c.trim_ascii().is_empty());
-        let tail_empty = record.len() > n && record.len() <= n + self.unnamed_tail && unnamed_empty(record);
-        if record.len() != n && !tail_empty {
+        let in_tail = record.len() > n && record.len() <= n + self.unnamed_tail;
+        if let Some(cell) = record.iter().skip(n).find(|c| in_tail && !c.trim_ascii().is_empty()) {
+            return Err(IoError::UnnamedCell { path: self.path.clone(), row: self.rows, value: shown_cell(cell) });
+        }
+        if record.len() != n && !in_tail {
             return Err(IoError::RowLength {
                 path: self.path.clone(),
                 row: self.rows,

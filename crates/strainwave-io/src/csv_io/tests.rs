@@ -297,8 +297,11 @@ fn reference(data: &[u8]) -> Outcome {
             Ok(true) => {
                 n += 1;
                 let width = columns.len();
-                let unnamed_empty = record.iter().skip(width).all(|c| c.trim_ascii().is_empty());
-                if !(record.len() == width || (record.len() > width && record.len() <= width + tail && unnamed_empty)) {
+                let in_tail = record.len() > width && record.len() <= width + tail;
+                let unnamed = record.iter().skip(width).find(|c| in_tail && !c.trim_ascii().is_empty());
+                if let Some(cell) = unnamed {
+                    Err(IoError::UnnamedCell { path: path.into(), row: n, value: shown_cell(cell) }.to_string())
+                } else if !(record.len() == width || in_tail) {
                     let (got, want) = (record.len(), columns.len());
                     Err(IoError::RowLength { path: path.into(), row: n, got, want }.to_string())
                 } else {
@@ -578,8 +581,13 @@ fn a_delimiter_at_the_end_of_each_line_names_no_column() {
         assert_eq!(units[1].as_deref().unwrap_or("N·m"), "N·m");
         assert_eq!(rows, [vec![0.0, 1.5], vec![0.001, -2.25]], "{text:?}");
     }
+    // A value in the unnamed column: before, read as a column named ``.
     let e = read("time;torque;\n0;1;\n1;2;7\n").unwrap_err().to_string();
-    assert!(e.starts_with("daq.txt: row 2 has 3 cells, the header has 2 (truncated or malformed line)"), "{e}");
+    assert!(e.starts_with("daq.txt: row 2: `7` in a column the header does not name"), "{e}");
+    let e = read("time,torque,\n0,1,5\n").unwrap_err().to_string();
+    assert!(e.starts_with("daq.txt: row 1: `5` in a column the header does not name"), "{e}");
+    let e = read("time;torque;\n0;1;;4\n").unwrap_err().to_string();
+    assert!(e.starts_with("daq.txt: row 1 has 4 cells, the header has 2"), "{e}");
 }
 
 /// A DAQ export with device and date lines above its header: the first line is taken for
@@ -595,6 +603,7 @@ fn a_preamble_above_the_header_is_named_as_such() {
             "Device: NI 9237\nOperator: X\ntime\n0\n",
             "row 1, column `Device: NI 9237`: `Operator: X` is not a number, nor is",
         ),
+        ("time,torque\ns,N*m\n0,1\n", "row 1, column `time`: `s` is not a number, nor is"),
     ] {
         let mut r =
             CsvReader::from_reader(Path::new("daq.csv"), Box::new(std::io::Cursor::new(text.to_string()))).unwrap();

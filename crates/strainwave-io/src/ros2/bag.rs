@@ -70,10 +70,8 @@ struct TopicStat {
     last_ns: i64,
     long_arrays: Vec<String>,
     skipped: Option<String>,
-    /// The time of the last message given to the clock, ns.
-    aligned_ns: Option<i64>,
-    /// Messages at the same time as the one before them (on one clock only the first
-    /// value at a time is kept), and the first such time, ns.
+    /// Messages that give a column a second value at one time (on one clock a time has
+    /// one row, with the first value), and the first such time, ns.
     same_time: (u64, i64),
 }
 
@@ -197,6 +195,8 @@ pub struct BagReader {
     stop: Option<IoError>,
     /// Per column: samples, first and last time (ns) in the first pass.
     column_spans: Vec<(u64, i64, i64)>,
+    /// The time of each column's last value given to the clock, ns.
+    column_last_ns: Vec<i64>,
     clock_topic: Option<String>,
 }
 
@@ -229,6 +229,7 @@ impl BagReader {
             finished: false,
             stop: None,
             column_spans: Vec::new(),
+            column_last_ns: Vec::new(),
             clock_topic: None,
         };
         r.first_pass()?;
@@ -280,10 +281,12 @@ impl BagReader {
                 true => "the file".to_string(),
                 false => format!("`{}`", file.file_name().unwrap_or_default().to_string_lossy()),
             };
+            let read = match last_ns {
+                Some(t) => format!("the messages before the cut are read, up to log time {} s", *t as f64 / 1e9),
+                None => "no message of it is read".to_string(),
+            };
             self.warnings.push(format!(
-                "{name} ends before its footer (a recorder stopped before closing it, or a copy cut short): \
-                 the messages before the cut are read, up to log time {} s",
-                *last_ns as f64 / 1e9
+                "{name} ends before its footer (a recorder stopped before closing it, or a copy cut short): {read}"
             ));
         }
         Ok(())
@@ -425,9 +428,17 @@ impl BagReader {
         for want in &options.topics {
             if !self.topic_index.contains_key(want) {
                 let have: Vec<&str> = self.topics.iter().map(|t| t.name.as_str()).collect();
+                // In a file cut short the topic's messages may lie after the cut.
+                let cut = match self.stream.cut_short().first() {
+                    Some((_, Some(t))) => {
+                        format!("; the log ends before its footer after log time {} s", *t as f64 / 1e9)
+                    }
+                    Some((_, None)) => "; the log ends before its footer".to_string(),
+                    None => String::new(),
+                };
                 return Err(IoError::Csv {
                     path: self.path.clone(),
-                    msg: format!("--topic: no message of topic `{want}` in the log (topics: {})", have.join(", ")),
+                    msg: format!("--topic: no message of topic `{want}` in the log (topics: {}){cut}", have.join(", ")),
                 });
             }
         }
@@ -638,11 +649,18 @@ impl BagReader {
     /// One message's values (`None`: those just decoded) into the aligner.
     fn align(&mut self, t_ns: i64, topic: usize, values: Option<&[(usize, f64)]>) -> Result<(), IoError> {
         let values = values.unwrap_or(&self.values);
+        let mut again = false;
+        for &(c, _) in values {
+            if self.column_last_ns.len() <= c {
+                self.column_last_ns.resize(c + 1, i64::MIN);
+            }
+            again |= self.column_last_ns[c] == t_ns;
+            self.column_last_ns[c] = t_ns;
+        }
         let stat = &mut self.topics[topic];
-        if stat.aligned_ns == Some(t_ns) {
+        if again {
             stat.same_time = (stat.same_time.0 + 1, if stat.same_time.0 == 0 { t_ns } else { stat.same_time.1 });
         }
-        stat.aligned_ns = Some(t_ns);
         self.aligner.push(t_ns, topic, values).map_err(|e| IoError::Csv {
             path: self.path.clone(),
             msg: format!("topic `{}`, message at {} s: {e}", self.topics[topic].name, t_ns as f64 / 1e9),
@@ -657,8 +675,8 @@ impl BagReader {
         if self.aligner.mode() != Align::None {
             for s in self.topics.iter().filter(|s| s.same_time.0 > 0) {
                 self.warnings.push(format!(
-                    "topic `{}`: {} message(s) at the same time as the message before (the first at {} s); \
-                     on one clock a time has one row, with the first message's values (`--align none` keeps every message)",
+                    "topic `{}`: {} message(s) give a column a second value at one time (the first at {} s); \
+                     on one clock a time has one row, with the first value (`--align none` keeps every message)",
                     s.name,
                     s.same_time.0,
                     s.same_time.1 as f64 / 1e9

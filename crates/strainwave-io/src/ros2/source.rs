@@ -92,14 +92,20 @@ pub fn log_files(path: &Path) -> Result<Vec<PathBuf>, IoError> {
                 continue;
             }
             match t.strip_prefix("- ") {
-                Some(name) if inside => files.push(path.join(name.trim().trim_matches(|c| c == '"' || c == '\''))),
+                // Older rosbag2 versions write the folder's name in front (`bag/bag_0.db3`).
+                Some(name) if inside => {
+                    let name = Path::new(name.trim().trim_matches(|c| c == '"' || c == '\''));
+                    files.push(path.join(name.file_name().unwrap_or(name.as_os_str())));
+                }
                 _ if inside => inside = false,
                 _ => {}
             }
         }
     }
-    // A part listed but missing would leave a silent jump in time.
-    if let Some(missing) = files.iter().find(|f| !f.is_file()) {
+    // A part listed but missing would leave a silent jump in time. (None there: the
+    // metadata is stale, a renamed bag; its files are taken as the folder has them.)
+    let present = files.iter().filter(|f| f.is_file()).count();
+    if let Some(missing) = files.iter().find(|f| present > 0 && !f.is_file()) {
         let name = missing.file_name().unwrap_or_default().to_string_lossy();
         return Err(IoError::Csv {
             path: path.to_path_buf(),
@@ -109,6 +115,7 @@ pub fn log_files(path: &Path) -> Result<Vec<PathBuf>, IoError> {
             ),
         });
     }
+    files.retain(|f| f.is_file());
     if files.is_empty() {
         for e in std::fs::read_dir(path).map_err(os)? {
             let p = e.map_err(os)?.path();
@@ -172,26 +179,27 @@ pub struct MessageStream {
     files: Vec<PathBuf>,
     next_file: usize,
     current: Option<FileStream>,
-    /// The log time of the last message given, ns.
-    last_log_ns: u64,
-    cut_short: Vec<(PathBuf, u64)>,
+    /// The log time of the last message given from the current file, ns.
+    last_log_ns: Option<u64>,
+    cut_short: Vec<(PathBuf, Option<u64>)>,
 }
 
 impl MessageStream {
     /// Opens the log at `path` (a file or a rosbag2 folder).
     pub fn open(path: &Path) -> Result<Self, IoError> {
-        Ok(Self { files: log_files(path)?, next_file: 0, current: None, last_log_ns: 0, cut_short: Vec::new() })
+        Ok(Self { files: log_files(path)?, next_file: 0, current: None, last_log_ns: None, cut_short: Vec::new() })
     }
 
     /// The files read so far that end before their footer, each with the log time of
-    /// its last message read (ns).
-    pub fn cut_short(&self) -> &[(PathBuf, u64)] {
+    /// its last message read (ns; `None`: none).
+    pub fn cut_short(&self) -> &[(PathBuf, Option<u64>)] {
         &self.cut_short
     }
 
     fn open_next(&mut self, registry: &mut Registry) -> Result<bool, IoError> {
         let Some(path) = self.files.get(self.next_file).cloned() else { return Ok(false) };
         self.next_file += 1;
+        self.last_log_ns = None;
         if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("zstd") || e.eq_ignore_ascii_case("zst")) {
             return Err(IoError::Csv {
                 path,
@@ -267,7 +275,7 @@ impl MessageStream {
                                 c
                             }
                         };
-                        self.last_log_ns = m.log_time;
+                        self.last_log_ns = Some(m.log_time);
                         return Ok(Some(RawMessage { channel, log_time_ns: m.log_time, data: m.data }));
                     }
                 },
