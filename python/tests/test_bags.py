@@ -574,7 +574,7 @@ def test_messages_at_one_time_are_counted_in_a_warning(binary, tmp_path):
     for k in range(100):
         stamp = T0_NS + k * 1_000_000
         for j in ("j1", "j2"):
-            msgs.append(("/joint_states", "sensor_msgs/msg/JointState", stamp, joint_state(stamp, j, k)))
+            msgs.append(("/joint_states", "sensor_msgs/msg/JointState", stamp, joint_state(stamp, j, float(k))))
     humble_writer(tmp_path / "two", msgs)
     res = run(binary, "convert", "--in", tmp_path / "two", "--out", tmp_path / "two.csv")
     header, rows = read_csv(tmp_path / "two.csv")
