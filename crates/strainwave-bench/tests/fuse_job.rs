@@ -12,7 +12,9 @@ use strainwave_core::fusion::{ComplementaryFusion, CrossoverOrder};
 use strainwave_io::IoError;
 use strainwave_joint::run::{RowSink, RowSource};
 
-const FS_HZ: f64 = 2000.0;
+/// A power of two, so that every time step `k / FS_HZ` is exact and the job's rate (the
+/// median step) is this rate to the bit.
+const FS_HZ: f64 = 2048.0;
 const CROSSOVER_HZ: f64 = 50.0;
 
 struct Rows {
