@@ -100,13 +100,23 @@ fn fuse_names_the_recording_and_its_row_from_one() {
         &["fuse", "--config", s(&cfg), "--in", s(&same), "--method", "complementary", "--out", s(&out)],
         &["same.csv: row 2, column `time`"],
     );
-    // A second time stamp 1e15 s on: the online fusion's design fails at that rate, and
-    // the message says the rate came from the recording's first two times.
+    // A second time stamp 1e15 s on: the third row's time goes back, named by its row.
+    let jump = d.join("jump.csv");
+    edit_lines(&rec, &jump, |k, l| if k == 2 { l.replacen(l.split(',').next().unwrap(), "1e15", 1) } else { l.into() });
+    error(&["fuse", "--config", s(&cfg), "--in", s(&jump), "--out", s(&out)], &["jump.csv: row 3, column `time`"]);
+    // Times in another unit (1e15 times too large): the online fusion's design fails at
+    // that rate, and the message says where the rate came from.
     let slow = d.join("slow.csv");
-    edit_lines(&rec, &slow, |k, l| if k == 2 { l.replacen(l.split(',').next().unwrap(), "1e15", 1) } else { l.into() });
+    edit_lines(&rec, &slow, |k, l| {
+        let t = l.split(',').next().unwrap();
+        match (k, t.parse::<f64>()) {
+            (1.., Ok(v)) => l.replacen(t, &format!("{:?}", v * 1e15), 1),
+            _ => l.into(),
+        }
+    });
     error(
         &["fuse", "--config", s(&cfg), "--in", s(&slow), "--out", s(&out)],
-        &["1e-15 Hz sampling, from ", "slow.csv: rows 1–2, column `time`"],
+        &[" Hz sampling, from ", "slow.csv: the median step of rows 1–65, column `time`"],
     );
     // An input that already has the output's column.
     let fused = d.join("fused.csv");
