@@ -73,13 +73,20 @@ def sample_rate_hz(data: Any) -> float:
     return 1.0 / dt
 
 
-def _num(v: float) -> str:
-    """A float as Rust's `{}` prints it (shortest round trip, no exponent, `inf`/`NaN`)."""
-    v = float(v)
+def _not_finite(v: float) -> Optional[str]:
+    """`NaN`, `inf` or `-inf` as Rust prints them; `None` for a finite float."""
     if math.isnan(v):
         return "NaN"
     if math.isinf(v):
         return "inf" if v > 0 else "-inf"
+    return None
+
+
+def _num(v: float) -> str:
+    """A float as Rust's `{}` prints it (shortest round trip, no exponent, `inf`/`NaN`)."""
+    v = float(v)
+    if (special := _not_finite(v)) is not None:
+        return special
     r = repr(v)
     if "e" in r or "E" in r:
         r = np.format_float_positional(v, unique=True, trim="-")
@@ -89,10 +96,8 @@ def _num(v: float) -> str:
 def _num_debug(v: float) -> str:
     """A float as Rust's `{:?}` prints it (shortest round trip, `1e308`, `4.0`, `inf`, `NaN`)."""
     v = float(v)
-    if math.isnan(v):
-        return "NaN"
-    if math.isinf(v):
-        return "inf" if v > 0 else "-inf"
+    if (special := _not_finite(v)) is not None:
+        return special
     r = repr(v)
     if "e" in r:
         mantissa, exponent = r.split("e")
