@@ -9,7 +9,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 
 use crate::report::html::{esc, table, Report, Section};
 use crate::report::plot::{LinePlot, Marker, Series};
@@ -55,10 +55,7 @@ pub fn run(a: &Args) -> Result<()> {
     let columns = r.columns().to_vec();
     let input = a.input.display().to_string();
     let time_name = cfg.as_ref().map_or("time".to_string(), |c| c.channels.time.column_name().to_string());
-    let time_at = columns
-        .iter()
-        .position(|c| *c == time_name)
-        .with_context(|| format!("{input}: no time column `{time_name}`"))?;
+    let time_at = r.column_index(&time_name)?;
     let at = |name: &str| columns.iter().position(|c| c == name);
     let mut torque_cols: Vec<String> =
         TORQUE_COLUMNS.iter().filter(|c| at(c).is_some()).map(|c| c.to_string()).collect();

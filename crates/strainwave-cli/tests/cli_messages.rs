@@ -234,3 +234,14 @@ fn design_names_the_file_line_and_key_of_a_wrong_type() {
         error(&["design", "--config", s(&cfg)], &["sensor.toml: line ", key]);
     }
 }
+
+#[test]
+fn report_lists_the_columns_when_the_time_column_is_missing() {
+    let d = tmp("report");
+    // A device line above the header is read as a header of one column.
+    let rec = d.join("daq.csv");
+    std::fs::write(&rec, "NI 9237 rev B\ntime,torque\n0,1\n").unwrap();
+    let out = d.join("r.html");
+    error(&["report", "--in", s(&rec), "--out", s(&out)], &["daq.csv: no column `time` (columns: NI 9237 rev B)"]);
+    assert!(!out.exists());
+}

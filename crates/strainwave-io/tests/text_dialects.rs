@@ -73,6 +73,11 @@ fn an_unreadable_file_names_the_delimiter_it_saw() {
     assert!(e.contains("read as comma-delimited, 1 column(s); set --delimiter"), "{e}");
     let options = ReadOptions { delimiter: Some(b'|'), ..ReadOptions::default() };
     assert_eq!(read(&p, &options).unwrap().2, [vec![0.0, 1.0]]);
+    // A one-cell device line above the header: read as a one-column header, rows longer.
+    let p = temp("daq.csv", b"NI 9237\ntime,torque\n0,1\n");
+    let e = read(&p, &ReadOptions::default()).unwrap_err().to_string();
+    assert!(e.starts_with(&format!("{}: row 1 has 2 cells, the header has 1", p.display())), "{e}");
+    assert!(e.ends_with("set --delimiter if that is wrong, or start lines above the header with `#`)"), "{e}");
 }
 
 #[test]

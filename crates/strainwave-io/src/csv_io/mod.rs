@@ -249,10 +249,14 @@ impl CsvReader {
             return e;
         }
         let decimal = if self.delimiter == b',' { "" } else { ", decimal comma accepted" };
+        // A one-column header and longer rows: the header line may be a preamble above the
+        // real one (a DAQ's device line). A row of text says so itself.
+        let longer = one_column && matches!(e, IoError::RowLength { .. });
+        let preamble = if longer { ", or start lines above the header with `#`" } else { "" };
         IoError::Dialect {
             inner: Box::new(e),
             note: format!(
-                "read as {}-delimited{decimal}, {} column(s); set --delimiter if that is wrong",
+                "read as {}-delimited{decimal}, {} column(s); set --delimiter if that is wrong{preamble}",
                 delimiter_name(self.delimiter),
                 self.columns.len()
             ),

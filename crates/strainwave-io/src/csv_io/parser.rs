@@ -361,7 +361,8 @@ impl Parser {
                 path: self.path.clone(),
                 row: self.rows,
                 got: record.len(),
-                want: self.columns.len(),
+                // The header's cells, its unnamed ones too.
+                want: n + self.unnamed_tail,
             });
         }
         let decimal_comma = self.decimal_comma;

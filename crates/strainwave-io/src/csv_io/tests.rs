@@ -302,7 +302,7 @@ fn reference(data: &[u8]) -> Outcome {
                 if let Some(cell) = unnamed {
                     Err(IoError::UnnamedCell { path: path.into(), row: n, value: shown_cell(cell) }.to_string())
                 } else if !(record.len() == width || in_tail) {
-                    let (got, want) = (record.len(), columns.len());
+                    let (got, want) = (record.len(), width + tail);
                     Err(IoError::RowLength { path: path.into(), row: n, got, want }.to_string())
                 } else {
                     let parse = |cell: &[u8]| String::from_utf8_lossy(cell).trim().parse::<f64>();
@@ -587,7 +587,7 @@ fn a_delimiter_at_the_end_of_each_line_names_no_column() {
     let e = read("time,torque,\n0,1,5\n").unwrap_err().to_string();
     assert!(e.starts_with("daq.txt: row 1: `5` in a column the header does not name"), "{e}");
     let e = read("time;torque;\n0;1;;4\n").unwrap_err().to_string();
-    assert!(e.starts_with("daq.txt: row 1 has 4 cells, the header has 2"), "{e}");
+    assert!(e.starts_with("daq.txt: row 1 has 4 cells, the header has 3"), "{e}");
 }
 
 /// A DAQ export with device and date lines above its header: the first line is taken for
