@@ -309,7 +309,8 @@ impl Job<'_> {
         };
         let mut fusion = if self.method == Method::OnlineCorrected {
             let f = cfg.model(method, config)?.online(cfg.stator_inertia_kg_m2, (fs, &fs_from), config)?;
-            say(&design_summary(&f, cfg.model(method, config)?.paths(cfg.stator_inertia_kg_m2, config)?)?)?;
+            let paths = cfg.model(method, config)?.paths(cfg.stator_inertia_kg_m2, config)?;
+            say(&design_summary(&f, paths).with_context(|| config.to_string())?)?;
             Online::Corrected(f, OnlineFusionState::default())
         } else {
             cfg.check_crossover(fs, config)?;

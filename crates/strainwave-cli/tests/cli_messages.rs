@@ -64,6 +64,16 @@ fn fuse_names_the_config_for_its_keys() {
     let (tiny, _) = bench(&d, |t| t.replace("static_corner_hz = 0.05", "static_corner_hz = 1e-320"));
     let needles = ["bench.toml: [model]: `static_corner_hz` is out of range"];
     error(&["fuse", "--config", s(&tiny), "--in", s(&rec), "--out", s(&out)], &needles);
+    // A damping no bench has: the fusion inverted from it is far off on its own model.
+    let damping = "bearing_damping_nm_s_per_rad = 424e-6";
+    let (absurd, _) = bench(&d, |t| t.replace(damping, "bearing_damping_nm_s_per_rad = 1e10"));
+    let needles = ["bench.toml: the online fusion designed from `[model]` is off by ", "--method complementary"];
+    error(&["fuse", "--config", s(&absurd), "--in", s(&rec), "--out", s(&out)], &needles);
+    // A hundred times the example's is still a model: written, with its flatness.
+    let (large, _) = bench(&d, |t| t.replace(damping, "bearing_damping_nm_s_per_rad = 424e-4"));
+    let o = run(&["fuse", "--config", s(&large), "--in", s(&rec), "--out", s(&out)]);
+    assert!(o.status.success() && out.exists(), "{}", String::from_utf8_lossy(&o.stderr));
+    std::fs::remove_file(&out).unwrap();
     // TOML syntax: file, line and column on one line.
     std::fs::write(&cfg, "radius_m = [\n").unwrap();
     error(&["fuse", "--config", s(&cfg), "--in", s(&rec), "--out", s(&out)], &["bench.toml: line 2, column"]);

@@ -3,7 +3,7 @@
 
 use std::fmt::Write as _;
 
-use anyhow::Result;
+use anyhow::{bail, Result};
 use strainwave_analysis::bench::{to_complex, ResponseError};
 use strainwave_analysis::frf::{h1, Frf};
 use strainwave_analysis::psd::SpectralConfig;
@@ -20,6 +20,10 @@ pub const MIN_COHERENCE: f64 = 0.5;
 const MAX_NPERSEG: usize = 1 << 15;
 /// The bands reported, Hz.
 const BANDS_HZ: [(f64, f64); 2] = [(1.0, 2000.0), (1.0, 4000.0)];
+/// Largest gain error of the online fusion on its own model, dB, beyond which the model
+/// is refused: a sound model gives a fraction of a dB, so this is a model the inversion
+/// cannot use (absurd dampings or inertias), whose fused torque would be far off.
+pub const MAX_OWN_MODEL_ERROR_DB: f64 = 6.0;
 
 /// The bands that fit below 0.45 fs.
 fn bands(fs: f64) -> Vec<(f64, f64)> {
@@ -37,7 +41,8 @@ fn line(lo: f64, hi: f64, e: &ResponseError) -> String {
     )
 }
 
-/// The online fusion's response on the model it was designed from, per band.
+/// The online fusion's response on the model it was designed from, per band; an error
+/// if its gain is off by more than [`MAX_OWN_MODEL_ERROR_DB`] (or not finite) in a band.
 pub fn design_summary(
     f: &OnlineCorrectedFusion<f64>,
     (ts, acc): (TorsionShaftModel<f64>, AccelerometerModel<f64>),
@@ -66,6 +71,15 @@ pub fn design_summary(
     );
     for (lo, hi) in bands(fs) {
         let e = ResponseError::with_best_delay(&frf, lo, hi, MIN_COHERENCE, MAX_DELAY_S)?;
+        if !(e.max_gain_db <= MAX_OWN_MODEL_ERROR_DB) {
+            bail!(
+                "the online fusion designed from `[model]` is off by {:.2} dB at {:.1} Hz on that very model \
+                 (at most {MAX_OWN_MODEL_ERROR_DB} dB from {lo:.0} to {hi:.0} Hz): check its dampings, stiffness and \
+                 inertias, or use --method complementary",
+                e.max_gain_db,
+                e.worst_gain_hz
+            );
+        }
         s += &line(lo, hi, &e);
     }
     Ok(s)
