@@ -71,7 +71,8 @@ pub fn design_summary(
     );
     for (lo, hi) in bands(fs) {
         let e = ResponseError::with_best_delay(&frf, lo, hi, MIN_COHERENCE, MAX_DELAY_S)?;
-        if !(e.max_gain_db <= MAX_OWN_MODEL_ERROR_DB) {
+        // NaN counts as off.
+        if e.max_gain_db.is_nan() || e.max_gain_db > MAX_OWN_MODEL_ERROR_DB {
             bail!(
                 "the online fusion designed from `[model]` is off by {:.2} dB at {:.1} Hz on that very model \
                  (at most {MAX_OWN_MODEL_ERROR_DB} dB from {lo:.0} to {hi:.0} Hz): check its dampings, stiffness and \
