@@ -64,10 +64,10 @@ pub fn run(a: &Args) -> Result<()> {
     }
     let rows = w.finish()?;
     if !a.quiet {
-        eprintln!("{}", summary(&r, &a.input, &a.out, rows, columns.len()));
+        note!("{}", summary(&r, &a.input, &a.out, rows, columns.len()));
         if !log {
             if let Some(msg) = monitor.report() {
-                eprintln!(
+                note!(
                     "warning: {}: {msg}{}",
                     a.input.display(),
                     if options.resample_hz.is_none() {
@@ -79,13 +79,13 @@ pub fn run(a: &Args) -> Result<()> {
             }
         }
         if let (n @ 1.., Some((gap_s, at_s))) = r.resample_gaps() {
-            eprintln!(
+            note!(
                 "warning: {}: {n} gap(s) longer than --max-gap left NaN in the resampled rows, the longest {gap_s} s ending at time {at_s} s",
                 a.input.display()
             );
         }
         if r.resample_skipped() > 0 {
-            eprintln!(
+            note!(
                 "warning: {} rows with non-increasing time were left out of the resampling",
                 r.resample_skipped()
             );

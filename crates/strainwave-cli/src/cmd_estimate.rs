@@ -40,10 +40,10 @@ pub fn run(a: &Args) -> Result<()> {
     let input = a.input.display().to_string();
     let s = est.run(&mut reader, |names| Ok(RecordingWriter::create(&a.out, names)?), &input)?;
     for w in s.warning().iter().flat_map(|w| w.lines()) {
-        eprintln!("warning: {w}");
+        note!("warning: {w}");
     }
     if !a.quiet {
-        eprintln!("estimated {} rows ({} with counter wraps) -> {}", s.rows, s.wraps, a.out.display());
+        note!("estimated {} rows ({} with counter wraps) -> {}", s.rows, s.wraps, a.out.display());
     }
     Ok(())
 }

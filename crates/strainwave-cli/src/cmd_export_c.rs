@@ -60,7 +60,7 @@ pub fn run(a: &Args) -> Result<()> {
         // A temporary file renamed into place, as every output.
         strainwave_io::output::write_file(&a.out, text).context("--out")?;
         let precision = if a.precision == PrecisionArg::F32 { "f32" } else { "f64" };
-        eprintln!("wrote {} ({precision} model of {})", a.out.display(), a.config.display());
+        note!("wrote {} ({precision} model of {})", a.out.display(), a.config.display());
     }
     Ok(())
 }

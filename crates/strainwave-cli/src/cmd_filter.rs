@@ -117,26 +117,26 @@ fn filter_one(a: &Args, cfg: &JointConfig, input: &Path, out: Option<&Path>) -> 
         return Ok(());
     }
     for note in &summary.notes {
-        eprintln!("note: {note}");
+        note!("note: {note}");
     }
     if let Some(path) = &a.learn {
-        eprintln!("learned coefficients -> {} (set `filter.learned` to use them)", path.display());
+        note!("learned coefficients -> {} (set `filter.learned` to use them)", path.display());
     }
     let how = if a.smooth { " (zero phase, offline)" } else { "" };
     let verb = if a.smooth { "smoothed" } else { "filtered" };
     let dest = out.map_or("nowhere (learning only)".to_string(), |o| o.display().to_string());
-    eprintln!("{verb} {} rows of {} -> {dest}{how}", summary.rows, input.display());
+    note!("{verb} {} rows of {} -> {dest}{how}", summary.rows, input.display());
     for line in summary.health.iter().flat_map(|h| h.lines()) {
-        eprintln!("{line}");
+        note!("{line}");
     }
     if summary.extrapolated > 0 {
-        eprintln!(
+        note!(
             "warning: {} samples used the calibration outside its speed range (its extrapolation policy)",
             summary.extrapolated
         );
     }
     for w in &summary.warnings {
-        eprintln!("warning: {w}");
+        note!("warning: {w}");
     }
     Ok(())
 }

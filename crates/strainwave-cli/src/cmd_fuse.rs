@@ -55,7 +55,7 @@ pub fn run(a: &Args) -> Result<()> {
     // What `fuse` says goes to standard output, or to standard error when the recording does.
     let mut say = |text: &str| -> Result<()> {
         if a.out == Path::new("-") {
-            eprint!("{text}");
+            crate::stderr::write(format_args!("{text}"));
             Ok(())
         } else {
             crate::stdout::print(text)

@@ -183,7 +183,7 @@ pub fn run(a: &Args) -> Result<()> {
         let rows = w.finish()?;
         if !a.quiet {
             let (mean, consistency) = run.true_gain_and_consistency();
-            eprintln!(
+            note!(
                 "locked-wg calibration procedure on `{}`: {} experiments, {rows} readings -> {}; true gain {:.4} N·m/V, consistency {:.2} %",
                 scenario.name,
                 run.true_gains.len(),
@@ -211,21 +211,21 @@ pub fn run(a: &Args) -> Result<()> {
     let rows = w.finish()?;
     if !a.quiet {
         let sensor = sim.sensor();
-        eprintln!(
+        note!(
             "simulated `{}`: {rows} rows at {} Hz ({} RK4 sub-steps per sample) -> {}",
             scenario.name,
             scenario.sample_rate_hz,
             sim.substeps(),
             out.display()
         );
-        eprintln!(
+        note!(
             "sensor: true gain {:.4} N·m/V, full scale {:.1} N·m, white-noise floor {:.4} N·m rms",
             sensor.gain_nm_per_v(),
             sensor.full_scale_nm(),
             sensor.noise_floor_nm()
         );
         if sim.clipped_samples() > 0 {
-            eprintln!(
+            note!(
                 "warning: the ADC clipped on {} samples (bridge_voltage saturated at ±{} V)",
                 sim.clipped_samples(),
                 scenario.sensor.adc_range_v

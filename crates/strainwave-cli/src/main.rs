@@ -4,6 +4,9 @@
 //! errors once. Exit codes: 0 success, 1 user error (bad file, bad value), 2 bad usage,
 //! 130 / 143 / 129 interrupted (SIGINT / SIGTERM / SIGHUP), 141 output pipe closed.
 
+#[macro_use]
+mod stderr;
+
 mod cmd_calibrate;
 mod cmd_campbell;
 mod cmd_convert;
@@ -138,7 +141,7 @@ fn main() -> ExitCode {
             strainwave_io::set_default_read_options(options);
         }
         Err(e) => {
-            eprintln!("error: {}", one_line(&e));
+            note!("error: {}", one_line(&e));
             return ExitCode::from(2);
         }
     }
@@ -173,7 +176,7 @@ fn main() -> ExitCode {
                 .chars()
                 .flat_map(|c| if c.is_control() { c.escape_default().collect() } else { vec![c] })
                 .collect();
-            eprintln!("error: {line}");
+            note!("error: {line}");
             ExitCode::from(1)
         }
     }

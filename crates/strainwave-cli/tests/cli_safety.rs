@@ -299,6 +299,25 @@ fn a_closed_output_pipe_ends_quietly_with_141() {
     assert_eq!(stderr(&o), "");
 }
 
+/// With standard error closed, a run still writes its outputs and succeeds (its
+/// messages are lost); an error still exits 1.
+#[test]
+fn a_closed_error_pipe_loses_messages_not_outputs() {
+    let d = tmp("stderr-pipe");
+    let rec = d.join("rec.csv");
+    recording(&rec, 2_000, |_, _| {});
+    let closed = |args: &[&str]| {
+        let mut child = bin().args(args).stdout(Stdio::null()).stderr(Stdio::piped()).spawn().unwrap();
+        drop(child.stderr.take());
+        child.wait().unwrap()
+    };
+    let out = d.join("out.csv");
+    assert_eq!(closed(&["convert", "--in", s(&rec), "--out", s(&out)]).code(), Some(0));
+    assert_eq!(std::fs::read_to_string(&out).unwrap().lines().count(), 2_001);
+    let missing = d.join("missing.csv");
+    assert_eq!(closed(&["convert", "--in", s(&missing), "--out", s(&out)]).code(), Some(1));
+}
+
 #[test]
 fn csv_headers_with_commas_and_line_breaks_survive_a_round_trip() {
     let d = tmp("quote");

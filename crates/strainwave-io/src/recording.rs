@@ -6,6 +6,7 @@
 //! [`ReadOptions`] so every command reads every format the same way.
 
 use std::collections::VecDeque;
+use std::io::Write as _;
 use std::path::Path;
 
 use crate::csv_io::{CsvReader, CsvWriter};
@@ -126,7 +127,7 @@ impl RecordingReader {
         let mut r = Self::open_with(path, &options)?;
         if options.print_warnings {
             for w in r.warnings() {
-                eprintln!("warning: {}: {w}", path.display());
+                let _ = writeln!(std::io::stderr(), "warning: {}: {w}", path.display());
             }
             r.reader_warnings.1 = true;
         }
@@ -251,7 +252,7 @@ impl RecordingReader {
             let (taken, print) = self.reader_warnings;
             for w in r.warnings().iter().skip(taken) {
                 if print {
-                    eprintln!("warning: {}: {w}", self.path.display());
+                    let _ = writeln!(std::io::stderr(), "warning: {}: {w}", self.path.display());
                 }
                 self.warnings.push(w.clone());
             }

@@ -51,7 +51,7 @@ pub fn run(a: &super::Args) -> Result<()> {
     }
     let rows = w.finish()?;
     if !a.quiet {
-        eprintln!(
+        note!(
             "simulated `{}`: {rows} rows at {} Hz ({} RK4 sub-steps per sample) -> {}",
             s.name,
             s.sample_rate_hz,

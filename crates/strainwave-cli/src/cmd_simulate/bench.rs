@@ -35,7 +35,7 @@ pub fn run(a: &super::Args) -> Result<()> {
     let rows = wtr.finish()?;
     if !a.quiet {
         let (ts, acc) = sim.clipped_samples();
-        eprintln!(
+        note!(
             "{}: {rows} rows × {} columns, {} s at {} Hz (seed {}; clipped: torsion {ts}, accelerometers {acc})",
             out.display(),
             columns.len(),
