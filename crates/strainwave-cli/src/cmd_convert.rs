@@ -85,10 +85,7 @@ pub fn run(a: &Args) -> Result<()> {
             );
         }
         if r.resample_skipped() > 0 {
-            note!(
-                "warning: {} rows with non-increasing time were left out of the resampling",
-                r.resample_skipped()
-            );
+            note!("warning: {} rows with non-increasing time were left out of the resampling", r.resample_skipped());
         }
     }
     Ok(())

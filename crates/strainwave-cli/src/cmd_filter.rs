@@ -76,12 +76,19 @@ pub fn run(a: &Args) -> Result<()> {
     if let Some(learn) = &a.learn {
         strainwave_io::output::refuse_input_as_output(learn, calibration)?;
     }
+    // Several runs merge into the learned file in turn: if one fails or the run is
+    // interrupted, the file is put back as it was.
+    let rollback = match &a.learn {
+        Some(learn) if a.input.len() > 1 => Some(strainwave_io::output::Rollback::arm(learn)?),
+        _ => None,
+    };
     let last = a.input.len() - 1;
     for (i, input) in a.input.iter().enumerate() {
         // Only the last run's output is kept; the others go nowhere.
         let out = if i == last { a.out.as_deref() } else { None };
         filter_one(a, &cfg, input, out)?;
     }
+    rollback.map(strainwave_io::output::Rollback::keep);
     Ok(())
 }
 

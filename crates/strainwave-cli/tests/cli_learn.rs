@@ -89,6 +89,15 @@ fn several_runs_in_one_call_merge_into_the_file() {
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("bad.csv"), "{}", stderr(&o));
     assert!(std::fs::read_to_string(&learned).unwrap() == text, "the learned file changed");
+    // Several runs, the last failing: the file is as it was, not merged with the first.
+    let o = run(&["filter", "--config", s(&cfg), "--learn", s(&learned), "--in", s(&b), s(&bad)]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(std::fs::read_to_string(&learned).unwrap() == text, "the learned file changed");
+    // ... and a file the first run created is gone again.
+    let fresh = d.join("fresh.toml");
+    let o = run(&["filter", "--config", s(&cfg), "--learn", s(&fresh), "--in", s(&b), s(&bad)]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(!fresh.exists());
     std::fs::remove_dir_all(&d).unwrap();
 }
 

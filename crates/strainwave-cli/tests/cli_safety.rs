@@ -318,6 +318,20 @@ fn a_closed_error_pipe_loses_messages_not_outputs() {
     assert_eq!(closed(&["convert", "--in", s(&missing), "--out", s(&out)]).code(), Some(1));
 }
 
+/// An output name near the file system's limit of 255 bytes is written (its temporary
+/// file's name is cut to fit).
+#[test]
+fn an_output_name_of_250_bytes_is_written() {
+    let d = tmp("long-name");
+    let rec = d.join("rec.csv");
+    recording(&rec, 100, |_, _| {});
+    let out = d.join(format!("{}.csv", "a".repeat(246)));
+    let o = run(&["convert", "--in", s(&rec), "--out", s(&out), "--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::read_to_string(&out).unwrap().lines().count(), 101);
+    assert_eq!(names(&d).len(), 2, "no temporary file left: {:?}", names(&d));
+}
+
 #[test]
 fn csv_headers_with_commas_and_line_breaks_survive_a_round_trip() {
     let d = tmp("quote");

@@ -21,7 +21,9 @@ use std::sync::Mutex;
 
 use crate::error::IoError;
 
+mod rollback;
 mod stale;
+pub use rollback::{restore_all, Rollback, MAX_ROLLBACK_BYTES};
 pub use stale::STALE_TEMP_AGE;
 
 /// The ending of every temporary file name.
@@ -85,7 +87,7 @@ impl AtomicFile {
         let mut last = None;
         for _ in 0..64 {
             let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-            let tmp = dir.join(format!(".{name}.{pid}-{n}{TEMP_SUFFIX}"));
+            let tmp = dir.join(format!(".{}.{pid}-{n}{TEMP_SUFFIX}", stale::temp_stem(&name)));
             match options.open(&tmp) {
                 Ok(file) => {
                     files.push(tmp.clone());

@@ -16,10 +16,25 @@ use super::TEMP_SUFFIX;
 /// later run removes it (its process gone).
 pub const STALE_TEMP_AGE: Duration = Duration::from_secs(600);
 
+/// Longest target name kept whole in its temporary files' names, bytes: with the rest
+/// of the name (at most 48 bytes) it stays within the usual limit of 255.
+const MAX_STEM_BYTES: usize = 200;
+
+/// The target name `name` as its temporary files carry it: cut to [`MAX_STEM_BYTES`] (at a
+/// character boundary), so that a target with a long valid name gets a valid one too.
+pub(super) fn temp_stem(name: &str) -> &str {
+    let mut end = name.len().min(MAX_STEM_BYTES);
+    while !name.is_char_boundary(end) {
+        end -= 1;
+    }
+    &name[..end]
+}
+
 /// The process id in a temporary file name of target `name`
 /// (`.NAME.PID-N.strainwave-tmp`), or `None` for any other file.
 fn temp_pid(file: &str, name: &str) -> Option<u32> {
-    let mid = file.strip_prefix('.')?.strip_prefix(name)?.strip_prefix('.')?.strip_suffix(TEMP_SUFFIX)?;
+    let stem = temp_stem(name);
+    let mid = file.strip_prefix('.')?.strip_prefix(stem)?.strip_prefix('.')?.strip_suffix(TEMP_SUFFIX)?;
     let (pid, n) = mid.split_once('-')?;
     let digits = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
     (digits(pid) && digits(n)).then(|| pid.parse().ok()).flatten()
@@ -60,6 +75,11 @@ mod tests {
         assert_eq!(temp_pid(".run.csv.x-4.strainwave-tmp", "run.csv"), None);
         assert_eq!(temp_pid(".run.csv.123-4.partial", "run.csv"), None);
         assert_eq!(temp_pid("run.csv", "run.csv"), None);
+        // A long name is cut in its temporaries' names, at a character boundary.
+        let long = "é".repeat(150);
+        let stem = temp_stem(&long);
+        assert_eq!((stem.len(), stem.chars().count()), (200, 100));
+        assert_eq!(temp_pid(&format!(".{stem}.7-0.strainwave-tmp"), &long), Some(7));
     }
 
     #[cfg(target_os = "linux")]
