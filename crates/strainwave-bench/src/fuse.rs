@@ -160,14 +160,8 @@ impl Fuse {
         if self.method.streams() {
             job.stream(source, create, say)
         } else {
-            let mut data = vec![Vec::new(); source.columns().len()];
-            let mut row = Vec::new();
-            while source.read_row(&mut row)? {
-                for (c, v) in data.iter_mut().zip(&row) {
-                    c.push(*v);
-                }
-            }
-            let table = Table { columns: source.columns().to_vec(), data };
+            let columns = source.columns().to_vec();
+            let table = Table::collect(Path::new(input), &columns, |row| source.read_row(row))?;
             job.offline(&table, create, say)
         }
     }

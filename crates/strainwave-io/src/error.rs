@@ -138,6 +138,20 @@ pub enum IoError {
         /// Cell text.
         value: String,
     },
+    /// A recording too large to be read whole (after resampling, if asked for).
+    #[error(
+        "{path}: more than {rows} rows of {columns} columns: too large to read whole (at most {} values); \
+         read a shorter part, fewer columns or a lower --resample-hz",
+        crate::recording::MAX_TABLE_VALUES
+    )]
+    TooLarge {
+        /// File.
+        path: PathBuf,
+        /// Rows read when the bound was passed.
+        rows: u64,
+        /// Columns per row.
+        columns: usize,
+    },
     /// A row with the wrong number of cells (e.g. a truncated last line).
     #[error("{path}: row {row} has {got} cells, the header has {want} (truncated or malformed line)")]
     RowLength {

@@ -118,12 +118,7 @@ pub struct McapTable {
 pub fn read_mcap(path: &Path) -> Result<McapTable, IoError> {
     let options = ReadOptions { align: Align::None, time: TimeSource::Log, ..ReadOptions::default() };
     let mut r = BagReader::open(path, &options)?;
-    let mut data = vec![Vec::new(); r.columns().len()];
-    let mut row = Vec::new();
-    while r.read_row(&mut row)? {
-        for (col, v) in data.iter_mut().zip(&row) {
-            col.push(*v);
-        }
-    }
-    Ok(McapTable { table: Table { columns: r.columns().to_vec(), data }, warnings: r.warnings().to_vec() })
+    let columns = r.columns().to_vec();
+    let table = Table::collect(path, &columns, |row| r.read_row(row))?;
+    Ok(McapTable { table, warnings: r.warnings().to_vec() })
 }

@@ -473,6 +473,10 @@ impl RecordingWriter {
     }
 }
 
+/// Most values a recording read whole may hold (2²⁷, 1 GiB): a larger one is an error,
+/// not an allocation that takes the machine's memory.
+pub const MAX_TABLE_VALUES: u64 = 1 << 27;
+
 /// Reads a whole recording (any format) into memory.
 pub fn read_all(path: &Path) -> Result<crate::Table, IoError> {
     read_all_with_time(path, None)
@@ -485,14 +489,8 @@ pub fn read_all_with_time(path: &Path, time: Option<&crate::Channel>) -> Result<
     if let Some(time) = time {
         r.set_time_channel(time);
     }
-    let mut data = vec![Vec::new(); r.columns().len()];
-    let mut row = Vec::new();
-    while r.read_row(&mut row)? {
-        for (c, v) in data.iter_mut().zip(&row) {
-            c.push(*v);
-        }
-    }
-    Ok(crate::Table { columns: r.columns().to_vec(), data })
+    let columns = r.columns().to_vec();
+    crate::Table::collect(path, &columns, |row| r.read_row(row))
 }
 
 #[cfg(all(test, feature = "parquet"))]

@@ -286,6 +286,40 @@ pub struct Table {
 }
 
 impl Table {
+    /// Every row `next` gives (`false`: no more), column-major, from a reader of `path`
+    /// with these columns; more than [`MAX_TABLE_VALUES`](crate::MAX_TABLE_VALUES) values
+    /// is an error (found before they are allocated).
+    pub fn collect(
+        path: &Path,
+        columns: &[String],
+        next: impl FnMut(&mut Vec<f64>) -> Result<bool, IoError>,
+    ) -> Result<Self, IoError> {
+        Self::collect_within(path, columns, crate::MAX_TABLE_VALUES, next)
+    }
+
+    /// [`Self::collect`] with at most `max_values` values.
+    fn collect_within(
+        path: &Path,
+        columns: &[String],
+        max_values: u64,
+        mut next: impl FnMut(&mut Vec<f64>) -> Result<bool, IoError>,
+    ) -> Result<Self, IoError> {
+        let mut data = vec![Vec::new(); columns.len()];
+        let mut row = Vec::new();
+        let max_rows = max_values / columns.len().max(1) as u64;
+        let mut rows = 0;
+        while next(&mut row)? {
+            rows += 1;
+            if rows > max_rows {
+                return Err(IoError::TooLarge { path: path.to_path_buf(), rows: max_rows, columns: columns.len() });
+            }
+            for (c, v) in data.iter_mut().zip(&row) {
+                c.push(*v);
+            }
+        }
+        Ok(Self { columns: columns.to_vec(), data })
+    }
+
     /// A column by name.
     pub fn column(&self, name: &str) -> Option<&[f64]> {
         self.columns.iter().position(|c| c == name).map(|i| self.data[i].as_slice())
@@ -300,14 +334,8 @@ impl Table {
 /// Reads a whole CSV recording into memory (for analyses that need every sample).
 pub fn read_table(path: &Path) -> Result<Table, IoError> {
     let mut r = CsvReader::open(path)?;
-    let mut data = vec![Vec::new(); r.columns().len()];
-    let mut row = Vec::new();
-    while r.read_row(&mut row)? {
-        for (c, v) in data.iter_mut().zip(&row) {
-            c.push(*v);
-        }
-    }
-    Ok(Table { columns: r.columns().to_vec(), data })
+    let columns = r.columns().to_vec();
+    Table::collect(path, &columns, |row| r.read_row(row))
 }
 
 #[cfg(test)]

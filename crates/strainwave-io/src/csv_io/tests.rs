@@ -614,3 +614,22 @@ fn a_preamble_above_the_header_is_named_as_such() {
     let e = reader("time,a\n0,x\n").unwrap().read_row(&mut Vec::new()).unwrap_err().to_string();
     assert_eq!(e, "rec.csv: row 1, column `a`: `x` is not a number");
 }
+
+/// A recording read whole stops with an error at its bound, before the values are held.
+#[test]
+fn a_table_beyond_its_bound_is_an_error() {
+    let columns = vec!["time".to_string(), "torque".to_string()];
+    // Five rows of (k, 2k).
+    let rows = || {
+        let mut k = 0.0;
+        move |row: &mut Vec<f64>| {
+            k += 1.0;
+            *row = vec![k, 2.0 * k];
+            Ok(k <= 5.0)
+        }
+    };
+    let t = Table::collect_within(Path::new("r.csv"), &columns, 10, rows()).unwrap();
+    assert_eq!(t.data, [vec![1.0, 2.0, 3.0, 4.0, 5.0], vec![2.0, 4.0, 6.0, 8.0, 10.0]]);
+    let e = Table::collect_within(Path::new("r.csv"), &columns, 9, rows()).unwrap_err().to_string();
+    assert!(e.starts_with("r.csv: more than 4 rows of 2 columns: too large to read whole"), "{e}");
+}
