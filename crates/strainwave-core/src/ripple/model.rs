@@ -195,7 +195,9 @@ pub struct Limits<T: Real> {
     /// the bias `ρ P_bb`. It dominates the rounding of the update so `P` stays positive
     /// in f32 over 10⁸ samples. Default `ρ = 16 ε` (f32: 1.9e-6, a forgetting time of 5·10⁵ samples;
     /// f64: 3.6e-15, invisible). The update also never lets a variance fall below its
-    /// exact lower bound `P_ii R / S`.
+    /// exact lower bound `P_ii R / S`, and a held order's variances (no measurement
+    /// updates them) never grow past the order's initial variance (or where they were,
+    /// if above it).
     pub covariance_inflation: T,
     /// With the bias state, an innovation whose NIS `e²/S` exceeds this is taken as a
     /// load step: the update is the limit `Var(b) → ∞`, so the bias takes the whole
