@@ -15,7 +15,7 @@ use strainwave_core::calibration::Calibration;
 use strainwave_core::denoise::TorqueDenoiser;
 use strainwave_core::gear::Gear;
 use strainwave_core::ripple::{PhaseSource, ReferenceValues, RippleInput, RippleModel, RippleOutput, StepFlags};
-use strainwave_joint::canceller::{build_model_with, in_config_terms, ModelVisitor};
+use strainwave_joint::canceller::{build_model_with, guarded_cold_start, in_config_terms, ModelVisitor};
 use strainwave_joint::config::ModelChoice;
 use strainwave_joint::health::Health;
 use strainwave_joint::learn::Session;
@@ -62,7 +62,7 @@ impl<const M: usize> Stream for Held<M> {
 /// Builds the model with the learned file's priors, and its canceller as `filter` does.
 struct Build<'a> {
     prior: Option<&'a OutputPrior>,
-    guard: bool,
+    cfg: &'a JointConfig,
     config: &'a str,
 }
 
@@ -71,12 +71,14 @@ impl ModelVisitor for Build<'_> {
     fn visit<const M: usize>(self, model: RippleModel<f64, M>) -> Result<Self::Output> {
         let model = match self.prior {
             Some(p) => p.file.apply(model, &p.path).with_context(|| format!("{}: `filter.learned`", self.config))?,
-            None => model,
+            // A cold `full` model under the guard starts as `filter`'s does.
+            None => guarded_cold_start(self.cfg, model)?,
         };
         let phase = model.phase_source();
         let learned_prior = self.prior.is_some();
-        let canceller = Canceller::new(&model, self.guard, learned_prior);
-        Ok((Box::new(Held { model, canceller, guard: self.guard, learned_prior }), phase))
+        let guard = self.cfg.filter.guard;
+        let canceller = Canceller::new(&model, guard, learned_prior);
+        Ok((Box::new(Held { model, canceller, guard, learned_prior }), phase))
     }
 }
 
@@ -174,7 +176,7 @@ impl RippleCanceller {
         }
         let prior = OutputPrior::load(&cfg, learn && !explicit)?;
         let extras = prior.as_ref().map(|p| p.extras.clone()).unwrap_or_default();
-        let build = Build { prior: prior.as_ref(), guard: cfg.filter.guard, config: &name };
+        let build = Build { prior: prior.as_ref(), cfg: &cfg, config: &name };
         let (stream, phase) = build_model_with(&cfg, prior.is_some(), &extras, build)?;
         let learning = if learn { Some(Learning::start(&cfg, learn_into)?) } else { None };
         let gear = cfg.gear().with_context(|| name.clone())?;

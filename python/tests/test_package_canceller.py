@@ -70,6 +70,17 @@ def assert_block_is_cli(got, cli_cols, what):
 
 
 @pytest.fixture(scope="module")
+def cold_config(tmp_path_factory):
+    """joint-taghirad.toml without its learned file: the `full` model starts cold, as the
+    guard starts it."""
+    text = CONFIG.read_text()
+    assert 'learned = "joint-taghirad-learned.toml"' in text
+    path = tmp_path_factory.mktemp("cfg") / "joint-cold.toml"
+    path.write_text(text.replace('learned = "joint-taghirad-learned.toml"', ""))
+    return path
+
+
+@pytest.fixture(scope="module")
 def velocity_config(tmp_path_factory):
     """The Taghirad 6th-order model with its phase from the tachometer (`filter.phase = "velocity"`)."""
     text = TAGHIRAD_6TH.read_text()
@@ -90,9 +101,17 @@ def health_lines(stderr):
 
 
 @pytest.mark.parametrize("guard", [True, False], ids=["guard", "bare"])
-@pytest.mark.parametrize("config", ["full", "taghirad-6th", "denoised", "velocity"])
-def test_run_is_the_cli_bit_for_bit(cli, recording, tmp_path, denoised_config, velocity_config, config, guard):
-    config = {"full": CONFIG, "taghirad-6th": TAGHIRAD_6TH, "denoised": denoised_config, "velocity": velocity_config}[config]
+@pytest.mark.parametrize("config", ["full", "cold", "taghirad-6th", "denoised", "velocity"])
+def test_run_is_the_cli_bit_for_bit(
+    cli, recording, tmp_path, cold_config, denoised_config, velocity_config, config, guard
+):
+    config = {
+        "full": CONFIG,
+        "cold": cold_config,
+        "taghirad-6th": TAGHIRAD_6TH,
+        "denoised": denoised_config,
+        "velocity": velocity_config,
+    }[config]
     expected, copy, stderr = cli_filter(cli, config, recording, tmp_path / "out.csv", guard=guard)
     rec = sw.read_recording(recording)
     c = sw.RippleCanceller.from_config(copy)

@@ -188,6 +188,10 @@ pub(crate) fn check_rate(sample_rate_hz: f64) -> Result<(), AnalysisError> {
     }
 }
 
+/// Longest FFT a segment is zero-padded to (2²⁴: 256 MiB of complex values); a segment
+/// longer than that is transformed at its own length.
+pub const MAX_PADDED_NFFT: usize = 1 << 24;
+
 impl SegmentPlan {
     /// Validates `cfg` for a signal of `len` samples; `default_overlap_div` is 2 (Welch)
     /// or 8 (spectrogram).
@@ -209,6 +213,9 @@ impl SegmentPlan {
         let nfft = cfg.nfft.unwrap_or(nperseg);
         if nfft < nperseg {
             return Err(invalid("nfft", format!("must be at least nperseg = {nperseg}, got {nfft}")));
+        }
+        if nfft > nperseg.max(MAX_PADDED_NFFT) {
+            return Err(invalid("nfft", format!("zero padding beyond {MAX_PADDED_NFFT} points, got {nfft}")));
         }
         if len < nperseg {
             return Err(AnalysisError::TooShort { what: "signal", needed: nperseg, got: len });
@@ -460,6 +467,12 @@ mod tests {
         assert!(welch(&[0.0; 100], 0.0, &cfg).is_err());
         assert!(welch(&[0.0; 100], 1.0, &cfg.clone().with_noverlap(64)).is_err());
         assert!(welch(&[0.0; 100], 1.0, &cfg.clone().with_nfft(32)).is_err());
+        // Zero padding to 2⁴⁰ or 2⁶² points is refused before anything is allocated.
+        for nfft in [1 << 40, 1 << 62, usize::MAX] {
+            let e = welch(&[0.0; 100], 1.0, &cfg.clone().with_nfft(nfft)).unwrap_err().to_string();
+            assert!(e.contains("nfft") && e.contains("zero padding beyond 16777216 points"), "{e}");
+        }
+        assert!(welch(&[0.0; 100], 1.0, &cfg.clone().with_nfft(1 << 12)).is_ok());
         assert!(welch(&[0.0; 100], 1.0, &cfg.clone().with_window(Window::Custom(vec![1.0; 3]))).is_err());
         assert!(csd(&[0.0; 100], &[0.0; 99], 1.0, &cfg).is_err());
     }

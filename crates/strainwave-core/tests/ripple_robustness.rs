@@ -6,8 +6,8 @@ mod ripple_common;
 use ripple_common::{rms, Joint, Rng, Sample};
 use std::f64::consts::TAU;
 use strainwave_core::ripple::{
-    step, step_many, BankInput, BankOutput, OrderStatus, PhaseSource, ReferenceValues, RippleBank, RippleInput,
-    RippleModel, RippleOutput, RippleState, StepFlags,
+    step, step_many, BankInput, BankOutput, Limits, Order, OrderStatus, PhaseSource, Reference, ReferenceValues,
+    RippleBank, RippleInput, RippleModel, RippleOutput, RippleState, StepFlags,
 };
 use strainwave_core::{Error, Real};
 
@@ -289,4 +289,26 @@ fn bank_equals_single_joints() {
             assert_eq!(o.flags, out.flags[j], "k {k} joint {j}");
         }
     }
+}
+
+/// A model that could only overflow is refused when it is built, naming the field:
+/// variances (initial, prior, process noise) beyond 10¹² N·m², an inflation above 1 %
+/// per sample, a sample rate outside 10⁻³–10⁹ Hz.
+#[test]
+fn absurd_model_values_are_refused_by_name() {
+    let base = || RippleModel::<f32, 3>::product(1000.0, 0.05).unwrap();
+    let order = || Order::new(Reference::Relative, 2.0_f64).unwrap();
+    assert_eq!(base().with_initial_variance(f32::MAX, 1.0).unwrap_err(), Error::OutOfRange("oscillator_nm2"));
+    assert_eq!(base().with_initial_variance(1.0, 1e13).unwrap_err(), Error::OutOfRange("bias_nm2"));
+    assert_eq!(base().with_bias_state(f32::MAX).unwrap_err(), Error::OutOfRange("q_bias_nm2"));
+    assert_eq!(order().with_noise(1e300, 0.0).unwrap_err(), Error::OutOfRange("q_per_sample_nm2"));
+    assert_eq!(order().with_prior([0.0, 0.0], 1e300).unwrap_err(), Error::OutOfRange("prior variance_nm2"));
+    let inflated = Limits { covariance_inflation: 0.5, ..Limits::default() };
+    assert_eq!(base().with_limits(inflated).unwrap_err(), Error::OutOfRange("covariance_inflation"));
+    for fs in [1e-300, 1e300] {
+        assert_eq!(RippleModel::new([order()], 0.05, fs).unwrap_err(), Error::OutOfRange("sample_rate_hz"));
+    }
+    // The bounds themselves are accepted.
+    assert!(base().with_initial_variance(1e12, 1e12).is_ok());
+    assert!(RippleModel::new([order()], 0.05, 1e9).is_ok() && RippleModel::new([order()], 0.05, 1e-3).is_ok());
 }

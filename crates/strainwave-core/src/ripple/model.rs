@@ -126,7 +126,7 @@ impl<T: Real> Order<T> {
         for v in mean_nm {
             finite(v, "prior mean_nm")?;
         }
-        self.prior_variance_nm2 = Some(positive(variance_nm2, "prior variance_nm2")?);
+        self.prior_variance_nm2 = Some(bounded(positive(variance_nm2, "prior variance_nm2")?, "prior variance_nm2")?);
         self.prior_nm = mean_nm;
         Ok(self)
     }
@@ -144,8 +144,8 @@ impl<T: Real> Order<T> {
     /// Sets the process noise `Q_i = (q_per_sample + q_per_rad |n Δθ|) I₂`, N·m².
     /// The per-radian part stops at standstill, so the oscillator cannot drift there.
     pub fn with_noise(mut self, q_per_sample_nm2: T, q_per_rad_nm2: T) -> Result<Self, Error> {
-        self.q_per_sample_nm2 = non_negative(q_per_sample_nm2, "q_per_sample_nm2")?;
-        self.q_per_rad_nm2 = non_negative(q_per_rad_nm2, "q_per_rad_nm2")?;
+        self.q_per_sample_nm2 = bounded(non_negative(q_per_sample_nm2, "q_per_sample_nm2")?, "q_per_sample_nm2")?;
+        self.q_per_rad_nm2 = bounded(non_negative(q_per_rad_nm2, "q_per_rad_nm2")?, "q_per_rad_nm2")?;
         Ok(self)
     }
 
@@ -258,12 +258,12 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
     pub fn new(orders: [Order<T>; M], noise_nm: T, sample_rate_hz: T) -> Result<Self, Error> {
         for o in &orders {
             positive(o.multiple, "multiple")?;
-            non_negative(o.q_per_sample_nm2, "q_per_sample_nm2")?;
-            non_negative(o.q_per_rad_nm2, "q_per_rad_nm2")?;
+            bounded(non_negative(o.q_per_sample_nm2, "q_per_sample_nm2")?, "q_per_sample_nm2")?;
+            bounded(non_negative(o.q_per_rad_nm2, "q_per_rad_nm2")?, "q_per_rad_nm2")?;
             finite(o.prior_nm[0], "prior mean_nm")?;
             finite(o.prior_nm[1], "prior mean_nm")?;
             if let Some(v) = o.prior_variance_nm2 {
-                positive(v, "prior variance_nm2")?;
+                bounded(positive(v, "prior variance_nm2")?, "prior variance_nm2")?;
             }
         }
         let noise_nm = positive(noise_nm, "noise_nm")?;
@@ -272,7 +272,7 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
             noise_nm,
             // A σ so small that its square underflows is refused as well.
             r_nm2: positive(noise_nm * noise_nm, "noise_nm")?,
-            sample_rate_hz: positive(sample_rate_hz, "sample_rate_hz")?,
+            sample_rate_hz: sample_rate(sample_rate_hz)?,
             bias_q_nm2: None,
             p0_oscillator_nm2: T::ONE,
             p0_bias_nm2: T::from_f64(1e4),
@@ -294,7 +294,7 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
     /// # Ok::<(), strainwave_core::Error>(())
     /// ```
     pub fn with_bias_state(mut self, q_bias_nm2: T) -> Result<Self, Error> {
-        self.bias_q_nm2 = Some(non_negative(q_bias_nm2, "q_bias_nm2")?);
+        self.bias_q_nm2 = Some(bounded(non_negative(q_bias_nm2, "q_bias_nm2")?, "q_bias_nm2")?);
         self.derive();
         Ok(self)
     }
@@ -308,8 +308,8 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
     /// # Ok::<(), strainwave_core::Error>(())
     /// ```
     pub fn with_initial_variance(mut self, oscillator_nm2: T, bias_nm2: T) -> Result<Self, Error> {
-        self.p0_oscillator_nm2 = positive(oscillator_nm2, "oscillator_nm2")?;
-        self.p0_bias_nm2 = positive(bias_nm2, "bias_nm2")?;
+        self.p0_oscillator_nm2 = bounded(positive(oscillator_nm2, "oscillator_nm2")?, "oscillator_nm2")?;
+        self.p0_bias_nm2 = bounded(positive(bias_nm2, "bias_nm2")?, "bias_nm2")?;
         self.derive();
         Ok(self)
     }
@@ -373,7 +373,9 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
             return Err(Error::OutOfRange("nyquist_fraction"));
         }
         non_negative(limits.hold_below_hz, "hold_below_hz")?;
-        non_negative(limits.covariance_inflation, "covariance_inflation")?;
+        if non_negative(limits.covariance_inflation, "covariance_inflation")? > T::from_f64(MAX_COVARIANCE_INFLATION) {
+            return Err(Error::OutOfRange("covariance_inflation"));
+        }
         non_negative(limits.load_step_nis, "load_step_nis")?;
         self.limits = limits;
         self.derive();
@@ -420,6 +422,33 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
     pub fn state_len(&self) -> usize {
         2 * M + usize::from(self.bias_q_nm2.is_some())
     }
+}
+
+/// Largest variance (initial, prior or process noise per sample) a model accepts, N·m²:
+/// a 1σ of 10⁶ N·m, beyond any joint. Larger ones only overflow the filter.
+pub const MAX_VARIANCE_NM2: f64 = 1e12;
+/// Largest covariance inflation per sample (1 %; the default is 16 ε).
+pub const MAX_COVARIANCE_INFLATION: f64 = 1e-2;
+/// Sample rates a model accepts, Hz (outside: a unit slip, not a joint).
+pub const SAMPLE_RATE_RANGE_HZ: (f64, f64) = (1e-3, 1e9);
+
+/// `x` if at most [`MAX_VARIANCE_NM2`], else `Error::OutOfRange(name)`.
+fn bounded<T: Real>(x: T, name: &'static str) -> Result<T, Error> {
+    if x <= T::from_f64(MAX_VARIANCE_NM2) {
+        Ok(x)
+    } else {
+        Err(Error::OutOfRange(name))
+    }
+}
+
+/// A sample rate within [`SAMPLE_RATE_RANGE_HZ`].
+fn sample_rate<T: Real>(fs: T) -> Result<T, Error> {
+    let fs = positive(fs, "sample_rate_hz")?;
+    let (low, high) = SAMPLE_RATE_RANGE_HZ;
+    if fs < T::from_f64(low) || fs > T::from_f64(high) {
+        return Err(Error::OutOfRange("sample_rate_hz"));
+    }
+    Ok(fs)
 }
 
 /// What the kernel precomputes from a model (refreshed whenever a builder changes it).
