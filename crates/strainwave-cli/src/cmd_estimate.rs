@@ -6,7 +6,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::Result;
+use anyhow::{bail, Result};
 use strainwave_io::{RecordingReader, RecordingWriter};
 use strainwave_joint::estimate::Estimator;
 
@@ -31,6 +31,10 @@ pub struct Args {
 /// Runs `estimate`.
 pub fn run(a: &Args) -> Result<()> {
     strainwave_io::output::refuse_input_as_output(&a.out, [a.input.as_path(), a.config.as_path()])?;
+    if strainwave_io::default_read_options().resample_hz.is_some() {
+        // Interpolated counts are not counts (and a wrap between two rows would be averaged).
+        bail!("--resample-hz interpolates the encoder counts, which must stay whole: estimate first, then resample");
+    }
     let est = Estimator::load(&a.config)?;
     // The reader's errors name the file.
     let mut reader = RecordingReader::open(&a.input)?;

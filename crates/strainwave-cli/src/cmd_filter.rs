@@ -61,6 +61,10 @@ pub fn run(a: &Args) -> Result<()> {
     if a.input.len() > 1 && a.learn.is_none() {
         bail!("several --in recordings need --learn (each is learned from in turn)");
     }
+    if a.learn.as_deref().is_some_and(strainwave_io::output::is_stdout) {
+        // The learned file is read back and merged into: it must be a file.
+        bail!("--learn -: the learned file is a file the next run merges into; name one");
+    }
     let inputs: Vec<&Path> = a.input.iter().map(PathBuf::as_path).collect();
     for out in a.out.iter().chain(&a.learn) {
         strainwave_io::output::refuse_input_as_output(out, inputs.iter().copied().chain([a.config.as_path()]))?;

@@ -255,3 +255,35 @@ fn report_lists_the_columns_when_the_time_column_is_missing() {
     error(&["report", "--in", s(&rec), "--out", s(&out)], &["daq.csv: no column `time` (columns: NI 9237 rev B)"]);
     assert!(!out.exists());
 }
+
+#[test]
+fn options_that_cannot_work_together_are_refused() {
+    let d = tmp("combinations");
+    let cfg = "../../examples/joint-taghirad.toml";
+    let rec = d.join("rec.csv");
+    let o = run(&["simulate", "--preset", "taghirad", "--duration", "0.2", "--out", s(&rec), "--quiet"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // `--learn -` would write a file named `-`.
+    error(&["filter", "--config", cfg, "--in", s(&rec), "--learn", "-"], &["--learn -: the learned file is a file"]);
+    assert!(!Path::new("-").exists() && !d.join("-").exists());
+    // Resampled encoder counts are not counts.
+    let out = d.join("e.csv");
+    let model = "../../examples/lara8-joint3.toml";
+    error(
+        &["estimate", "--config", model, "--in", s(&rec), "--out", s(&out), "--resample-hz", "500"],
+        &["--resample-hz interpolates the encoder counts"],
+    );
+    assert!(!out.exists());
+}
+
+#[test]
+fn identify_says_why_two_holdout_blocks_are_too_few_for_several_stribeck_speeds() {
+    let d = tmp("holdout2");
+    let out = d.join("m.toml");
+    let args =
+        ["identify", "--config", "../../examples/lara8-joint3.toml", "--loaded", "../../data/lara8/validate.csv"];
+    let mut with = args.to_vec();
+    with.extend(["--holdout", "2", "--out", s(&out)]);
+    error(&with, &["--holdout 2: choosing among the 5 candidates of `friction.stribeck_speed_rad_s`", "--holdout 3"]);
+    assert!(!out.exists());
+}

@@ -452,6 +452,12 @@ pub fn identify(
     }
     let holdout = match opts.holdout {
         None => None,
+        // Each block's model chooses its Stribeck speed on the other blocks, split again.
+        Some(k) if k < 3 && stribeck.len() > 1 => bail!(
+            "--holdout {k}: choosing among the {} candidates of `friction.stribeck_speed_rad_s` on each \
+             block's training rows needs at least 3 blocks; use --holdout 3 or more, or one candidate",
+            stribeck.len()
+        ),
         Some(k) => Some(holdout_scores(k, &gear, &plan, &ld_angles, &reference, &fit_opts, &stribeck)?),
     };
     let peak = reference.iter().fold(0.0f64, |m, v| m.max(v.abs()));
