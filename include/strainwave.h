@@ -592,7 +592,8 @@ typedef struct sw_output {
      */
     uint32_t guard_flags;
     /**
-     * Bit `i` set: order `i` was not applied by the guard (0 with the guard off).
+     * Bit `i` set: order `i` was not applied by the guard (0 with the guard off), or
+     * by any means on a covariance reset (`SW_ERROR_COVARIANCE`: every order's bit).
      */
     uint32_t withheld_orders;
 } sw_output;
@@ -928,7 +929,7 @@ typedef struct sw32_output {
      */
     uint32_t guard_flags;
     /**
-     * Bit `i` set: order `i` was not applied.
+     * Bit `i` set: order `i` was not applied (every order's bit on a covariance reset).
      */
     uint32_t withheld_orders;
 } sw32_output;

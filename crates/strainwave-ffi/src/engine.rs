@@ -376,6 +376,8 @@ impl<T: Real> Instance<T> {
             self.last_time_s = Some(t);
         }
         let result = with_engine!(&mut self.engine, m, c => c.step(m, &input));
+        // On a reset no order is applied: every order's bit (at most 8).
+        let every_order = with_engine!(&mut self.engine, m, _c => (1u32 << m.orders().len()) - 1);
         match result {
             Ok((o, guard_flags, withheld_orders)) => (
                 Output {
@@ -399,7 +401,7 @@ impl<T: Real> Instance<T> {
                     nis: nan,
                     flags: flags | SW_FLAG_COVARIANCE_RESET,
                     guard_flags: 0,
-                    withheld_orders: 0,
+                    withheld_orders: every_order,
                 },
                 SW_ERROR_COVARIANCE,
             ),

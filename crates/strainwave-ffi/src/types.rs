@@ -132,7 +132,8 @@ pub struct sw_output {
     pub flags: u32,
     /// `SW_GUARD_*` bits: what the do-no-harm guard did (0 with the guard off).
     pub guard_flags: u32,
-    /// Bit `i` set: order `i` was not applied by the guard (0 with the guard off).
+    /// Bit `i` set: order `i` was not applied by the guard (0 with the guard off), or
+    /// by any means on a covariance reset (`SW_ERROR_COVARIANCE`: every order's bit).
     pub withheld_orders: u32,
 }
 
@@ -349,7 +350,7 @@ pub struct sw32_output {
     pub flags: u32,
     /// `SW_GUARD_*` bits.
     pub guard_flags: u32,
-    /// Bit `i` set: order `i` was not applied.
+    /// Bit `i` set: order `i` was not applied (every order's bit on a covariance reset).
     pub withheld_orders: u32,
 }
 
