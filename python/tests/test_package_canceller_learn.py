@@ -123,3 +123,19 @@ def test_a_file_of_another_joint_is_refused_as_filter_refuses_it(cli, runs, tmp_
     with pytest.raises(sw.StrainwaveError, match="another joint"):
         c.save_learned(other)
     assert other.read_bytes() == before
+
+
+def test_saving_over_the_config_is_refused(runs, tmp_path):
+    """As `filter --learn` refuses it: the config the canceller reads is not a learned file."""
+    config = tmp_path / "joint.toml"
+    config.write_text(
+        CONFIG.read_text().replace(
+            'learned = "joint-taghirad-learned.toml"', f"learned = {str(ROOT / 'examples' / 'joint-taghirad-learned.toml')!r}"
+        )
+    )
+    before = config.read_bytes()
+    c = sw.RippleCanceller.from_config(config, learn=True)
+    c.run(sw.read_recording(runs[0]).iloc[:2000])
+    with pytest.raises(sw.StrainwaveError, match="is also an input"):
+        c.save_learned(config, merge=False)
+    assert config.read_bytes() == before
