@@ -92,7 +92,9 @@ pub fn run(a: &Args) -> Result<()> {
         let out = if i == last { a.out.as_deref() } else { None };
         filter_one(a, &cfg, input, out)?;
     }
-    rollback.map(strainwave_io::output::Rollback::keep);
+    if let Some(r) = rollback {
+        r.keep();
+    }
     Ok(())
 }
 
