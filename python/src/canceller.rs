@@ -469,7 +469,10 @@ impl RippleCanceller {
             let path = path.as_deref().or(self.learning.as_ref().and_then(|l| l.into.as_deref())).context("path")?;
             // As `filter --learn`: never over the config or the calibration file it reads.
             let calibration = self.cfg.calibration.as_ref().and_then(|c| c.file.as_deref());
-            strainwave_io::output::refuse_input_as_output(path, [self.cfg.path.as_path()].into_iter().chain(calibration))?;
+            strainwave_io::output::refuse_input_as_output(
+                path,
+                [self.cfg.path.as_path()].into_iter().chain(calibration),
+            )?;
             let header = strainwave_joint::learn::header(&self.last_input, self.samples);
             file.stage(path, &header)?.commit()?;
             Ok(lines)
