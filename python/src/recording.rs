@@ -4,30 +4,25 @@ use std::path::PathBuf;
 
 use numpy::PyReadonlyArray1;
 use pyo3::prelude::*;
-use strainwave_io::{RecordingReader, RecordingWriter};
+use strainwave_io::{RecordingReader, RecordingWriter, Table};
 
 use crate::columns::{to_numpy, Arrays, Columns};
 use crate::error::to_py;
 
 /// Reads the whole recording at `path` (CSV, Parquet, MCAP: the format its name says) into
-/// its column names and one array per column.
+/// the reader's warnings, and its column names and one array per column.
 #[pyfunction]
-pub fn read_recording(py: Python<'_>, path: PathBuf) -> PyResult<Columns<'_>> {
-    let (names, data) = py
+pub fn read_recording(py: Python<'_>, path: PathBuf) -> PyResult<(Vec<String>, Columns<'_>)> {
+    let (table, warnings) = py
         .detach(|| -> anyhow::Result<_> {
             let mut r = RecordingReader::open(&path)?;
             let names = r.columns().to_vec();
-            let mut data = vec![Vec::new(); names.len()];
-            let mut row = Vec::with_capacity(names.len());
-            while r.read_row(&mut row)? {
-                for (c, v) in data.iter_mut().zip(&row) {
-                    c.push(*v);
-                }
-            }
-            Ok((names, data))
+            let table = Table::collect(&path, &names, |row| r.read_row(row))?;
+            // What the command line prints as warnings (a log cut short, repeated stamps).
+            Ok((table, r.warnings().to_vec()))
         })
         .map_err(to_py)?;
-    Ok((names, to_numpy(py, data)))
+    Ok((warnings, (table.columns, to_numpy(py, table.data))))
 }
 
 /// Writes the columns `arrays` named `names` to `path` (CSV or Parquet by its name), as

@@ -18,12 +18,13 @@ from .bench import fuse
 from .calibrate import calibrate
 from .encoders import Identified, estimate, identify
 from .canceller import RippleCanceller
-from .recording import filter_recording, read_recording, simulate, write_recording
+from .recording import RecordingWarning, filter_recording, read_recording, simulate, write_recording
 from .spectra import orders, sample_rate_hz, stft, welch
 
 __all__ = [
     "Identified",
     "OUTPUT_COLUMNS",
+    "RecordingWarning",
     "RippleCanceller",
     "StrainwaveError",
     "calibrate",

@@ -4,6 +4,7 @@ from .calibrate import calibrate as calibrate
 from .encoders import Identified as Identified, estimate as estimate, identify as identify
 from .canceller import RippleCanceller as RippleCanceller
 from .recording import (
+    RecordingWarning as RecordingWarning,
     filter_recording as filter_recording,
     read_recording as read_recording,
     simulate as simulate,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import warnings
 from typing import Any, Mapping, Optional, Sequence, Union
 
 import numpy as np
@@ -51,9 +52,16 @@ def _columns(data: Any, input_name: str) -> tuple[list[str], list[np.ndarray]]:
     return names, arrays
 
 
+class RecordingWarning(UserWarning):
+    """What a reader warns of as the command line does: a log cut short (the rows before
+    the cut are read), messages at a repeated time, channels left out."""
+
+
 def read_recording(path: PathLike) -> pd.DataFrame:
     """Reads a whole recording, in any format the command line reads (CSV, Parquet, MCAP,
-    by the file's name), into a DataFrame of float64 columns in the file's order.
+    by the file's name), into a DataFrame of float64 columns in the file's order. What the
+    reader warns of is raised as :class:`RecordingWarning` and kept in
+    ``df.attrs["strainwave_warnings"]``.
 
     Example::
 
@@ -62,8 +70,12 @@ def read_recording(path: PathLike) -> pd.DataFrame:
         [0.0, 0.001]
     """
     path = os.fspath(path)
-    names, arrays = _native.read_recording(path)
-    return _frame(names, arrays, source=path)
+    warned, (names, arrays) = _native.read_recording(path)
+    df = _frame(names, arrays, source=path)
+    df.attrs["strainwave_warnings"] = list(warned)
+    for w in warned:
+        warnings.warn(f"{path}: {w}", RecordingWarning, stacklevel=2)
+    return df
 
 
 def write_recording(data: Any, path: PathLike) -> int:

@@ -181,3 +181,22 @@ def test_a_log_without_messages_is_an_error_not_a_crash(tmp_path, cli):
     res = cli("convert", "--in", tmp_path / "head.mcap", "--out", tmp_path / "head.csv")
     assert res.returncode == 1 and "ends before its first message" in res.stderr, res.stderr
     assert data and not (tmp_path / "none.csv").exists() and not (tmp_path / "head.csv").exists()
+
+
+def test_the_package_reads_a_cut_log_with_a_warning(tmp_path):
+    # Before: `read_recording` returned the rows before the cut as if the log were whole.
+    sw = pytest.importorskip("strainwave", reason="pip install ./python (./scripts/test-all does)")
+    data = float64_log(tmp_path / "full.mcap", 300, True)
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: int(len(data) * 0.6)])
+    with pytest.warns(sw.RecordingWarning, match="cut.mcap: .*ends before its footer"):
+        df = sw.read_recording(cut)
+    assert 0 < len(df) < 300
+    assert len(df.attrs["strainwave_warnings"]) == 1
+    # A whole log: no warning.
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", sw.RecordingWarning)
+        whole = sw.read_recording(tmp_path / "full.mcap")
+    assert len(whole) == 300 and whole.attrs["strainwave_warnings"] == []
