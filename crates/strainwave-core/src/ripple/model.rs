@@ -126,7 +126,7 @@ impl<T: Real> Order<T> {
         for v in mean_nm {
             finite(v, "prior mean_nm")?;
         }
-        self.prior_variance_nm2 = Some(bounded(positive(variance_nm2, "prior variance_nm2")?, "prior variance_nm2")?);
+        self.prior_variance_nm2 = Some(variance(variance_nm2, "prior variance_nm2")?);
         self.prior_nm = mean_nm;
         Ok(self)
     }
@@ -144,8 +144,8 @@ impl<T: Real> Order<T> {
     /// Sets the process noise `Q_i = (q_per_sample + q_per_rad |n Δθ|) I₂`, N·m².
     /// The per-radian part stops at standstill, so the oscillator cannot drift there.
     pub fn with_noise(mut self, q_per_sample_nm2: T, q_per_rad_nm2: T) -> Result<Self, Error> {
-        self.q_per_sample_nm2 = bounded(non_negative(q_per_sample_nm2, "q_per_sample_nm2")?, "q_per_sample_nm2")?;
-        self.q_per_rad_nm2 = bounded(non_negative(q_per_rad_nm2, "q_per_rad_nm2")?, "q_per_rad_nm2")?;
+        self.q_per_sample_nm2 = noise_q(q_per_sample_nm2, "q_per_sample_nm2")?;
+        self.q_per_rad_nm2 = noise_q(q_per_rad_nm2, "q_per_rad_nm2")?;
         Ok(self)
     }
 
@@ -258,12 +258,12 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
     pub fn new(orders: [Order<T>; M], noise_nm: T, sample_rate_hz: T) -> Result<Self, Error> {
         for o in &orders {
             positive(o.multiple, "multiple")?;
-            bounded(non_negative(o.q_per_sample_nm2, "q_per_sample_nm2")?, "q_per_sample_nm2")?;
-            bounded(non_negative(o.q_per_rad_nm2, "q_per_rad_nm2")?, "q_per_rad_nm2")?;
+            noise_q(o.q_per_sample_nm2, "q_per_sample_nm2")?;
+            noise_q(o.q_per_rad_nm2, "q_per_rad_nm2")?;
             finite(o.prior_nm[0], "prior mean_nm")?;
             finite(o.prior_nm[1], "prior mean_nm")?;
             if let Some(v) = o.prior_variance_nm2 {
-                bounded(positive(v, "prior variance_nm2")?, "prior variance_nm2")?;
+                variance(v, "prior variance_nm2")?;
             }
         }
         let noise_nm = positive(noise_nm, "noise_nm")?;
@@ -294,7 +294,7 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
     /// # Ok::<(), strainwave_core::Error>(())
     /// ```
     pub fn with_bias_state(mut self, q_bias_nm2: T) -> Result<Self, Error> {
-        self.bias_q_nm2 = Some(bounded(non_negative(q_bias_nm2, "q_bias_nm2")?, "q_bias_nm2")?);
+        self.bias_q_nm2 = Some(noise_q(q_bias_nm2, "q_bias_nm2")?);
         self.derive();
         Ok(self)
     }
@@ -308,8 +308,8 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
     /// # Ok::<(), strainwave_core::Error>(())
     /// ```
     pub fn with_initial_variance(mut self, oscillator_nm2: T, bias_nm2: T) -> Result<Self, Error> {
-        self.p0_oscillator_nm2 = bounded(positive(oscillator_nm2, "oscillator_nm2")?, "oscillator_nm2")?;
-        self.p0_bias_nm2 = bounded(positive(bias_nm2, "bias_nm2")?, "bias_nm2")?;
+        self.p0_oscillator_nm2 = variance(oscillator_nm2, "oscillator_nm2")?;
+        self.p0_bias_nm2 = variance(bias_nm2, "bias_nm2")?;
         self.derive();
         Ok(self)
     }
@@ -439,6 +439,16 @@ fn bounded<T: Real>(x: T, name: &'static str) -> Result<T, Error> {
     } else {
         Err(Error::OutOfRange(name))
     }
+}
+
+/// A variance: positive, finite, at most [`MAX_VARIANCE_NM2`].
+fn variance<T: Real>(x: T, name: &'static str) -> Result<T, Error> {
+    bounded(positive(x, name)?, name)
+}
+
+/// A process noise: non-negative, finite, at most [`MAX_VARIANCE_NM2`].
+fn noise_q<T: Real>(x: T, name: &'static str) -> Result<T, Error> {
+    bounded(non_negative(x, name)?, name)
 }
 
 /// A sample rate within [`SAMPLE_RATE_RANGE_HZ`].
