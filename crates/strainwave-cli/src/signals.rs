@@ -17,6 +17,7 @@ pub fn install() {
         if let Some(sig) = signals.forever().next() {
             // Held until exit: no new temporary file appears after the cleanup.
             let _registry = strainwave_io::output::remove_live_temps();
+            // With the registry held, the run renames nothing over what is put back.
             strainwave_io::output::restore_all();
             std::process::exit(128 + sig);
         }

@@ -64,11 +64,24 @@ pub fn restore_all() {
     }
 }
 
+/// Puts `path` back (best effort): the old bytes written beside it and renamed over it, or
+/// the file removed. Not through [`super::AtomicFile`]: a signal handler calls this with
+/// the registry of temporary files locked, which also holds back the run's own renames.
 fn put_back(path: &Path, before: Option<&[u8]>) {
-    let _ = match before {
-        Some(bytes) => super::write_file(path, bytes),
-        None => std::fs::remove_file(path).map_err(|source| IoError::Os { path: path.to_path_buf(), source }),
+    let Some(bytes) = before else {
+        let _ = std::fs::remove_file(path);
+        return;
     };
+    let name = path.file_name().map(|n| super::stale::temp_stem(&n.to_string_lossy()).to_string());
+    let tmp = path.with_file_name(format!(
+        ".{}.{}-rollback{}",
+        name.unwrap_or_default(),
+        std::process::id(),
+        super::TEMP_SUFFIX
+    ));
+    if std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path)).is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
 }
 
 #[cfg(test)]
