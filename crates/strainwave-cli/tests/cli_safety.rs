@@ -257,6 +257,37 @@ fn sigterm_sigint_and_sighup_remove_the_temporary_file_and_exit_128_plus_the_sig
     }
 }
 
+/// `filter --learn` over two inputs, interrupted while it waits for the second (a named
+/// pipe nobody writes): the learned file, merged with the first run by then, is put back
+/// as it was, and the process exits 130 (it does not hang).
+#[cfg(unix)]
+#[test]
+fn an_interrupted_learning_over_several_inputs_puts_the_learned_file_back() {
+    let d = tmp("learn-interrupted");
+    let rec = d.join("rec.csv");
+    assert!(simulate(&rec, "2").status.success());
+    let learned = d.join("learned.toml");
+    std::fs::copy("../../examples/joint-taghirad-learned.toml", &learned).unwrap();
+    let before = std::fs::read(&learned).unwrap();
+    let fifo = d.join("second.csv");
+    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    let config = "../../examples/joint-taghirad.toml";
+    let mut child = bin()
+        .args(["filter", "--config", config, "--in", s(&rec), s(&fifo), "--learn", s(&learned), "--quiet"])
+        .spawn()
+        .unwrap();
+    // The first run has merged into the file: then interrupt.
+    let t0 = std::time::Instant::now();
+    while std::fs::read(&learned).unwrap() == before && t0.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    assert_ne!(std::fs::read(&learned).unwrap(), before, "the first run merged nothing");
+    assert!(Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap().success());
+    assert_eq!(child.wait().unwrap().code(), Some(130));
+    assert_eq!(std::fs::read(&learned).unwrap(), before);
+    assert_eq!(names(&d), ["learned.toml", "rec.csv", "second.csv"]);
+}
+
 #[test]
 fn after_sigkill_the_left_temporary_is_hidden_and_taken_for_no_recording() {
     let d = tmp("kill");
