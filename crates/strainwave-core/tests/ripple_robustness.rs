@@ -231,18 +231,16 @@ fn velocity_form_matches_angle_form_at_constant_speed() {
 
 #[test]
 fn bad_covariance_is_an_error_not_a_panic() {
-    let model =
-        RippleModel::<f32, 2>::taghirad_4th_order(1000.0).unwrap().with_initial_variance(f32::MAX, 1.0).unwrap();
+    // An initial variance that can only overflow is refused when the model is built; the
+    // largest one accepted runs in f32.
+    let base = RippleModel::<f32, 2>::taghirad_4th_order(1000.0).unwrap();
+    assert_eq!(base.with_initial_variance(f32::MAX, 1.0).unwrap_err(), Error::OutOfRange("oscillator_nm2"));
+    let model = base.with_initial_variance(1e12, 1.0).unwrap();
     let mut state = RippleState::new(&model);
-    let mut errors = 0;
     for k in 0..50 {
         let r = step(&model, &mut state, &RippleInput::new(1.0, ReferenceValues::new(0.1 * k as f32, 0.0, 0.0)));
-        if let Err(e) = r {
-            assert_eq!(e, Error::NotPositiveDefinite("ripple covariance"));
-            errors += 1;
-        }
+        assert!(r.is_ok_and(|o| o.torque_nm.is_finite()), "sample {k}");
     }
-    assert!(errors > 0);
     // A finite but huge measurement overflows the innovation: reported, then recovered.
     let model = RippleModel::<f32, 2>::taghirad_4th_order(1000.0).unwrap();
     let mut state = RippleState::new(&model);
