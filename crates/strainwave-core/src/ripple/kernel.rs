@@ -537,9 +537,8 @@ fn time_update<T: Real, const M: usize, const J: usize, const F: bool, const BIA
         };
         let keep = d.keep[i];
         let fresh = q + plan.p0_nm2[i];
-        // A held order (kept, not updated) forgets toward its prior, never past it: its
-        // variances grow to its initial one at most (or stay where they were, if above),
-        // where the inflation alone would grow them without bound.
+        // A held order (kept, not updated) forgets toward its prior, never past it (the
+        // inflation alone would grow its variances without bound).
         let held = keep & !d.active[i];
         let p0 = L::splat(plan.p0_nm2[i]);
         let (v0, v1) = (held.select(v0.min(L(blk[0][0]).max(p0)), v0), held.select(v1.min(L(blk[1][1]).max(p0)), v1));

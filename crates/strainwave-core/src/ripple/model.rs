@@ -126,7 +126,7 @@ impl<T: Real> Order<T> {
         for v in mean_nm {
             finite(v, "prior mean_nm")?;
         }
-        self.prior_variance_nm2 = Some(variance(variance_nm2, "prior variance_nm2")?);
+        self.prior_variance_nm2 = Some(variance(variance_nm2, false, "prior variance_nm2")?);
         self.prior_nm = mean_nm;
         Ok(self)
     }
@@ -144,8 +144,8 @@ impl<T: Real> Order<T> {
     /// Sets the process noise `Q_i = (q_per_sample + q_per_rad |n Δθ|) I₂`, N·m².
     /// The per-radian part stops at standstill, so the oscillator cannot drift there.
     pub fn with_noise(mut self, q_per_sample_nm2: T, q_per_rad_nm2: T) -> Result<Self, Error> {
-        self.q_per_sample_nm2 = noise_q(q_per_sample_nm2, "q_per_sample_nm2")?;
-        self.q_per_rad_nm2 = noise_q(q_per_rad_nm2, "q_per_rad_nm2")?;
+        self.q_per_sample_nm2 = variance(q_per_sample_nm2, true, "q_per_sample_nm2")?;
+        self.q_per_rad_nm2 = variance(q_per_rad_nm2, true, "q_per_rad_nm2")?;
         Ok(self)
     }
 
@@ -258,12 +258,12 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
     pub fn new(orders: [Order<T>; M], noise_nm: T, sample_rate_hz: T) -> Result<Self, Error> {
         for o in &orders {
             positive(o.multiple, "multiple")?;
-            noise_q(o.q_per_sample_nm2, "q_per_sample_nm2")?;
-            noise_q(o.q_per_rad_nm2, "q_per_rad_nm2")?;
+            variance(o.q_per_sample_nm2, true, "q_per_sample_nm2")?;
+            variance(o.q_per_rad_nm2, true, "q_per_rad_nm2")?;
             finite(o.prior_nm[0], "prior mean_nm")?;
             finite(o.prior_nm[1], "prior mean_nm")?;
             if let Some(v) = o.prior_variance_nm2 {
-                variance(v, "prior variance_nm2")?;
+                variance(v, false, "prior variance_nm2")?;
             }
         }
         let noise_nm = positive(noise_nm, "noise_nm")?;
@@ -294,7 +294,7 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
     /// # Ok::<(), strainwave_core::Error>(())
     /// ```
     pub fn with_bias_state(mut self, q_bias_nm2: T) -> Result<Self, Error> {
-        self.bias_q_nm2 = Some(noise_q(q_bias_nm2, "q_bias_nm2")?);
+        self.bias_q_nm2 = Some(variance(q_bias_nm2, true, "q_bias_nm2")?);
         self.derive();
         Ok(self)
     }
@@ -308,8 +308,8 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
     /// # Ok::<(), strainwave_core::Error>(())
     /// ```
     pub fn with_initial_variance(mut self, oscillator_nm2: T, bias_nm2: T) -> Result<Self, Error> {
-        self.p0_oscillator_nm2 = variance(oscillator_nm2, "oscillator_nm2")?;
-        self.p0_bias_nm2 = variance(bias_nm2, "bias_nm2")?;
+        self.p0_oscillator_nm2 = variance(oscillator_nm2, false, "oscillator_nm2")?;
+        self.p0_bias_nm2 = variance(bias_nm2, false, "bias_nm2")?;
         self.derive();
         Ok(self)
     }
@@ -432,33 +432,18 @@ pub const MAX_COVARIANCE_INFLATION: f64 = 1e-2;
 /// Sample rates a model accepts, Hz (outside: a unit slip, not a joint).
 pub const SAMPLE_RATE_RANGE_HZ: (f64, f64) = (1e-3, 1e9);
 
-/// `x` if at most [`MAX_VARIANCE_NM2`], else `Error::OutOfRange(name)`.
-fn bounded<T: Real>(x: T, name: &'static str) -> Result<T, Error> {
-    if x <= T::from_f64(MAX_VARIANCE_NM2) {
-        Ok(x)
-    } else {
-        Err(Error::OutOfRange(name))
-    }
-}
-
-/// A variance: positive, finite, at most [`MAX_VARIANCE_NM2`].
-fn variance<T: Real>(x: T, name: &'static str) -> Result<T, Error> {
-    bounded(positive(x, name)?, name)
-}
-
-/// A process noise: non-negative, finite, at most [`MAX_VARIANCE_NM2`].
-fn noise_q<T: Real>(x: T, name: &'static str) -> Result<T, Error> {
-    bounded(non_negative(x, name)?, name)
+/// A variance (`zero_ok`: or a process noise, which may be 0), finite and at most
+/// [`MAX_VARIANCE_NM2`]; else the error naming it.
+fn variance<T: Real>(x: T, zero_ok: bool, name: &'static str) -> Result<T, Error> {
+    let x = if zero_ok { non_negative(x, name)? } else { positive(x, name)? };
+    (x <= T::from_f64(MAX_VARIANCE_NM2)).then_some(x).ok_or(Error::OutOfRange(name))
 }
 
 /// A sample rate within [`SAMPLE_RATE_RANGE_HZ`].
 fn sample_rate<T: Real>(fs: T) -> Result<T, Error> {
-    let fs = positive(fs, "sample_rate_hz")?;
-    let (low, high) = SAMPLE_RATE_RANGE_HZ;
-    if fs < T::from_f64(low) || fs > T::from_f64(high) {
-        return Err(Error::OutOfRange("sample_rate_hz"));
-    }
-    Ok(fs)
+    let (fs, (low, high)) = (positive(fs, "sample_rate_hz")?, SAMPLE_RATE_RANGE_HZ);
+    let inside = fs >= T::from_f64(low) && fs <= T::from_f64(high);
+    inside.then_some(fs).ok_or(Error::OutOfRange("sample_rate_hz"))
 }
 
 /// What the kernel precomputes from a model (refreshed whenever a builder changes it).
