@@ -251,8 +251,8 @@
 #define SW_GUARD_STANDSTILL_BOUND (1 << 3)
 
 /**
- * `sw_output.guard_flags` bit: a load-scaled order was not applied on a sample that undid
- * the load step of the one before (a glitch: the load that scales it is not known).
+ * `sw_output.guard_flags` bit: a load-scaled order was not applied on a load step that is
+ * a glitch (of the torque or the expected torque: the load that scales it is not known).
  */
 #define SW_GUARD_LOAD_STEP_WITHHELD (1 << 4)
 

@@ -14,7 +14,7 @@ use pyo3::types::PyDict;
 use strainwave_core::calibration::Calibration;
 use strainwave_core::denoise::TorqueDenoiser;
 use strainwave_core::gear::Gear;
-use strainwave_core::ripple::{PhaseSource, ReferenceValues, RippleInput, RippleModel, RippleOutput, StepFlags};
+use strainwave_core::ripple::{PhaseSource, ReferenceValues, RippleInput, RippleModel, RippleOutput};
 use strainwave_joint::canceller::{build_model_with, guarded_cold_start, in_config_terms, ModelVisitor};
 use strainwave_joint::config::ModelChoice;
 use strainwave_joint::health::Health;
@@ -269,7 +269,7 @@ impl RippleCanceller {
             );
         }
         let denoised = match self.denoiser.as_mut() {
-            Some(d) => d.step(o.torque_nm, o.flags.contains(StepFlags::LOAD_STEP)),
+            Some(d) => d.step(o.torque_nm, o.flags),
             None => f64::NAN,
         };
         Ok((o, bits, denoised))

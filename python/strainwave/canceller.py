@@ -213,5 +213,15 @@ class RippleCanceller:
         """Samples for which the calibration extrapolated beyond its speed table."""
         return self._native.extrapolated
 
+    def __copy__(self) -> "RippleCanceller":
+        # A shallow copy would wrap the same native state: stepping one would step both.
+        raise TypeError(
+            "RippleCanceller cannot be copied: its state is native; start another with "
+            "RippleCanceller.from_config (from a file save_learned wrote, to carry what it learned)"
+        )
+
+    def __deepcopy__(self, memo: Any) -> "RippleCanceller":
+        return self.__copy__()
+
     def __repr__(self) -> str:
         return f"RippleCanceller.from_config({self._native.config!r}) after {self.samples} samples"

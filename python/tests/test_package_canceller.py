@@ -172,6 +172,28 @@ def test_nan_samples_are_flagged_not_errors(recording):
     assert np.isfinite(out["torque"][101:]).all()
 
 
+def test_an_overrange_code_is_skipped_and_the_canceller_goes_on(recording):
+    rec = sw.read_recording(recording).iloc[:400].copy()
+    rec.loc[250, "bridge_voltage"] = 9.9e37  # a DAQ's overrange code
+    c = sw.RippleCanceller.from_config(CONFIG)
+    out = c.run(rec)
+    skipped = 1  # StepFlags::MEASUREMENT_SKIPPED
+    assert int(out["filter_flags"][250]) & skipped
+    assert np.isnan(out["nis"][250])
+    assert np.abs(out["torque"][251:]).max() < 100.0
+    # The next call goes on from there.
+    assert np.isfinite(c.run(rec.iloc[:50])["torque"]).all()
+
+
+def test_a_canceller_is_not_copied_by_reference():
+    import copy
+
+    c = sw.RippleCanceller.from_config(CONFIG)
+    for how in (copy.copy, copy.deepcopy):
+        with pytest.raises(TypeError, match="cannot be copied"):
+            how(c)
+
+
 def test_errors_are_the_cli_messages(cli, recording, tmp_path):
     df = sw.read_recording(recording).rename(columns={"output_angle": "out_angle"})
     bad = tmp_path / "renamed.csv"

@@ -257,7 +257,9 @@ pub struct OrderSlice {
     pub phase_rad: Vec<f64>,
 }
 
-/// Order slice of `signal` for order `order` (see the module doc).
+/// Order slice of `signal` for order `order` (see the module doc). Blocks in which the
+/// order reaches the Nyquist frequency are left out (what they hold is an alias); an order
+/// above it at every speed is an error.
 ///
 /// ```
 /// use strainwave_analysis::campbell::{order_slice, OrderSliceConfig};
@@ -346,7 +348,7 @@ pub fn order_slice(
             continue;
         }
         j += 1.0;
-        let (mut x, mut wsum, mut vsum) = (Complex::new(0.0, 0.0), 0.0, 0.0);
+        let (mut x, mut wsum, mut vsum, mut fastest) = (Complex::new(0.0, 0.0), 0.0, 0.0, 0.0f64);
         for i in i0..i1 {
             let u = (theta[i] - a) / b;
             // dθ = v dt: the weights make the sum an integral over the angle.
@@ -354,8 +356,10 @@ pub fn order_slice(
             x += Complex::from_polar(w * signal[i], -std::f64::consts::TAU * order * theta[i]);
             wsum += w;
             vsum += speed_rpm[i];
+            fastest = fastest.max(speed_rpm[i]);
         }
-        if wsum <= 0.0 {
+        // A block in which the order reaches the Nyquist frequency holds an alias of it.
+        if wsum <= 0.0 || order * fastest / 60.0 >= nyquist_hz {
             continue;
         }
         let x = x / wsum;
@@ -410,6 +414,9 @@ mod tests {
             assert!(matches!(e, AnalysisError::Invalid { what: "order", .. }), "{e}");
             assert!(e.to_string().contains("Nyquist"), "{e}");
         }
-        assert!(order_slice(&x, &v, 1000.0, 40.0, &cfg).is_ok());
+        // Order 40 reaches Nyquist at 750 rpm: the blocks beyond are aliases, not shown.
+        let s = order_slice(&x, &v, 1000.0, 40.0, &cfg).unwrap();
+        assert!(!s.speed_rpm.is_empty());
+        assert!(s.speed_rpm.iter().all(|v| *v < 750.0), "{:?}", s.speed_rpm.last());
     }
 }

@@ -545,12 +545,15 @@ mod tests {
         let inputs: Vec<_> =
             (0..500).map(|k| RippleInput::new(1.0f32, ReferenceValues::new(0.05 * k as f32, 0.0, 0.0))).collect();
         assert_eq!(smooth(&model, &inputs).unwrap().smoothed.len(), 500);
-        // Torques the bias cannot hold (its jump overflows): the filter's error, at its index.
-        let biased = model.with_bias_state(1e-2).unwrap();
-        let mut bad = inputs.clone();
-        bad[1] = RippleInput::new(f32::MAX, ReferenceValues::new(0.05, 0.0, 0.0));
-        bad[2] = RippleInput::new(-f32::MAX, ReferenceValues::new(0.1, 0.0, 0.0));
-        let e = smooth(&biased, &bad).map(|_| ()).unwrap_err();
+        // A load that overflows the load-scaled orders' innovation variance (an expected
+        // torque of 10³⁰ N·m, matched by the torque): the filter's error, at its index.
+        let full = RippleModel::<f32, 5>::full(1000.0, 0.01).unwrap();
+        let mut bad: Vec<_> = (0..500)
+            .map(|k| RippleInput::new(1.0f32, ReferenceValues::new(0.05 * k as f32, 0.0, 0.05 * k as f32)))
+            .collect();
+        bad[2] = bad[2].with_expected_torque(1e30);
+        bad[2].torque_nm = 1e30;
+        let e = smooth(&full, &bad).map(|_| ()).unwrap_err();
         assert!(matches!(e, SmootherError::Filter { index: 2, .. }), "{e:?}");
         assert!(smooth(&model, &[]).unwrap().smoothed.is_empty());
     }

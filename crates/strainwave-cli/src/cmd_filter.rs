@@ -22,8 +22,7 @@ pub struct Args {
     /// Output recording: the input columns plus torque, ripple, misalignment, innovation, nis,
     /// filter_flags (bits 0-7 the canceller's, 8-12 the do-no-harm guard's: pass-through,
     /// order withheld, order contradicted, standstill bound, load-scaled order withheld
-    /// after a glitch; bit 16 + i: order i not
-    /// applied); then torque_denoised when the config sets `filter.torque_bandwidth_hz`
+    /// on a glitched load step; bit 16 + i: order i not applied); then torque_denoised when the config sets `filter.torque_bandwidth_hz`
     /// (causal, the clean torque filtered as a torque state: group delay at DC
     /// (1 − α)/(α fs) with α = 1 − exp(−2π f/fs), about 1/(2π f), e.g. 16 ms at 10 Hz; load
     /// steps restart it); then, with --smooth, torque_smoothed and torque_smoothed_sd.

@@ -10,19 +10,21 @@
 //! ```
 //!
 //! (`τ ≈ 1 / (2π f_c)` when `f_c ≪ fs`.) A load step the canceller detected restarts the
-//! state at the sample, so steps pass without the low-pass's delay; a sample with a
-//! non-finite torque leaves the state as it is.
+//! state at the sample, so steps pass without the low-pass's delay; a sample whose
+//! measurement the canceller skipped, or a non-finite torque, leaves the state as it is.
 //!
 //! ```
 //! use strainwave_core::denoise::TorqueDenoiser;
+//! use strainwave_core::ripple::StepFlags;
 //! let mut d = TorqueDenoiser::<f64>::new(10.0, 1000.0)?;
-//! let out = d.step(2.0, false);
+//! let out = d.step(2.0, StepFlags::empty());
 //! assert_eq!(out, 2.0); // the first sample starts the state
 //! assert!((d.group_delay_s() - 0.0154).abs() < 1e-3);
 //! # Ok::<(), strainwave_core::Error>(())
 //! ```
 
 use crate::error::{positive, Error};
+use crate::ripple::StepFlags;
 use crate::Real;
 
 /// First-order torque-state filter of a set bandwidth (see the module).
@@ -60,11 +62,12 @@ impl<T: Real> TorqueDenoiser<T> {
         (T::ONE - self.alpha) / (self.alpha * self.sample_rate_hz)
     }
 
-    /// Filters one sample of clean torque `torque_nm`; `load_step`: the canceller
-    /// flagged a load step at this sample (the state restarts there). A non-finite
-    /// torque returns the state unchanged (NaN before the first finite sample).
-    pub fn step(&mut self, torque_nm: T, load_step: bool) -> T {
-        if !torque_nm.is_finite() {
+    /// Filters one sample of clean torque `torque_nm` with the canceller's `flags`: a
+    /// load step restarts the state there; a skipped measurement or a non-finite torque
+    /// returns the state unchanged (NaN before the first finite sample).
+    pub fn step(&mut self, torque_nm: T, flags: StepFlags) -> T {
+        let load_step = flags.contains(StepFlags::LOAD_STEP);
+        if !torque_nm.is_finite() || flags.contains(StepFlags::MEASUREMENT_SKIPPED) {
             return self.state_nm.unwrap_or(T::from_f64(f64::NAN));
         }
         let next = match self.state_nm {
@@ -94,7 +97,7 @@ mod tests {
         let mut out = 0.0;
         let n = 5000;
         for k in 0..n {
-            out = d.step(slope_nm_per_s * k as f64 / fs, false);
+            out = d.step(slope_nm_per_s * k as f64 / fs, StepFlags::empty());
         }
         let truth = slope_nm_per_s * (n - 1) as f64 / fs;
         let lag_s = (truth - out) / slope_nm_per_s;
@@ -115,7 +118,7 @@ mod tests {
         };
         let (mut sum, n) = (0.0, 200_000);
         for k in 0..n {
-            let y = d.step(5.0 + noise(), false);
+            let y = d.step(5.0 + noise(), StepFlags::empty());
             if k > 1000 {
                 sum += (y - 5.0) * (y - 5.0);
             }
@@ -125,8 +128,10 @@ mod tests {
         let ratio = (sum / (n - 1001) as f64).sqrt() / (a / (2.0 - a)).sqrt();
         assert!((ratio - 1.0).abs() < 0.05, "noise ratio {ratio}");
         // A flagged step is taken at once; a NaN keeps the state.
-        assert_eq!(d.step(12.0, true), 12.0);
-        assert_eq!(d.step(f64::NAN, false), 12.0);
+        assert_eq!(d.step(12.0, StepFlags::LOAD_STEP), 12.0);
+        assert_eq!(d.step(f64::NAN, StepFlags::empty()), 12.0);
+        // So does a measurement the canceller skipped (an overrange code passes through).
+        assert_eq!(d.step(9.9e37, StepFlags::MEASUREMENT_SKIPPED), 12.0);
     }
 
     #[test]
@@ -137,9 +142,9 @@ mod tests {
         assert!(TorqueDenoiser::<f32>::new(10.0, 0.0).is_err());
         assert_eq!(TorqueDenoiser::<f32>::new(1e-30, 1000.0), Err(Error::OutOfRange("torque_bandwidth_hz")));
         let mut d = TorqueDenoiser::<f32>::new(10.0, 1000.0).unwrap();
-        assert!(d.step(f32::NAN, false).is_nan());
-        d.step(1.0, false);
+        assert!(d.step(f32::NAN, StepFlags::empty()).is_nan());
+        d.step(1.0, StepFlags::empty());
         d.reset();
-        assert_eq!(d.step(3.0, false), 3.0);
+        assert_eq!(d.step(3.0, StepFlags::empty()), 3.0);
     }
 }

@@ -37,10 +37,12 @@
 //! had at its last moving sample (zero if it never moved), so what the filter removes
 //! there is bounded by what it learned while moving.
 //!
-//! A load step that the next sample undoes (two load steps in a row, their innovations of
-//! opposite signs) was a glitch, and the bias estimate that scales the load-scaled orders
-//! on that next sample is wrong by the glitch: those orders are not applied there. (A real
-//! step's innovations keep their sign while the bias settles, and the orders stay applied.)
+//! A load step (an innovation beyond the canceller's limit) that is a glitch puts the load
+//! `|T_exp + b̂|` that scales the load-scaled orders far off: a jump of the expected torque
+//! by more than the load (the glitch, and its undoing), or the bias that took a glitch of
+//! the torque and gives it back (the load steps in a row from the one that undoes it).
+//! Those orders are not applied there, and their statistics not updated. A real step's
+//! innovations keep their sign while the bias takes it, and the orders stay applied.
 //!
 //! ```
 //! use strainwave_core::guard::{Guard, GuardSettings};
@@ -192,8 +194,9 @@ impl GuardFlags {
     pub const CONTRADICTED: Self = Self(1 << 2);
     /// At least one held order's contribution was clamped to its moving amplitude.
     pub const STANDSTILL_BOUND: Self = Self(1 << 3);
-    /// At least one load-scaled order was not applied: the sample undoes the load step of
-    /// the one before (a glitch), so the load that scales the order is not known.
+    /// At least one load-scaled order was not applied: the sample is a load step that is
+    /// a glitch (of the torque or the expected torque), so the load that scales the order
+    /// is not known.
     pub const LOAD_STEP_WITHHELD: Self = Self(1 << 4);
 
     /// No flag.
@@ -262,10 +265,16 @@ pub struct Guard<T: Real, const M: usize> {
     pass_through: bool,
     /// Measured samples in motion so far (saturating): the track record of the model.
     moving_samples: u32,
-    /// The innovation of the sample before if it was a gross misfit, else 0, N·m.
-    gross_innovation_nm: T,
+    /// The last load known to scale the load-scaled orders, N·m.
+    load_nm: T,
+    /// The expected torque of the sample before, N·m.
+    expected_nm: T,
     /// The innovation of the sample before if it was a load step, else 0, N·m.
     step_innovation_nm: T,
+    /// In a run of load steps since one that undid the step before (a glitch).
+    undoing: bool,
+    /// The innovation of the sample before if it was a gross misfit, else 0, N·m.
+    gross_innovation_nm: T,
     stats: GuardStats<M>,
 }
 
@@ -290,8 +299,11 @@ impl<T: Real, const M: usize> Guard<T, M> {
             mean_e2: model.r_nm2,
             pass_through: false,
             moving_samples: 0,
-            gross_innovation_nm: T::ZERO,
+            load_nm: T::ZERO,
+            expected_nm: T::ZERO,
             step_innovation_nm: T::ZERO,
+            undoing: false,
+            gross_innovation_nm: T::ZERO,
             stats: GuardStats::new(),
         }
     }
@@ -338,6 +350,26 @@ impl<T: Real, const M: usize> Guard<T, M> {
             let z = tr.prior.z[i];
             contribution[i] = if tr.predicted[i] { c * z[0] + sn * z[1] } else { T::ZERO };
         }
+        // The load `|T_exp + b̂(k|k−1)|` that scales the load-scaled lines is not known on a
+        // load step that is a glitch: the expected torque jumped by more than the last load
+        // known (the glitch, or its undoing), or the load steps in a row since one whose
+        // innovation undid the one before (a glitch in the torque, which the bias took and
+        // gives back). Those lines are neither applied nor observed there (a glitch would
+        // sway their wander for seconds). A real step's innovations keep their sign.
+        let load_step = out.flags.contains(StepFlags::LOAD_STEP);
+        let e = out.innovation_nm;
+        #[allow(clippy::neg_cmp_op_on_partial_ord)] // a NaN counts as a jump
+        let expected_jumped = !((input.expected_torque_nm - self.expected_nm).abs() <= self.load_nm);
+        self.undoing = load_step && (self.undoing || self.step_innovation_nm * e < T::ZERO);
+        let load_jumped = load_step && (expected_jumped || self.undoing);
+        self.step_innovation_nm = if load_step { e } else { T::ZERO };
+        self.expected_nm = input.expected_torque_nm;
+        if !load_jumped {
+            self.load_nm = (input.expected_torque_nm + tr.prior.bias).abs();
+        }
+        let load_unknown: [bool; M] = core::array::from_fn(|lead| {
+            load_jumped && (lead..M).any(|i| self.group[i] == lead && model.orders()[i].is_load_scaled())
+        });
         let mut status = [OrderStatus::Off; M];
         let mut lines = [None; M];
         for i in 0..M {
@@ -345,7 +377,9 @@ impl<T: Real, const M: usize> Guard<T, M> {
             if self.group[i] == i {
                 let line = group_line(tr, &self.group, i, &contribution);
                 let g = &mut self.orders[i];
-                g.observe(&s, self.alpha, &line.p, line.z, line.unit_phasor, status[i]);
+                if !load_unknown[i] {
+                    g.observe(&s, self.alpha, &line.p, line.z, line.unit_phasor, status[i]);
+                }
                 g.observe_line(self.alpha, tr.increment_rad[i]);
                 lines[i] = Some(line);
             }
@@ -376,11 +410,7 @@ impl<T: Real, const M: usize> Guard<T, M> {
         let mut flags = GuardFlags::empty();
         let (mut ripple, mut mis) = (T::ZERO, T::ZERO);
         let mut applied = [false; M];
-        let e = out.innovation_nm;
         let measured = e.is_finite() && out.nis.is_finite();
-        let load_step = out.flags.contains(StepFlags::LOAD_STEP);
-        let glitch_undone = load_step && self.step_innovation_nm * e < T::ZERO;
-        self.step_innovation_nm = if load_step { e } else { T::ZERO };
         for lead in 0..M {
             if self.group[lead] != lead {
                 continue;
@@ -395,8 +425,7 @@ impl<T: Real, const M: usize> Guard<T, M> {
             let (value, bounded) = g.bounded(line.contribution_nm, status);
             let held_ok = status != OrderStatus::Held || (complete && standstill_ok);
             let bounded = bounded || !held_ok;
-            let load_unknown =
-                glitch_undone && (lead..M).any(|i| self.group[i] == lead && model.orders()[i].is_load_scaled());
+            let load_unknown = load_unknown[lead];
             flags.set(GuardFlags::LOAD_STEP_WITHHELD, load_unknown && verdict.apply);
             let apply = verdict.apply && alone && held_ok && status != OrderStatus::Off && !load_unknown;
             flags.set(GuardFlags::STANDSTILL_BOUND, bounded && verdict.apply && alone);
@@ -410,8 +439,9 @@ impl<T: Real, const M: usize> Guard<T, M> {
                     ripple += value;
                 }
             }
-            // Then this sample's innovation for the next decision.
-            if measured {
+            // Then this sample's innovation for the next decision (a load step's is the
+            // bias's: it says nothing of the orders' fit).
+            if measured && !load_step {
                 g.observe_fit(self.alpha, e, line.contribution_nm);
             }
         }
@@ -422,7 +452,9 @@ impl<T: Real, const M: usize> Guard<T, M> {
             let nis = out.nis.min(s.nis_clip);
             self.mean_nis += self.alpha * (nis - self.mean_nis);
             self.slow_mean_nis += self.slow_alpha * (nis - self.slow_mean_nis);
-            self.mean_e2 += self.alpha * (e * e - self.mean_e2);
+            if !load_step {
+                self.mean_e2 += self.alpha * (e * e - self.mean_e2);
+            }
             for g in &mut self.orders {
                 g.judge_fit(&s, self.mean_e2);
             }

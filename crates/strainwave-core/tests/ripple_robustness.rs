@@ -157,7 +157,7 @@ fn nan_samples_are_skipped() {
         let mut inp = input::<f64>(s);
         match k % 997 {
             0 => inp.torque_nm = f64::NAN,
-            1 => inp.torque_nm = f64::INFINITY,
+            1 => inp.torque_nm = if k % 2 == 0 { f64::INFINITY } else { 9.9e37 }, // a DAQ's overrange code
             2 => inp.references.relative = f64::NAN,
             3 => inp.expected_torque_nm = f64::NEG_INFINITY,
             4 => inp.dt_s = Some(f64::NAN),
@@ -166,7 +166,10 @@ fn nan_samples_are_skipped() {
         let before = (state.estimate(&model, 0), state.covariance(&model, 0, 0));
         let o = step(&model, &mut state, &inp).unwrap();
         match k % 997 {
-            0 | 1 | 3 => assert!(o.flags.contains(StepFlags::MEASUREMENT_SKIPPED), "k {k}"),
+            0 | 1 | 3 => {
+                assert!(o.flags.contains(StepFlags::MEASUREMENT_SKIPPED), "k {k}");
+                assert!(o.nis.is_nan() && !o.innovation_nm.is_infinite(), "k {k}");
+            }
             2 | 4 => {
                 assert!(o.flags.contains(StepFlags::ANGLE_SKIPPED), "k {k}");
                 assert_eq!(before, (state.estimate(&model, 0), state.covariance(&model, 0, 0)));
@@ -241,14 +244,21 @@ fn bad_covariance_is_an_error_not_a_panic() {
         let r = step(&model, &mut state, &RippleInput::new(1.0, ReferenceValues::new(0.1 * k as f32, 0.0, 0.0)));
         assert!(r.is_ok_and(|o| o.torque_nm.is_finite()), "sample {k}");
     }
-    // A finite but huge measurement overflows the innovation: reported, then recovered.
+    // A finite but huge measurement (whose square would overflow) is skipped as a NaN is.
     let model = RippleModel::<f32, 2>::taghirad_4th_order(1000.0).unwrap();
     let mut state = RippleState::new(&model);
-    let big = step(&model, &mut state, &RippleInput::new(f32::MAX, ReferenceValues::new(0.0, 0.0, 0.0)));
-    let next = step(&model, &mut state, &RippleInput::new(f32::MIN, ReferenceValues::new(0.1, 0.0, 0.0)));
-    assert!(big.is_err() || next.is_err());
-    let ok = step(&model, &mut state, &RippleInput::new(1.0, ReferenceValues::new(0.2, 0.0, 0.0)));
-    assert!(ok.is_ok());
+    for (k, y) in [f32::MAX, f32::MIN, 1.0].into_iter().enumerate() {
+        let o = step(&model, &mut state, &RippleInput::new(y, ReferenceValues::new(0.1 * k as f32, 0.0, 0.0))).unwrap();
+        assert_eq!(o.flags.contains(StepFlags::MEASUREMENT_SKIPPED), y != 1.0, "sample {k}");
+    }
+    // A load that overflows the load-scaled orders' innovation variance (an expected torque
+    // of 10³⁰ N·m, matched by the torque) is reported, then recovered.
+    let full = RippleModel::<f32, 5>::full(1000.0, 0.01).unwrap();
+    let mut state = RippleState::new(&full);
+    let refs = |k: f32| ReferenceValues::new(0.1 * k, 0.0, 0.1 * k);
+    assert!(step(&full, &mut state, &RippleInput::new(1.0, refs(0.0))).is_ok());
+    assert!(step(&full, &mut state, &RippleInput::new(1e30, refs(1.0)).with_expected_torque(1e30)).is_err());
+    assert!(step(&full, &mut state, &RippleInput::new(1.0, refs(2.0))).is_ok());
 }
 
 /// A bank and its joints stepped one by one: bit for bit, in whichever build this CPU

@@ -89,8 +89,8 @@ pub const SW_GUARD_WITHHELD: u32 = 1 << 1;
 pub const SW_GUARD_CONTRADICTED: u32 = 1 << 2;
 /// `sw_output.guard_flags` bit: a held order was clamped to its amplitude while moving.
 pub const SW_GUARD_STANDSTILL_BOUND: u32 = 1 << 3;
-/// `sw_output.guard_flags` bit: a load-scaled order was not applied on a sample that undid
-/// the load step of the one before (a glitch: the load that scales it is not known).
+/// `sw_output.guard_flags` bit: a load-scaled order was not applied on a load step that is
+/// a glitch (of the torque or the expected torque: the load that scales it is not known).
 pub const SW_GUARD_LOAD_STEP_WITHHELD: u32 = 1 << 4;
 
 /// One sample of one joint (double precision). NaN where the joint's config has no such

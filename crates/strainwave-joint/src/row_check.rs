@@ -113,7 +113,8 @@ impl RowCheck {
         let mut w = Vec::new();
         if let Some(first) = self.first_skipped {
             w.push(format!(
-                "{input}: {} samples with a non-finite torque or angle were skipped, the first at data row {first} \
+                "{input}: {} samples with a non-finite angle, or a torque not finite or beyond ±1e12 N·m (an overrange \
+                 code), were skipped, the first at data row {first} \
                  (flag bits 0-1 in filter_flags)",
                 self.skipped
             ));

@@ -11,7 +11,7 @@ use std::path::PathBuf;
 use anyhow::{anyhow, bail, Context, Result};
 use strainwave_core::guard::{Guard, GuardSettings};
 use strainwave_core::ripple::{
-    step, PhaseSource, ReferenceValues, RippleInput, RippleModel, RippleOutput, RippleState, StepFlags,
+    step, PhaseSource, ReferenceValues, RippleInput, RippleModel, RippleOutput, RippleState,
 };
 use strainwave_io::{BoundChannel, IoError, RecordingReader, RecordingWriter};
 
@@ -113,7 +113,7 @@ pub struct FilterSummary {
     pub health: Option<Health>,
 }
 
-/// Bits of `filter_flags` above the canceller's own ([`StepFlags`], bits 0–7): the
+/// Bits of `filter_flags` above the canceller's own ([`StepFlags`](strainwave_core::ripple::StepFlags), bits 0–7): the
 /// guard's flags ([`strainwave_core::guard::GuardFlags`]) from this bit on.
 pub const GUARD_FLAGS_SHIFT: u32 = 8;
 /// Bit of `filter_flags` from which one bit per order says it was NOT applied.
@@ -445,7 +445,7 @@ impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
                 f64::from(flag_bits),
             ]);
             if let Some(d) = denoiser.as_mut() {
-                row.push(d.step(o.torque_nm, o.flags.contains(StepFlags::LOAD_STEP)));
+                row.push(d.step(o.torque_nm, o.flags));
             }
             w.write_row(&row)?;
             if n.is_multiple_of(strainwave_io::DEFAULT_CHUNK_ROWS as u64) {

@@ -22,7 +22,7 @@ use strainwave_analysis::smoother::torque_ripple::{
 };
 use strainwave_analysis::smoother::{CheckpointStore, CheckpointedSmoother, SmootherError};
 use strainwave_core::denoise::TorqueDenoiser;
-use strainwave_core::ripple::{ReferenceValues, RippleInput, RippleModel, RippleOutput, RippleState, StepFlags};
+use strainwave_core::ripple::{ReferenceValues, RippleInput, RippleModel, RippleOutput, RippleState};
 
 use crate::health::Health;
 use crate::row_check::RowCheck;
@@ -220,8 +220,7 @@ pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
         // a skipped sample (NaN torque) it does not judge, so the smoother fills it in.
         let held_back = (g.torque_nm - o.torque_nm).abs() > 1e-9 * (1.0 + sample.torque_nm.abs());
         let trusted = !held_back;
-        let denoised =
-            denoiser.as_mut().map_or(f64::NAN, |d| d.step(g.torque_nm, g.flags.contains(StepFlags::LOAD_STEP)));
+        let denoised = denoiser.as_mut().map_or(f64::NAN, |d| d.step(g.torque_nm, g.flags));
         put(&mut spool, &row)
             .and_then(|()| put(&mut spool, &encode(&sample, denoised, (&g, bits), trusted)))
             .with_context(|| rows.context())?;

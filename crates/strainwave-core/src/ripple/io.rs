@@ -94,7 +94,7 @@ impl<T: Real> RippleInput<T> {
 pub struct StepFlags(u16);
 
 impl StepFlags {
-    /// Torque or expected torque not finite: time update only, no measurement update.
+    /// Torque or expected torque not finite, or beyond ±10¹² N·m apart: no measurement update.
     pub const MEASUREMENT_SKIPPED: Self = Self(1);
     /// A used reference or `dt_s` not finite (or `dt_s ≤ 0`): the state is untouched and
     /// the next good sample's increment spans the gap.

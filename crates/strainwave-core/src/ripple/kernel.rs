@@ -250,7 +250,7 @@ fn decide<T: Real, const M: usize, const J: usize, const F: bool, const COMMON: 
     let total_dt = if COMMON { L::splat(dt) } else { L(bank.pending_dt) + dt };
     let first = if COMMON { none } else { !Mask::of(|l| bank.has_last[l]) };
     let gap = if COMMON { none } else { !skip & !first & !total_dt.at_most(plan.max_gap_s) };
-    let meas_ok = if COMMON { !none } else { !skip & y.finite() };
+    let meas_ok = if COMMON { !none } else { !skip & usable(y) };
     // The initial state is the prior of the first sample: no noise before it.
     let counted = !skip & !first;
     let n_samples = pending + T::ONE;
@@ -349,7 +349,7 @@ fn is_common<T: Real, const M: usize, const J: usize, const F: bool>(
         return None;
     }
     // A non-finite reference gives a NaN increment, which fails the step limit.
-    let mut ok = y.finite() & L(bank.pending_samples).equals(T::ZERO) & Mask::of(|l| bank.has_last[l]);
+    let mut ok = usable(y) & L(bank.pending_samples).equals(T::ZERO) & Mask::of(|l| bank.has_last[l]);
     let mut steps = [None; 3];
     for r in 0..3 {
         if model.plan.uses[r] {
@@ -471,8 +471,7 @@ fn order_phases<T: Real, const M: usize, const J: usize>(
 }
 
 /// Each order's phasor (times `|T_exp + b̂(k|k−1)|` if load-scaled): its reference's to
-/// a whole power, or of its own phase for a fractional multiple. Kept in the state and
-/// returned (the update takes them from here, not reloaded from the state).
+/// a whole power, or of its own phase for a fractional multiple; kept in the state.
 #[inline(always)]
 fn phasors<T: Real, const M: usize, const J: usize, const F: bool>(
     model: &RippleModel<T, M>,
@@ -505,6 +504,11 @@ fn phasors<T: Real, const M: usize, const J: usize, const F: bool>(
         phasor[i] = [c, s];
     }
     phasor
+}
+
+/// Where measurement `y` is used: within ±10¹² N·m (a DAQ's overrange code is skipped as NaN is).
+fn usable<T: Real, const J: usize>(y: L<T, J>) -> Mask<T, J> {
+    y.abs().at_most(T::from_f64(1e12))
 }
 
 /// Time update: inflation `ρ (P_00 + P_11)/2 · I₂` (rotation invariant, like Q) and
@@ -682,6 +686,7 @@ fn update<
 
     // Outputs, and where the covariance went bad.
     let clean = torque - ripple - mis;
+    let e = if COMMON { e } else { usable(y).select(e, L::splat(T::ZERO) / T::ZERO) };
     out.torque_nm = clean.0;
     out.ripple_nm = ripple.0;
     out.misalignment_nm = mis.0;
