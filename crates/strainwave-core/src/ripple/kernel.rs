@@ -686,7 +686,7 @@ fn update<
 
     // Outputs, and where the covariance went bad.
     let clean = torque - ripple - mis;
-    let e = if COMMON { e } else { usable(y).select(e, L::splat(T::ZERO) / T::ZERO) };
+    let e = if COMMON { e } else { usable(y).select(e, L::splat(T::from_f64(f64::NAN))) };
     out.torque_nm = clean.0;
     out.ripple_nm = ripple.0;
     out.misalignment_nm = mis.0;
