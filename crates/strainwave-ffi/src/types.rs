@@ -116,7 +116,7 @@ pub struct sw_sample {
 
 /// The canceller's result for one sample (double precision).
 #[repr(C)]
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct sw_output {
     /// Clean torque, N·m: calibrated torque minus predicted ripple and misalignment.
     pub torque: f64,
@@ -334,7 +334,7 @@ pub struct sw32_sample {
 
 /// The canceller's result for one sample (single precision); see [`sw_output`].
 #[repr(C)]
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct sw32_output {
     /// Clean torque, N·m.
     pub torque: f32,

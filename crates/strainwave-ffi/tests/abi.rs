@@ -109,20 +109,6 @@ fn taghirad6() -> sw_model {
 /// Makes one field of a model invalid.
 type Spoil = fn(&mut sw_model);
 
-/// An output for `sw_step` to fill.
-fn blank_output() -> sw_output {
-    sw_output {
-        torque: 0.0,
-        ripple: 0.0,
-        misalignment: 0.0,
-        innovation: 0.0,
-        nis: 0.0,
-        flags: 0,
-        guard_flags: 0,
-        withheld_orders: 0,
-    }
-}
-
 fn new_state() -> Box<sw_state> {
     Box::new(sw_state { magic: 0, storage: [0; SW_STATE_WORDS] })
 }
@@ -153,7 +139,7 @@ fn bad_input_gives_error_codes() {
         motor_velocity: f64::NAN,
         expected_torque: f64::NAN,
     };
-    let mut out = blank_output();
+    let mut out = sw_output::default();
     unsafe {
         assert_eq!(sw_init(null_mut(), &model), SW_ERROR_NULL);
         assert_eq!(sw_init(&mut *state, null()), SW_ERROR_NULL);
@@ -249,7 +235,7 @@ fn same_as_core<const M: usize>(core: RippleModel<f64, M>) {
     let mut core_state = RippleState::new(&core);
     let mut state = new_state();
     assert_eq!(unsafe { sw_init(&mut *state, &model) }, SW_OK);
-    let mut out = blank_output();
+    let mut out = sw_output::default();
     let mut last_t = None;
     for k in 0..3000 {
         let (t, volts, motor, output) = sample(k);
@@ -321,16 +307,7 @@ fn single_precision_matches_the_f32_core() {
         assert_eq!(sw32_init(&mut *state, null()), SW_ERROR_NULL);
         assert_eq!(sw32_init(&mut *state, &model), SW_OK);
     }
-    let mut out = sw32_output {
-        torque: 0.0,
-        ripple: 0.0,
-        misalignment: 0.0,
-        innovation: 0.0,
-        nis: 0.0,
-        flags: 0,
-        guard_flags: 0,
-        withheld_orders: 0,
-    };
+    let mut out = sw32_output::default();
     let mut last_t: Option<f32> = None;
     for k in 0..3000 {
         let (t, volts, motor, output) = sample(k);
@@ -371,7 +348,7 @@ fn guarded_sw_step_equals_the_core_guard() {
     let mut guard = Guard::new(&core, GuardSettings::default());
     let mut state = new_state();
     assert_eq!(unsafe { sw_init(&mut *state, &model) }, SW_OK);
-    let mut out = blank_output();
+    let mut out = sw_output::default();
     let (mut withheld, mut applied) = (false, false);
     for k in 0..6000 {
         let (t, volts, motor, output) = sample(k);
@@ -412,7 +389,7 @@ fn a_covariance_reset_marks_every_order_withheld() {
     model.channels |= SW_CHANNEL_EXPECTED_TORQUE;
     let mut state = new_state();
     assert_eq!(unsafe { sw_init(&mut *state, &model) }, SW_OK);
-    let mut out = blank_output();
+    let mut out = sw_output::default();
     let mut resets = 0;
     for k in 0..3010 {
         let (t, volts, motor, output) = sample(k);
