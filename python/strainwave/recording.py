@@ -41,6 +41,10 @@ def _columns(data: Any, input_name: str) -> tuple[list[str], list[np.ndarray]]:
         raise TypeError(f"expected a pandas DataFrame or a mapping of column name to array, got {type(data).__name__}")
     names, arrays = [], []
     for name, values in items:
+        # As the command line refuses a header that names a column twice: which one the
+        # config means is not known.
+        if name in names:
+            raise StrainwaveError(f"{input_name}: column `{name}` appears twice in the header")
         try:
             a = np.ascontiguousarray(np.asarray(values, dtype=np.float64))
         except (TypeError, ValueError) as e:

@@ -102,6 +102,25 @@ def test_missing_column_is_the_cli_error(cli, recording, tmp_path):
         sw.filter_recording(plain, config=CONFIG)
 
 
+def test_duplicate_column_is_the_cli_error(cli, recording, tmp_path):
+    # The CSV the command line refuses, and the frame of that shape (pandas allows it,
+    # e.g. after a concat): neither takes the first `bridge_voltage` and goes on.
+    df = sw.read_recording(recording)
+    twice = pd.concat([df, df[["bridge_voltage"]] * 2.0], axis=1)
+    assert list(twice.columns).count("bridge_voltage") == 2
+    bad = tmp_path / "twice.csv"
+    with pytest.raises(sw.StrainwaveError) as e:
+        sw.write_recording(twice, bad)
+    assert not bad.exists()
+    text = recording.read_text().splitlines()
+    bad.write_text("\n".join([text[0] + ",bridge_voltage"] + [line + ",0" for line in text[1:]]) + "\n")
+    expected = cli_error(cli("filter", "--config", CONFIG, "--in", bad, "--out", tmp_path / "x.csv"))
+    assert expected.endswith("column `bridge_voltage` appears twice in the header"), expected
+    with pytest.raises(sw.StrainwaveError) as e:
+        sw.filter_recording(twice, config=CONFIG, input_name=str(bad))
+    assert str(e.value) == expected
+
+
 def test_bad_row_is_the_cli_error(cli, recording, tmp_path):
     df = sw.read_recording(recording)
     df.loc[1233, "bridge_voltage"] = np.inf

@@ -500,7 +500,7 @@ pub fn run(a: &Args) -> Result<()> {
         let _ = writeln!(out, "wrote {}", p.display());
     }
     if !a.quiet {
-        crate::stdout::print(&out)?;
+        crate::stdout::print_report(&out, [a.out.as_deref(), a.summary_json.as_deref(), a.plot.as_deref()])?;
     }
     Ok(())
 }

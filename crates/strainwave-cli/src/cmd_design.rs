@@ -98,5 +98,5 @@ pub fn run(a: &Args) -> Result<()> {
         strainwave_io::output::write_file(path, plot.to_svg())?;
         let _ = writeln!(out, "wrote {}", path.display());
     }
-    crate::stdout::print(&out)
+    crate::stdout::print_report(&out, [a.svg.as_deref()])
 }

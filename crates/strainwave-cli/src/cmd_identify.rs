@@ -66,7 +66,8 @@ pub fn run(a: &Args) -> Result<()> {
     found.refuse_unconverged(a.allow_unconverged)?;
     strainwave_io::output::write_file(&a.out, found.model_text()?)?;
     if !a.quiet {
-        crate::stdout::print(&report::table(&found.summary, &a.out))?;
+        let outputs = [Some(a.out.as_path()), a.summary_json.as_deref()];
+        crate::stdout::print_report(&report::table(&found.summary, &a.out), outputs)?;
     }
     Ok(())
 }

@@ -1,5 +1,6 @@
 //! `strainwave orders`: amplitude and phase of orders against speed (angle-domain blocks),
-//! as a table on standard output and an SVG plot of the amplitudes.
+//! as a table on standard output (standard error when the SVG plot of the amplitudes goes
+//! there) and that plot.
 
 use std::path::PathBuf;
 
@@ -107,7 +108,7 @@ pub fn run(a: &Args) -> Result<()> {
         a.source.signal, a.revs_per_block, a.source.signal
     );
     text += &text_table(&h, &rows);
-    crate::stdout::print(&text)?;
+    crate::stdout::print_report(&text, [Some(a.out.as_path())])?;
     let plot = LinePlot {
         title: format!("Order amplitudes of {} vs speed", a.source.signal),
         x_label: "speed (rpm)".into(),

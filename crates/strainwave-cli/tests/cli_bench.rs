@@ -151,6 +151,15 @@ fn simulate_fuse_and_analyse() {
     assert!(table.contains("speed rpm") && table.contains("18× amplitude") && table.contains("36× phase °"), "{table}");
     assert!(table.lines().count() > 4, "{table}");
     assert!(std::fs::read_to_string(&svg).unwrap().starts_with("<svg"));
+    // `--out -`: standard output holds the SVG alone, the table goes to standard error.
+    let args: Vec<&str> = ["orders", "--in", s(&sim), "--signal", "accel_torque", "--speed", "speed_rpm"]
+        .into_iter()
+        .chain(["--order", "18", "--order", "36", "--speed-bin", "100", "--revs-per-block", "2", "--out", "-"])
+        .collect();
+    let o = run(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(String::from_utf8_lossy(&o.stdout), std::fs::read_to_string(&svg).unwrap());
+    assert_eq!(stderr(&o), table);
 
     let svg = d.join("spectrogram.svg");
     let o = run(&["spectrogram", "--in", s(&sim), "--signal", "torsion_torque", "--nperseg", "1024", "--out", s(&svg)]);

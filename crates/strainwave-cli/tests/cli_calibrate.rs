@@ -162,6 +162,15 @@ fn embedded_sensor_static_and_dynamic_through_the_cli() {
     args.extend(common);
     let out = ok(&args);
     assert!(out.contains("extrapolation `clamp`"), "{out}");
+    // `--out -`: standard output holds the calibration file alone (the report goes to
+    // standard error), the same text as the file written above.
+    let mut args = vec!["calibrate", "--in", s(&dy), "--model", "speed-table", "--speed", "motor_velocity"];
+    args.extend(["--bins", "3", "--out", "-"]);
+    args.extend(common);
+    let o = Command::new(env!("CARGO_BIN_EXE_strainwave")).args(&args).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(String::from_utf8_lossy(&o.stdout), std::fs::read_to_string(&tab_cal).unwrap());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("extrapolation `clamp`"));
 
     // The CLI's numbers are the library's on the same rows.
     let t = strainwave_io::read_all(&st).unwrap();

@@ -193,6 +193,20 @@ fn report_to_standard_output_creates_no_file_named_dash() {
     assert_eq!(names(&d), ["rec.csv"]);
 }
 
+/// An SVG written to standard output is the whole of it: `design --svg -` printed its
+/// report there too, before the SVG.
+#[test]
+fn an_svg_on_standard_output_is_not_mixed_with_the_report() {
+    let d = tmp("design-svg");
+    let config = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/sensor-taghirad.toml");
+    let o = bin().current_dir(&d).args(["design", "--config", s(&config), "--svg", "-"]).output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let svg = String::from_utf8_lossy(&o.stdout);
+    assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"), "{svg}");
+    assert!(stderr(&o).starts_with("sensor design"), "{}", stderr(&o));
+    assert!(names(&d).is_empty());
+}
+
 /// Before: one sample of 1e308 overflowed the column's sum of squares, and the table said
 /// `inf` (and printed the mean in 300 digits).
 #[test]

@@ -35,7 +35,10 @@
 //!
 //! At a standstill (order held) the contribution is clamped to the amplitude the order
 //! had at its last moving sample (zero if it never moved), so what the filter removes
-//! there is bounded by what it learned while moving.
+//! there is bounded by what it learned while moving. While the angles stand exactly still
+//! no order is applied unless the torque is as steady as the model says (its running mean
+//! NIS): where it ripples, the encoders are frozen on a turning joint, and a correction at
+//! their stale phase would be worse than none.
 //!
 //! A load step (an innovation beyond the canceller's limit) that is a glitch puts the load
 //! `|T_exp + b̂|` that scales the load-scaled orders far off: a jump of the expected torque
@@ -80,6 +83,12 @@ pub use stats::GuardStats;
 /// track record yet, they say the model is wrong; one alone, or two of opposite signs, is
 /// a glitch. (Later a load step or a collision can give them; the running mean decides.)
 pub const GROSS_NIS: f64 = 1e6;
+
+/// While the angles stand exactly still, the running mean NIS that decides whether the
+/// encoders are frozen averages over this share of [`GuardSettings::window_s`] (0.125 s by
+/// default): short, as a stale correction adds to the error at once; not shorter, as a
+/// real standstill's load changes raise it for a moment.
+pub const STILL_WINDOW_SHARE: f64 = 0.5;
 
 /// Initial variance of each component of an order learned from zero, N·m² (1σ 0.1 N·m).
 /// With a larger one (the models' 1 N·m²) the ripple orders take the torque of a first
@@ -149,8 +158,11 @@ pub struct GuardSettings<T: Real> {
     pub partial_min_line_hz: T,
     /// See [`Self::partial_min_line_hz`]. Default 4.
     pub complete_max_nis: T,
-    /// Held orders (standstill) are applied only while the model is complete and the running mean NIS of the
-    /// motion before, over [`Self::standstill_window_s`], is at most this. Default 2.
+    /// Held orders (standstill) are applied only while the model is complete and the
+    /// running mean NIS of the motion before, over [`Self::standstill_window_s`], is at
+    /// most this. While the angles stand exactly still, no order is applied unless the
+    /// running mean NIS since they stopped, over half of [`Self::window_s`], is at most this too
+    /// (frozen encoders on a turning joint fail it). Default 2.
     pub standstill_max_nis: T,
     /// Time constant of that running mean, s (long: the fit of the model, not of the
     /// last transient). Default 2 s.
@@ -260,6 +272,11 @@ pub struct Guard<T: Real, const M: usize> {
     mean_nis: T,
     /// Running mean NIS over [`GuardSettings::standstill_window_s`].
     slow_mean_nis: T,
+    /// Running mean NIS while the angles stand exactly still (0 when they last moved),
+    /// over [`STILL_WINDOW_SHARE`] of [`GuardSettings::window_s`]: high where the torque
+    /// ripples under frozen encoders.
+    still_mean_nis: T,
+    still_alpha: T,
     slow_alpha: T,
     mean_e2: T,
     pass_through: bool,
@@ -295,6 +312,8 @@ impl<T: Real, const M: usize> Guard<T, M> {
             alpha: T::ONE / samples,
             mean_nis: T::ONE,
             slow_mean_nis: T::ONE,
+            still_mean_nis: T::ZERO,
+            still_alpha: (T::from_f64(1.0 / STILL_WINDOW_SHARE) / samples).min(T::ONE),
             slow_alpha: T::ONE / (settings.standstill_window_s * model.sample_rate_hz()).max(T::ONE),
             mean_e2: model.r_nm2,
             pass_through: false,
@@ -402,15 +421,25 @@ impl<T: Real, const M: usize> Guard<T, M> {
         self.gross_innovation_nm = if gross { out.innovation_nm } else { T::ZERO };
         let pass_through = self.pass_through || gross;
         let moving = status.contains(&OrderStatus::Active);
+        let measured = e.is_finite() && out.nis.is_finite();
         // Held orders are applied only when the model fitted well while it moved: at a
         // standstill a partial or wrong correction is a constant that nothing can check.
         let standstill_ok = self.slow_mean_nis <= s.standstill_max_nis;
+        // While the angles stand exactly still, no order is applied unless the torque is
+        // as steady as the model says: encoders frozen on a turning joint leave the
+        // torque rippling, and the phase they give is stale.
+        let still = (0..M).all(|i| tr.increment_rad[i] == T::ZERO);
+        if !still {
+            self.still_mean_nis = T::ZERO;
+        } else if measured {
+            self.still_mean_nis += self.still_alpha * (out.nis.min(s.nis_clip) - self.still_mean_nis);
+        }
+        let steady = self.still_mean_nis <= s.standstill_max_nis;
         let fits = self.slow_mean_nis <= s.complete_max_nis;
         let verdict: [_; M] = core::array::from_fn(|i| Some(self.orders[i].verdict(pass_through)));
         let mut flags = GuardFlags::empty();
         let (mut ripple, mut mis) = (T::ZERO, T::ZERO);
         let mut applied = [false; M];
-        let measured = e.is_finite() && out.nis.is_finite();
         for lead in 0..M {
             if self.group[lead] != lead {
                 continue;
@@ -423,7 +452,7 @@ impl<T: Real, const M: usize> Guard<T, M> {
             flags.set(GuardFlags::WITHHELD, !verdict.evidence || !verdict.travelled);
             flags.set(GuardFlags::CONTRADICTED, verdict.contradicted);
             let (value, bounded) = g.bounded(line.contribution_nm, status);
-            let held_ok = status != OrderStatus::Held || (complete && standstill_ok);
+            let held_ok = (status != OrderStatus::Held || (complete && standstill_ok)) && steady;
             let bounded = bounded || !held_ok;
             let load_unknown = load_unknown[lead];
             flags.set(GuardFlags::LOAD_STEP_WITHHELD, load_unknown && verdict.apply);

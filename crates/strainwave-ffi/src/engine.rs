@@ -6,6 +6,8 @@
 //! (calibration at the motor speed, references from the gear, the time step from the
 //! time channel), so an exported model gives the command line's numbers.
 
+use core::mem::MaybeUninit;
+
 use strainwave_core::calibration::{Calibration, Extrapolation};
 use strainwave_core::gear::{FixedElement, Gear};
 use strainwave_core::guard::{Guard, GuardSettings};
@@ -111,11 +113,14 @@ impl<T: Real, const M: usize> Canceller<T, M> {
         }
     }
 
+    /// Back to the initial state, in place. Out of line: a stack holds one order count's
+    /// temporaries.
+    #[inline(never)]
     fn reset(&mut self, model: &RippleModel<T, M>) {
-        *self = match self {
-            Canceller::Guarded(g) => Canceller::Guarded(Guard::new(model, *g.settings())),
-            Canceller::Bare(_) => Canceller::Bare(RippleState::new(model)),
-        };
+        match self {
+            Canceller::Guarded(g) => *g = Guard::new(model, *g.settings()),
+            Canceller::Bare(s) => s.reset(model),
+        }
     }
 
     /// One step: the output, the guard's flags and the withheld orders.
@@ -253,26 +258,29 @@ fn guard_settings<T: Real>(g: &PlainGuard<T>) -> Result<Option<GuardSettings<T>>
     }))
 }
 
-fn engine<T: Real>(p: &Plain<T>) -> Result<Engine<T>, i32> {
-    let guard = guard_settings(&p.guard)?;
-    macro_rules! sized {
-        ($v:ident, $m:literal) => {{
-            let m = ripple_model::<T, $m>(p)?;
-            let c = Canceller::new(&m, guard);
-            Engine::$v(m, c)
-        }};
-    }
-    Ok(match p.order_count {
-        1 => sized!(O1, 1),
-        2 => sized!(O2, 2),
-        3 => sized!(O3, 3),
-        4 => sized!(O4, 4),
-        5 => sized!(O5, 5),
-        6 => sized!(O6, 6),
-        7 => sized!(O7, 7),
-        8 => sized!(O8, 8),
-        _ => return Err(SW_ERROR_ORDER_COUNT),
-    })
+/// What the model gives besides the canceller: checked before the canceller is built.
+struct Parts<T: Real> {
+    gear: Gear<T>,
+    calibration: Calibration<T, SW_MAX_CALIBRATION_POINTS>,
+    channels: u32,
+    velocity: bool,
+}
+
+/// Builds the instance of `M` orders in `dest`. Out of line, so that a stack holds the
+/// temporaries of one order count at a time, not of all eight.
+#[inline(never)]
+fn build_sized<T: Real, const M: usize>(
+    p: &Plain<T>,
+    guard: Option<GuardSettings<T>>,
+    parts: Parts<T>,
+    variant: fn(RippleModel<T, M>, Canceller<T, M>) -> Engine<T>,
+    dest: &mut MaybeUninit<Instance<T>>,
+) -> Result<(), i32> {
+    let m = ripple_model::<T, M>(p)?;
+    let c = Canceller::new(&m, guard);
+    let Parts { gear, calibration, channels, velocity } = parts;
+    dest.write(Instance { engine: variant(m, c), gear, calibration, channels, velocity, last_time_s: None });
+    Ok(())
 }
 
 fn calibration<T: Real>(c: &PlainCalibration<T>) -> Result<Calibration<T, SW_MAX_CALIBRATION_POINTS>, i32> {
@@ -306,8 +314,10 @@ const ALL_CHANNELS: u32 =
     SW_CHANNEL_MOTOR_ANGLE | SW_CHANNEL_OUTPUT_ANGLE | SW_CHANNEL_MOTOR_VELOCITY | SW_CHANNEL_EXPECTED_TORQUE;
 
 impl<T: Real> Instance<T> {
-    /// Checks a plain model and builds the canceller; the error is an `SW_ERROR_*` code.
-    pub(crate) fn new(p: &Plain<T>) -> Result<Self, i32> {
+    /// Checks a plain model and builds the canceller in `dest` (in place: a firmware's
+    /// stack need not hold a second instance); the error is an `SW_ERROR_*` code, and
+    /// `dest` is then left as it was.
+    pub(crate) fn build(p: &Plain<T>, dest: &mut MaybeUninit<Self>) -> Result<(), i32> {
         if p.version != SW_MODEL_VERSION {
             return Err(SW_ERROR_VERSION);
         }
@@ -317,7 +327,10 @@ impl<T: Real> Instance<T> {
             _ => return Err(SW_ERROR_GEAR),
         };
         let gear = Gear::new(p.gear_ratio, fixed).map_err(|_| SW_ERROR_GEAR)?;
-        let engine = engine(p)?;
+        let guard = guard_settings(&p.guard)?;
+        if !(1..=SW_MAX_ORDERS as u32).contains(&p.order_count) {
+            return Err(SW_ERROR_ORDER_COUNT);
+        }
         let calibration = calibration(&p.calibration)?;
         let velocity = p.phase_source == SW_PHASE_VELOCITY;
         let needed =
@@ -325,10 +338,20 @@ impl<T: Real> Instance<T> {
         if p.channels & !ALL_CHANNELS != 0 || p.channels & needed != needed {
             return Err(SW_ERROR_CHANNELS);
         }
-        Ok(Self { engine, gear, calibration, channels: p.channels, velocity, last_time_s: None })
+        let parts = Parts { gear, calibration, channels: p.channels, velocity };
+        match p.order_count {
+            1 => build_sized(p, guard, parts, Engine::O1, dest),
+            2 => build_sized(p, guard, parts, Engine::O2, dest),
+            3 => build_sized(p, guard, parts, Engine::O3, dest),
+            4 => build_sized(p, guard, parts, Engine::O4, dest),
+            5 => build_sized(p, guard, parts, Engine::O5, dest),
+            6 => build_sized(p, guard, parts, Engine::O6, dest),
+            7 => build_sized(p, guard, parts, Engine::O7, dest),
+            _ => build_sized(p, guard, parts, Engine::O8, dest),
+        }
     }
 
-    /// Back to the state right after `new`.
+    /// Back to the state right after `build`.
     pub(crate) fn reset(&mut self) {
         self.last_time_s = None;
         with_engine!(&mut self.engine, m, c => c.reset(m));

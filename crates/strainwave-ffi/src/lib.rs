@@ -48,11 +48,9 @@ where
     let Some(state) = state else { return SW_ERROR_NULL };
     *state.magic() = 0;
     let Some(model) = model else { return SW_ERROR_NULL };
-    match Instance::new(&Plain::from(model)) {
-        Ok(instance) => {
-            state::put(state, instance);
-            SW_OK
-        }
+    let plain = Plain::from(model);
+    match state::init(state, |dest| Instance::build(&plain, dest)) {
+        Ok(()) => SW_OK,
         Err(code) => code,
     }
 }

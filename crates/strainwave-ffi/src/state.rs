@@ -8,7 +8,7 @@
 
 #![allow(non_camel_case_types)]
 
-use core::mem::{align_of, size_of};
+use core::mem::{align_of, size_of, MaybeUninit};
 
 use strainwave_core::Real;
 
@@ -84,12 +84,20 @@ impl Slot for sw32_state {
     }
 }
 
-/// Stores `instance` in the slot and marks it initialised.
-pub(crate) fn put<S: Slot>(slot: &mut S, instance: Instance<S::Real>) {
+/// Builds an instance in the slot's storage with `build` (in place) and marks the slot
+/// initialised if that succeeds; else leaves it uninitialised and returns the error.
+pub(crate) fn init<S: Slot>(
+    slot: &mut S,
+    build: impl FnOnce(&mut MaybeUninit<Instance<S::Real>>) -> Result<(), i32>,
+) -> Result<(), i32> {
+    *slot.magic() = 0;
     // SAFETY: the storage is large and aligned enough for an `Instance` (checked at
-    // compile time above) and exclusively borrowed through `slot`.
-    unsafe { slot.storage().cast::<Instance<S::Real>>().write(instance) };
+    // compile time above) and exclusively borrowed through `slot`; as `MaybeUninit` it
+    // may hold anything.
+    let dest = unsafe { &mut *slot.storage().cast::<MaybeUninit<Instance<S::Real>>>() };
+    build(dest)?;
     *slot.magic() = S::MAGIC;
+    Ok(())
 }
 
 /// The instance of an initialised slot.
@@ -97,8 +105,8 @@ pub(crate) fn get<S: Slot>(slot: &mut S) -> Option<&mut Instance<S::Real>> {
     if *slot.magic() != S::MAGIC {
         return None;
     }
-    // SAFETY: the magic word is only set by `put`, right after it wrote a valid instance
-    // into this storage (a copied state carries its instance with it: it is plain data
+    // SAFETY: the magic word is only set by `init`, right after a valid instance was
+    // built in this storage (a copied state carries its instance with it: it is plain data
     // without pointers). Size and alignment are checked at compile time.
     Some(unsafe { &mut *slot.storage().cast::<Instance<S::Real>>() })
 }

@@ -6,6 +6,7 @@
 //!   same `filter_flags`: under the do-no-harm guard (the default) for the learned full
 //!   model and the paper's 6th-order model, and bare (`filter.guard = false`);
 //! - an f32 export compiles and passes `sw32_init`;
+//! - `examples/c/stack_use.c` measures the stack of each call, within bounds;
 //! - `examples/ros2_control` compiles with `c++ -std=c++17` and runs.
 //!
 //! Skipped with a message when a compiler is missing. The library and the command line
@@ -16,6 +17,8 @@
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
+
+use strainwave_ffi::{sw32_state, sw_state};
 
 fn workspace() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").canonicalize().unwrap()
@@ -223,6 +226,38 @@ fn c_example_matches_filter_and_cpp_example_builds() {
         .arg(&exe_loop));
     let out = run(Command::new(&exe_loop).arg("2000"));
     assert!(out.contains("mean clean torque over 2000 steps"), "{out}");
+
+    // The stack each call takes (the full model, guarded): `sw_init` builds the instance
+    // in the caller's state, not beside it (a copy per order count took 90 kB before).
+    let exe_stack = tmp.join("stack_use");
+    run(Command::new("cc")
+        .args(cc_flags)
+        .arg("-I")
+        .arg(&include)
+        .arg("-I")
+        .arg(&tmp)
+        .arg(root.join("examples/c/stack_use.c"))
+        .arg(&lib)
+        .args(libs)
+        .arg("-o")
+        .arg(&exe_stack));
+    let out = run(&mut Command::new(&exe_stack));
+    eprintln!("{out}");
+    let bytes = |call: &str| -> usize {
+        let line = out.lines().find(|l| l.split_whitespace().next() == Some(call)).unwrap_or_else(|| panic!("{out}"));
+        line.split_whitespace().nth(1).and_then(|b| b.parse().ok()).unwrap_or_else(|| panic!("{line}"))
+    };
+    let (state64, state32) = (std::mem::size_of::<sw_state>(), std::mem::size_of::<sw32_state>());
+    for (call, limit) in [
+        ("sw_init", 3 * state64),
+        ("sw32_init", 3 * state32),
+        ("sw_reset", state64),
+        ("sw32_reset", state32),
+        ("sw_step", state64),
+        ("sw32_step", state32),
+    ] {
+        assert!(bytes(call) <= limit, "{call} takes {} bytes of stack (limit {limit}):\n{out}", bytes(call));
+    }
 
     // The ros2_control wrapper, C++17, against the header and an exported model.
     let exe_cpp = tmp.join("hardware_interface_example");

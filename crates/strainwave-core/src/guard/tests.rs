@@ -98,6 +98,58 @@ fn nothing_removed_at_a_standstill_before_any_motion() {
     }
 }
 
+/// After learning while moving, the angles stop. At a real standstill the torque stops
+/// rippling: the held order is applied (its constant at that angle removed). With frozen
+/// encoders the joint turns on and the torque ripples: within 0.1 s nothing is applied, and
+/// the rest of the second is the raw torque (a constant taken off would be worse).
+#[test]
+fn held_orders_are_applied_at_a_standstill_not_under_frozen_encoders() {
+    // The product model's 2× order alone, the one line of the data: the model is complete
+    // once it is learned.
+    let product = RippleModel::<f64, 3>::product(1000.0, 0.01).unwrap();
+    let (p0, p0_bias) = product.initial_variance_nm2();
+    let model = RippleModel::new([product.orders()[0]], 0.01, 1000.0)
+        .and_then(|m| m.with_bias_state(product.bias_q_nm2().unwrap()))
+        .and_then(|m| m.with_initial_variance(p0, p0_bias))
+        .unwrap();
+    let (w, amp, load, stop) = (0.05, 0.5, 2.0, 8000);
+    for frozen in [false, true] {
+        let mut guard = Guard::new(&model, GuardSettings::default());
+        let (mut clean_e2, mut raw_e2, mut last_corrected) = (0.0, 0.0, 0);
+        for k in 0..stop + 1000 {
+            let input = match k {
+                _ if k < stop => sample::<f64>(k, w, amp, load),
+                _ if frozen => {
+                    RippleInput { references: sample::<f64>(stop, w, amp, load).references, ..sample(k, w, amp, load) }
+                }
+                _ => sample::<f64>(stop, w, amp, load),
+            };
+            let o = guard.step(&model, &input).unwrap();
+            if k == stop - 1 {
+                assert!(o.applied[0], "frozen {frozen}: learned before the stop");
+            }
+            if k >= stop && o.output.torque_nm != input.torque_nm {
+                last_corrected = k - stop;
+            }
+            if k >= stop + 100 && !frozen {
+                assert!(o.applied[0], "standstill, sample {}", k - stop);
+            }
+            if k >= stop {
+                clean_e2 += (o.output.torque_nm - load).powi(2);
+                raw_e2 += (input.torque_nm - load).powi(2);
+            }
+        }
+        let ratio = (clean_e2 / raw_e2).sqrt();
+        eprintln!(
+            "frozen {frozen}: the second after the stop, clean / raw {ratio:.3}; last corrected +{last_corrected}"
+        );
+        assert!(if frozen { ratio <= 1.0 } else { ratio < 0.1 }, "frozen {frozen}: clean / raw {ratio:.3}");
+        if frozen {
+            assert!(last_corrected < 100, "frozen encoders corrected until sample +{last_corrected}");
+        }
+    }
+}
+
 /// The settings' defaults are the documented ones.
 #[test]
 fn default_settings() {
