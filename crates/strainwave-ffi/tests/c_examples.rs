@@ -196,51 +196,24 @@ fn c_example_matches_filter_and_cpp_example_builds() {
         "#include \"model32.h\"\nint main(void) {\n    static sw32_state s;\n    return sw32_init(&s, &SW32_MODEL);\n}\n",
     )
     .unwrap();
-    let exe32 = tmp.join("check32");
-    run(Command::new("cc")
-        .args(cc_flags)
-        .arg("-I")
-        .arg(&include)
-        .arg("-I")
-        .arg(&tmp)
-        .arg(&check32)
-        .arg(&lib)
-        .args(libs)
-        .arg("-o")
-        .arg(&exe32));
-    run(&mut Command::new(&exe32));
+    // A C program against the header, the exported models in `tmp` and the library.
+    let compile = |source: &Path, name: &str| {
+        let exe = tmp.join(name);
+        let mut cc = Command::new("cc");
+        cc.args(cc_flags).arg("-I").arg(&include).arg("-I").arg(&tmp).arg(source).arg(&lib).args(libs);
+        run(cc.arg("-o").arg(&exe));
+        exe
+    };
+    run(&mut Command::new(compile(&check32, "check32")));
 
     // The instruction-count workload (docs/performance.md) builds and runs.
     std::fs::copy(tmp.join("joint-taghirad_guarded_model.h"), tmp.join("model.h")).unwrap();
-    let exe_loop = tmp.join("step_loop");
-    run(Command::new("cc")
-        .args(cc_flags)
-        .arg("-I")
-        .arg(&include)
-        .arg("-I")
-        .arg(&tmp)
-        .arg(root.join("examples/c/step_loop.c"))
-        .arg(&lib)
-        .args(libs)
-        .arg("-o")
-        .arg(&exe_loop));
-    let out = run(Command::new(&exe_loop).arg("2000"));
+    let out = run(Command::new(compile(&root.join("examples/c/step_loop.c"), "step_loop")).arg("2000"));
     assert!(out.contains("mean clean torque over 2000 steps"), "{out}");
 
     // The stack each call takes (the full model, guarded): `sw_init` builds the instance
     // in the caller's state, not beside it (a copy per order count took 90 kB before).
-    let exe_stack = tmp.join("stack_use");
-    run(Command::new("cc")
-        .args(cc_flags)
-        .arg("-I")
-        .arg(&include)
-        .arg("-I")
-        .arg(&tmp)
-        .arg(root.join("examples/c/stack_use.c"))
-        .arg(&lib)
-        .args(libs)
-        .arg("-o")
-        .arg(&exe_stack));
+    let exe_stack = compile(&root.join("examples/c/stack_use.c"), "stack_use");
     let out = run(&mut Command::new(&exe_stack));
     eprintln!("{out}");
     let bytes = |call: &str| -> usize {
