@@ -1,4 +1,4 @@
-//! User-facing errors of `fuse`, `identify` and `design`: one line, naming the file the problem is
+//! User-facing errors of `fuse`, `identify`, `design` and `filter`: one line, naming the file the problem is
 //! in (the config for its keys, the recording for its rows, counted from 1) and the key
 //! or column as the user wrote it.
 
@@ -139,6 +139,41 @@ fn fuse_names_the_recording_and_its_row_from_one() {
         &["fused.csv: already has a `fused_torque` column"],
     );
     assert!(!out.exists());
+}
+
+/// Resampled rows are not the file's: `filter --resample-hz` names a bad value by the
+/// resampled row's time and the data rows of the file it lies between (it said "data row
+/// 998" of a file whose bad row is 500), with or without `--smooth`, and so does
+/// `--lenient`'s warning.
+#[test]
+fn filter_names_a_resampled_row_by_its_time_and_the_file_rows() {
+    let d = tmp("resampled-rows");
+    let rec = d.join("rec.csv");
+    let o = run(&["simulate", "--preset", "taghirad", "--duration", "1", "--out", s(&rec), "--quiet"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let header = std::fs::read_to_string(&rec).unwrap().lines().next().unwrap().to_string();
+    let torque = header.split(',').position(|c| c == "bridge_voltage").unwrap();
+    let bad = d.join("inf.csv");
+    edit_lines(&rec, &bad, |k, l| {
+        let mut cells: Vec<String> = l.split(',').map(String::from).collect();
+        if k == 500 {
+            cells[torque] = "inf".into();
+        }
+        cells.join(",")
+    });
+    let config = "../../examples/joint-taghirad.toml";
+    let out = d.join("out.csv");
+    let filter = ["filter", "--config", config, "--in", s(&bad), "--out", s(&out)];
+    error(&filter, &["inf.csv: data row 500: column `bridge_voltage`"]);
+    let at = "resampled row 998 (time 0.4985 s, between data rows 499 and 500 of the file): column `bridge_voltage`";
+    error(&[&filter[..], &["--resample-hz", "2000"]].concat(), &[at]);
+    error(&[&filter[..], &["--resample-hz", "2000", "--smooth"]].concat(), &[at]);
+    let o = run(&[&filter[..], &["--resample-hz", "2000", "--lenient"]].concat());
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        o.status.success() && e.contains("the first at resampled row 998 (time 0.4985 s, between data rows 499"),
+        "{e}"
+    );
 }
 
 #[test]

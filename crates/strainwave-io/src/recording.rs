@@ -310,6 +310,25 @@ impl RecordingReader {
         self.rows_read
     }
 
+    /// How messages name `row`, the row last read, so that the user finds it: a table's
+    /// `data row N` as in the file; a resampled row by its time and the file's data rows
+    /// it lies between; a log's aligned row by its time.
+    pub fn row_name(&self, row: &[f64]) -> String {
+        let n = self.rows_read;
+        if let Some(rs) = &self.resampled {
+            let t = row.get(rs.resampler.time_index()).copied().unwrap_or(f64::NAN);
+            let m = self.input_rows;
+            let source =
+                if m > 1 { format!("between data rows {} and {m}", m - 1) } else { format!("at data row {m}") };
+            return format!("resampled row {n} (time {t} s, {source} of the file)");
+        }
+        match &self.inner {
+            #[cfg(feature = "mcap")]
+            Reader::Bag(_) => format!("aligned row {n} (time {} s)", row.first().copied().unwrap_or(f64::NAN)),
+            _ => format!("data row {n}"),
+        }
+    }
+
     /// Reads the next row; `Ok(false)` at the end.
     pub fn read_row(&mut self, row: &mut Vec<f64>) -> Result<bool, IoError> {
         let Some(rs) = self.resampled.as_mut() else {

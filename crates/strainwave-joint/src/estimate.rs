@@ -167,25 +167,27 @@ impl Estimator {
         while source.read_row(&mut row)? {
             k += 1;
             if let Some(c) = &mut clock {
-                c.push(&row, k, input)?;
+                c.push(&row, input, |row| source.row_name(row))?;
             }
             let (m, l) = (row[mi], row[li]);
             let r = match &model.encoders {
                 Some(_) => {
                     if !(m.is_finite() && l.is_finite() && m.fract() == 0.0 && l.fract() == 0.0) {
-                        bail!("{input}: data row {k}: encoder counts {m:?}, {l:?} are not whole numbers");
+                        let at = source.row_name(&row);
+                        bail!("{input}: {at}: encoder counts {m:?}, {l:?} are not whole numbers");
                     }
                     est.step_counts(&mut st, m as i64, l as i64)
                 }
                 None => {
                     if !(m.is_finite() && l.is_finite()) {
-                        bail!("{input}: data row {k}: encoder angles {m}, {l} are not finite");
+                        bail!("{input}: {}: encoder angles {m}, {l} are not finite", source.row_name(&row));
                     }
                     est.step_angles(&mut st, m * ms + mo, l * ls + lo)
                 }
             };
             let e = r.map_err(|e| {
-                anyhow::anyhow!("{input}: data row {k}: no torque within the model range ±{range:.1} N·m ({e})")
+                let at = source.row_name(&row);
+                anyhow::anyhow!("{input}: {at}: no torque within the model range ±{range:.1} N·m ({e})")
             })?;
             if e.link_torque_nm.is_nan() || e.link_torque_nm.abs() > range {
                 bail!(

@@ -16,7 +16,7 @@ pub struct RowCheck {
     monitor: TimeMonitor,
     /// Rows the canceller skipped (non-finite torque or angle), and the first of them.
     skipped: u64,
-    first_skipped: Option<u64>,
+    first_skipped: Option<String>,
     /// Whether the output is standard output (errors then say how much was written).
     to_stdout: bool,
 }
@@ -48,8 +48,9 @@ impl RowCheck {
         }
     }
 
-    /// Checks data row `n` (1-based) before it is filtered.
-    pub fn row(&mut self, row: &[f64], n: u64, written: u64) -> Result<()> {
+    /// Checks `row` before it is filtered, `written` rows after the first; `name` names a
+    /// row in messages (see [`crate::run::RowSource::row_name`]).
+    pub fn row(&mut self, row: &[f64], written: u64, name: impl Fn(&[f64]) -> String) -> Result<()> {
         let t = self.time.get(row);
         let event = self.monitor.push(t);
         if self.lenient {
@@ -67,15 +68,17 @@ impl RowCheck {
             let v = row[c.index];
             if !v.is_finite() {
                 bail!(
-                    "data row {n}: column `{column}` (`channels.{key}`) is {v}; fix the recording {hint}{}",
+                    "{}: column `{column}` (`channels.{key}`) is {v}; fix the recording {hint}{}",
+                    name(row),
                     partial()
                 );
             }
         }
         match event {
-            TimeEvent::NonFinite => bail!("data row {n}: time is {t}; fix the recording {hint}{}", partial()),
+            TimeEvent::NonFinite => bail!("{}: time is {t}; fix the recording {hint}{}", name(row), partial()),
             TimeEvent::NonMonotonic => {
-                bail!("data row {n}: time {t} s is not after the previous row's; fix the recording {hint}{}", partial())
+                let n = name(row);
+                bail!("{n}: time {t} s is not after the previous row's; fix the recording {hint}{}", partial())
             }
             TimeEvent::Ok | TimeEvent::Gap => Ok(()),
         }
@@ -84,7 +87,7 @@ impl RowCheck {
     /// Data row `n` has a finite torque reading that the calibration makes infinite
     /// (e.g. 1e308 V times the gain): an error naming the row and column, or with
     /// `--lenient` a skipped sample like a NaN in the file.
-    pub fn calibration_overflow(&self, row: &[f64], n: u64) -> Result<()> {
+    pub fn calibration_overflow(&self, row: &[f64], name: impl Fn(&[f64]) -> String) -> Result<()> {
         if self.lenient {
             return Ok(());
         }
@@ -93,16 +96,17 @@ impl RowCheck {
             None => ("torque", "torque", f64::NAN),
         };
         bail!(
-            "data row {n}: column `{column}` (`channels.{key}`) is {value:?}, which the calibration makes infinite; \
-             fix the recording or the calibration, or pass --lenient to skip such rows with a flag"
+            "{}: column `{column}` (`channels.{key}`) is {value:?}, which the calibration makes infinite; \
+             fix the recording or the calibration, or pass --lenient to skip such rows with a flag",
+            name(row)
         )
     }
 
-    /// Records the canceller's flags for data row `n`.
-    pub fn flags(&mut self, flags: StepFlags, n: u64) {
+    /// Records the canceller's flags for `row`.
+    pub fn flags(&mut self, flags: StepFlags, row: &[f64], name: impl Fn(&[f64]) -> String) {
         if flags.contains(StepFlags::MEASUREMENT_SKIPPED) || flags.contains(StepFlags::ANGLE_SKIPPED) {
             self.skipped += 1;
-            self.first_skipped.get_or_insert(n);
+            self.first_skipped.get_or_insert_with(|| name(row));
         }
     }
 
@@ -111,10 +115,10 @@ impl RowCheck {
     pub fn warnings(&self, input: &str, rows: u64, span_s: Option<f64>) -> Vec<String> {
         let sample_rate_hz = self.sample_rate_hz;
         let mut w = Vec::new();
-        if let Some(first) = self.first_skipped {
+        if let Some(first) = &self.first_skipped {
             w.push(format!(
                 "{input}: {} samples with a non-finite angle, or a torque not finite or beyond ±1e12 N·m (an overrange \
-                 code), were skipped, the first at data row {first} \
+                 code), were skipped, the first at {first} \
                  (flag bits 0-1 in filter_flags)",
                 self.skipped
             ));

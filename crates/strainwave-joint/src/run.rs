@@ -39,6 +39,11 @@ pub trait RowSource {
     fn read_row(&mut self, row: &mut Vec<f64>) -> Result<bool, IoError>;
     /// Data rows read so far.
     fn rows_read(&self) -> u64;
+    /// How messages name `row`, the row last read (`data row N` unless the rows are not
+    /// the input's, e.g. resampled).
+    fn row_name(&self, _row: &[f64]) -> String {
+        format!("data row {}", self.rows_read())
+    }
 }
 
 /// Rows out.
@@ -60,6 +65,9 @@ impl RowSource for RecordingReader {
     }
     fn rows_read(&self) -> u64 {
         RecordingReader::rows_read(self)
+    }
+    fn row_name(&self, row: &[f64]) -> String {
+        RecordingReader::row_name(self, row)
     }
 }
 
@@ -403,11 +411,12 @@ impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
         let mut extrapolated = 0u64;
         while r.read_row(&mut row)? {
             let n = r.rows_read();
-            check.row(&row, n, n - 1).with_context(|| input.to_string())?;
+            let name = |row: &[f64]| r.row_name(row);
+            check.row(&row, n - 1, name).with_context(|| input.to_string())?;
             let t = ch.time.get(&row);
             let (mut sample, extra, overflow) = ch.input(&gear, &cal, &row, velocity);
             if overflow {
-                check.calibration_overflow(&row, n).with_context(|| input.to_string())?;
+                check.calibration_overflow(&row, name).with_context(|| input.to_string())?;
             }
             extrapolated += u64::from(extra);
             if let Some(t0) = last_t.filter(|t0| t.is_finite() && t > *t0) {
@@ -422,17 +431,18 @@ impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
             }
             let (o, flag_bits) = canceller.step(model, &sample).map_err(|e| {
                 let why = in_config_terms(e, cfg.filter.model == ModelChoice::Orders, cfg.filter.sample_rate_hz);
-                anyhow!("{input}: data row {n}: {why}")
+                anyhow!("{input}: {}: {why}", name(&row))
             })?;
-            check.flags(o.flags, n);
+            check.flags(o.flags, &row, name);
             // NaN marks a skipped sample; an infinity is an overflow the filter made.
             let outputs = [o.torque_nm, o.ripple_nm, o.misalignment_nm, o.innovation_nm, o.nis];
             if let Some(v) = outputs.iter().find(|v| v.is_infinite()) {
                 let coefficients =
                     learned.map_or(String::new(), |(_, p)| format!(", and the coefficients in {}", p.display()));
                 bail!(
-                    "{input}: data row {n}: the filter's output overflows ({v}) from a torque of {:?} N·m; \
+                    "{input}: {}: the filter's output overflows ({v}) from a torque of {:?} N·m; \
                      check the calibration and `filter.noise_nm` in {config}{coefficients}",
+                    name(&row),
                     sample.torque_nm
                 );
             }

@@ -41,17 +41,19 @@ impl SampleClock {
         Some(Self { index, column: column.to_string(), scale, offset, model_hz, last_s: None, steps })
     }
 
-    /// Reads data row `k`'s time: an error if it is not finite or before the last row's.
-    pub fn push(&mut self, row: &[f64], k: u64, input: &str) -> Result<()> {
+    /// Reads `row`'s time: an error if it is not finite or before the last row's (`name`
+    /// names the row in messages).
+    pub fn push(&mut self, row: &[f64], input: &str, name: impl Fn(&[f64]) -> String) -> Result<()> {
         let t = row[self.index] * self.scale + self.offset;
         let column = &self.column;
         if !t.is_finite() {
-            bail!("{input}: data row {k}: time (column `{column}`) is {t}");
+            bail!("{input}: {}: time (column `{column}`) is {t}", name(row));
         }
         if let Some(last) = self.last_s {
             if t < last {
                 bail!(
-                    "{input}: data row {k}: time {t:?} s (column `{column}`) is before the previous row's {last:?} s"
+                    "{input}: {}: time {t:?} s (column `{column}`) is before the previous row's {last:?} s",
+                    name(row)
                 );
             }
             let octaves = ((t - last) * self.model_hz).log2();
@@ -101,7 +103,7 @@ mod tests {
         let named = Channel::Column("time".into());
         let mut c = SampleClock::find(&named, &cols, model_hz).expect("a `time` column");
         for (k, &t) in times.iter().enumerate() {
-            c.push(&[t, 0.0], k as u64 + 1, "in.csv")?;
+            c.push(&[t, 0.0], "in.csv", |_| format!("data row {}", k + 1))?;
         }
         Ok(c)
     }

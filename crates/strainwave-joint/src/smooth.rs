@@ -201,7 +201,8 @@ pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
     let mut row = Vec::new();
     let (mut first_t, mut last_t): (Option<f64>, Option<f64>) = (None, None);
     while r.read_row(&mut row)? {
-        check.row(&row, r.rows_read(), 0).with_context(|| input.to_string())?;
+        let name = |row: &[f64]| r.row_name(row);
+        check.row(&row, 0, name).with_context(|| input.to_string())?;
         let (mut sample, t) = input_and_time(&row);
         if let Some(t0) = last_t.filter(|t0| t.is_finite() && t > *t0) {
             sample = sample.with_dt(t - t0);
@@ -212,10 +213,9 @@ pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
         }
         speed.push(sample.references.relative);
         let o = sm.push(&sample).map_err(smoother_error)?;
-        check.flags(o.flags, r.rows_read());
-        let (g, bits) = canceller
-            .step(model, &sample)
-            .map_err(|e| anyhow!("{input}: data row {}: {}", r.rows_read(), in_config(e)))?;
+        check.flags(o.flags, &row, name);
+        let (g, bits) =
+            canceller.step(model, &sample).map_err(|e| anyhow!("{input}: {}: {}", name(&row), in_config(e)))?;
         // The guard applied the canceller's whole correction (same numbers to rounding);
         // a skipped sample (NaN torque) it does not judge, so the smoother fills it in.
         let held_back = (g.torque_nm - o.torque_nm).abs() > 1e-9 * (1.0 + sample.torque_nm.abs());
