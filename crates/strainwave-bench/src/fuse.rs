@@ -319,20 +319,23 @@ impl Job<'_> {
         let mut emit = |row: &[f64], n: u64, wtr: &mut W| -> Result<()> {
             let input = self.input;
             let time = row[idx.time];
+            let at = |plain: &str| strainwave_io::row_label(input, n, time, plain);
             if !(time.is_finite() && time > last_t) {
                 bail!(
-                    "{input}: row {n}, column `{}`: time {time:?} s does not come after {last_t:?} s",
+                    "{input}: {}, column `{}`: time {time:?} s does not come after {last_t:?} s",
+                    at("row"),
                     cfg.channels.time
                 );
             }
             last_t = time;
             if let Some(what) = idx.implausible(cfg, row) {
-                bail!("{input}: data row {n}, {what}");
+                bail!("{input}: {}, {what}", at("data row"));
             }
             let (t, acc) = (row[idx.torsion], idx.accel_torque(pair, row));
             if !(t.is_finite() && acc.is_finite()) {
                 bail!(
-                    "{input}: data row {n}: `{}` or the accelerometer torque is not finite (torsion {t}, accelerometers {acc} N·m)",
+                    "{input}: {}: `{}` or the accelerometer torque is not finite (torsion {t}, accelerometers {acc} N·m)",
+                    at("data row"),
                     cfg.channels.torsion
                 );
             }
@@ -341,7 +344,10 @@ impl Job<'_> {
             }
             let y = fusion.step(t, acc);
             if !y.is_finite() {
-                bail!("{input}: data row {n}: the fused torque overflows ({y}); check the scale of the input columns");
+                bail!(
+                    "{input}: {}: the fused torque overflows ({y}); check the scale of the input columns",
+                    at("data row")
+                );
             }
             if let (Some(c), Some(r)) = (check.as_mut(), reference) {
                 c.push(row[r], y);
@@ -400,7 +406,11 @@ impl Job<'_> {
                 *c = v[k];
             }
             if let Some(what) = idx.implausible(cfg, &row) {
-                bail!("{}: data row {}, {what}", self.input, k + 1);
+                bail!(
+                    "{}: {}, {what}",
+                    self.input,
+                    strainwave_io::row_label(self.input, k as u64 + 1, time[k], "data row")
+                );
             }
         }
         let torsion = &table.data[idx.torsion];
@@ -412,9 +422,9 @@ impl Job<'_> {
             .collect();
         if let Some(k) = (0..n).find(|&k| !(torsion[k].is_finite() && accel[k].is_finite())) {
             bail!(
-                "{}: row {}: `{}` or the accelerometer torque is not finite (torsion {}, accelerometers {} N·m)",
+                "{}: {}: `{}` or the accelerometer torque is not finite (torsion {}, accelerometers {} N·m)",
                 self.input,
-                k + 1,
+                strainwave_io::row_label(self.input, k as u64 + 1, time[k], "row"),
                 cfg.channels.torsion,
                 torsion[k],
                 accel[k]

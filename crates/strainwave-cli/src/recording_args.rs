@@ -31,7 +31,8 @@ impl SignalArgs {
     pub fn signal<'a>(&self, t: &'a Table) -> Result<&'a [f64]> {
         let x = column(t, &self.signal, "--signal", &self.input)?;
         if let Some(i) = x.iter().position(|v| !v.is_finite()) {
-            bail!("{}: row {}, column `{}`: {} is not finite", self.input.display(), i + 1, self.signal, x[i]);
+            let at = strainwave_io::row_name(&self.input, t, i, "row");
+            bail!("{}: {at}, column `{}`: {} is not finite", self.input.display(), self.signal, x[i]);
         }
         Ok(x)
     }
@@ -75,7 +76,8 @@ pub fn column<'a>(t: &'a Table, name: &str, flag: &str, path: &Path) -> Result<&
 pub const MAX_STEP_RATIO: f64 = 100.0;
 
 /// Sample rate from the `time` column, which must be finite and increase on every row,
-/// without steps of more than [`MAX_STEP_RATIO`] typical ones (errors name the 1-based row).
+/// without steps of more than [`MAX_STEP_RATIO`] typical ones (errors name the row, see
+/// [`strainwave_io::row_name`]).
 pub fn sample_rate(t: &Table, path: &Path) -> Result<f64> {
     let time = column(t, "time", "time", path)?;
     if time.len() < 2 {
@@ -85,9 +87,9 @@ pub fn sample_rate(t: &Table, path: &Path) -> Result<f64> {
     for (k, w) in time.windows(2).enumerate() {
         let dt = w[1] - w[0];
         if !(w[1].is_finite() && dt > 0.0) {
-            let row = k + 2;
+            let at = strainwave_io::row_name(path, t, k + 1, "row");
             bail!(
-                "{}: row {row}, column `time`: {:?} s does not come after {:?} s of the row before",
+                "{}: {at}, column `time`: {:?} s does not come after {:?} s of the row before",
                 path.display(),
                 w[1],
                 w[0]
@@ -103,10 +105,10 @@ pub fn sample_rate(t: &Table, path: &Path) -> Result<f64> {
     let typical = sorted[sorted.len() / 2];
     if let Some(k) = steps.iter().position(|dt| *dt > MAX_STEP_RATIO * typical) {
         bail!(
-            "{}: row {}, column `time`: a step of {} s, more than {MAX_STEP_RATIO} times the typical {typical} s; \
+            "{}: {}, column `time`: a step of {} s, more than {MAX_STEP_RATIO} times the typical {typical} s; \
              this command needs an evenly sampled recording (fix the gap, or split the recording)",
             path.display(),
-            k + 2,
+            strainwave_io::row_name(path, t, k + 1, "row"),
             steps[k]
         );
     }
@@ -138,7 +140,8 @@ pub fn speed_rpm(t: &Table, name: &str, unit: SpeedUnit, path: &Path) -> Result<
     let k = if unit == SpeedUnit::RadS { 60.0 / std::f64::consts::TAU } else { 1.0 };
     let v: Vec<f64> = raw.iter().map(|x| x * k).collect();
     if let Some(i) = v.iter().position(|x| !x.is_finite()) {
-        bail!("{}: row {}, column `{name}`: speed {:?} is not finite", path.display(), i + 1, raw[i]);
+        let at = strainwave_io::row_name(path, t, i, "row");
+        bail!("{}: {at}, column `{name}`: speed {:?} is not finite", path.display(), raw[i]);
     }
     let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
     if mean.is_nan() || mean <= 0.0 {

@@ -102,7 +102,16 @@ fn fuse_names_the_recording_and_its_row_from_one() {
             &["fuse", "--config", s(&cfg), "--in", s(&nan), "--method", method, "--out", s(&out)],
             &["nan.csv: ", "row 7", "`torsion_torque`"],
         );
+        // Resampled (20 → 40 kHz), the rows are not the file's: named by their time.
+        let resampled = ["--resample-hz", "40000"];
+        let args = ["fuse", "--config", s(&cfg), "--in", s(&nan), "--method", method, "--out", s(&out)];
+        error(&[&args[..], &resampled].concat(), &["nan.csv: resampled row 12 (time 0.000275 s): `torsion_torque`"]);
     }
+    let args = ["orders", "--in", s(&nan), "--signal", "torsion_torque", "--speed", "speed_rpm", "--order", "18"];
+    error(
+        &[&args[..], &["--out", s(&d.join("o.svg")), "--resample-hz", "40000"]].concat(),
+        &["nan.csv: resampled row 12 (time 0.000275 s), column `torsion_torque`: NaN is not finite"],
+    );
     // The second time equal to the first: the sample rate cannot come from them.
     let same = d.join("same.csv");
     edit_lines(&rec, &same, |k, l| if k == 2 { l.replacen(l.split(',').next().unwrap(), "0", 1) } else { l.into() });

@@ -512,6 +512,27 @@ pub fn read_all_with_time(path: &Path, time: Option<&crate::Channel>) -> Result<
     crate::Table::collect(path, &columns, |row| r.read_row(row))
 }
 
+/// How messages name row `k` (0-based) of `table`, read whole from `path` by
+/// [`read_all`]: see [`row_label`].
+pub fn row_name(path: &Path, table: &crate::Table, k: usize, plain: &str) -> String {
+    let time = default_read_options().time_column.unwrap_or_else(|| "time".into());
+    let t = table.column(&time).and_then(|c| c.get(k)).copied().unwrap_or(f64::NAN);
+    row_label(&path.to_string_lossy(), k as u64 + 1, t, plain)
+}
+
+/// How messages name row `n` (1-based) of the recording `input`, read with the process's
+/// read options, whose time is `time_s`: `"{plain} {n}"` as in the file, unless the rows
+/// are not the file's (resampled by `--resample-hz`, or a log's messages aligned on one
+/// clock): then by the row's time, which the user can find.
+pub fn row_label(input: &str, n: u64, time_s: f64, plain: &str) -> String {
+    let kind = match format_of(Path::new(input)) {
+        Ok(Format::Mcap | Format::Db3 | Format::RosbagFolder) => "aligned row",
+        _ if default_read_options().resample_hz.is_some() => "resampled row",
+        _ => return format!("{plain} {n}"),
+    };
+    format!("{kind} {n} (time {time_s} s)")
+}
+
 #[cfg(all(test, feature = "parquet"))]
 mod tests {
     use super::*;
