@@ -3,8 +3,10 @@
 //! outputs not yet in place are removed and the process exits with 128 + the signal
 //! (130, 143, 129); a write to a closed
 //! pipe (`strainwave … --out - | head`) ends the run quietly with 141, as SIGPIPE would.
+//! A write beyond the file size limit (`ulimit -f`) fails as a full disk does, with the
+//! error and the cleanup, instead of SIGXFSZ killing the process over its temporary file.
 
-use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM, SIGXFSZ};
 
 /// Exit status of a run cut short by a closed pipe (128 + SIGPIPE).
 pub const BROKEN_PIPE_EXIT: u8 = 141;
@@ -12,6 +14,9 @@ pub const BROKEN_PIPE_EXIT: u8 = 141;
 /// Starts the thread that waits for SIGINT, SIGTERM and SIGHUP. Without it (if the handler cannot
 /// be installed) the default action still ends the process; only the cleanup is lost.
 pub fn install() {
+    // Any handler replaces SIGXFSZ's default action (terminate): the write then returns
+    // EFBIG, which the run reports and cleans up after. The flag itself is not read.
+    let _ = signal_hook::flag::register(SIGXFSZ, std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false)));
     let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]) else { return };
     let _ = std::thread::Builder::new().name("signals".into()).spawn(move || {
         if let Some(sig) = signals.forever().next() {

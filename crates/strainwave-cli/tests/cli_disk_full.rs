@@ -6,7 +6,8 @@
 //! as the shell's `trap` leaves it across `exec`): a write beyond the limit then fails
 //! with `EFBIG`, the error a full file system gives as `ENOSPC`, on the same path
 //! through the writers. Standard output to a pipe is not limited, so `--out -` lets the
-//! `--learn` file alone meet the full disk.
+//! `--learn` file alone meet the full disk. Under a plain `ulimit -f` the binary takes
+//! SIGXFSZ itself, with the same result.
 #![cfg(unix)]
 
 use std::path::{Path, PathBuf};
@@ -37,9 +38,14 @@ fn run(args: &[&str]) -> Output {
 /// Runs the binary with files limited to `blocks` blocks of the shell's `ulimit -f`
 /// (512 or 1024 bytes); standard output is discarded.
 fn run_on_full_disk(blocks: u32, args: &[&str]) -> Output {
+    run_limited("trap '' XFSZ; ", blocks, args)
+}
+
+/// [`run_on_full_disk`] after `prelude` (shell commands) instead of ignoring SIGXFSZ.
+fn run_limited(prelude: &str, blocks: u32, args: &[&str]) -> Output {
     Command::new("sh")
         .arg("-c")
-        .arg(format!("trap '' XFSZ; ulimit -f {blocks} && exec \"$0\" \"$@\""))
+        .arg(format!("{prelude}ulimit -f {blocks} && exec \"$0\" \"$@\""))
         .arg(env!("CARGO_BIN_EXE_strainwave"))
         .args(args)
         .stdout(Stdio::null())
@@ -157,6 +163,24 @@ fn a_learned_file_on_a_full_disk_is_an_error_and_the_previous_one_stays() {
     assert_eq!(std::fs::read_to_string(&out).unwrap(), PREVIOUS);
     assert_eq!(std::fs::read(&learned).unwrap(), previous);
     assert_eq!(names(&d), ["learned.toml", "out.csv", "rec.csv"]);
+}
+
+/// A plain `ulimit -f` (SIGXFSZ at its default, terminate): the binary takes the signal
+/// itself, so the write fails as on a full disk. Before, SIGXFSZ killed the run (exit 153)
+/// and left its temporary file beside the target.
+#[test]
+fn a_plain_file_size_limit_is_a_full_disk_not_a_kill() {
+    let d = tmp("plain-ulimit");
+    let rec = recording(&d);
+    let out = d.join("out.csv");
+    for args in [
+        vec!["simulate", "--preset", "taghirad", "--duration", "4", "--quiet", "--out", s(&out)],
+        vec!["filter", "--config", "../../examples/joint-taghirad.toml", "--in", s(&rec), "--quiet", "--out", s(&out)],
+    ] {
+        std::fs::write(&out, PREVIOUS).unwrap();
+        let o = run_limited("", 64, &args);
+        check(&o, &out, &out, &d, &["out.csv", "rec.csv"], args[0]);
+    }
 }
 
 #[test]
