@@ -84,7 +84,7 @@ impl RowCheck {
         }
     }
 
-    /// Data row `n` has a finite torque reading that the calibration makes infinite
+    /// `row` has a finite torque reading that the calibration makes infinite
     /// (e.g. 1e308 V times the gain): an error naming the row and column, or with
     /// `--lenient` a skipped sample like a NaN in the file.
     pub fn calibration_overflow(&self, row: &[f64], name: impl Fn(&[f64]) -> String) -> Result<()> {
