@@ -16,6 +16,7 @@ read back with the `mcap` reader; bad bags give one-line errors.
 
 import csv
 import math
+import os
 import subprocess
 
 import pytest
@@ -583,11 +584,15 @@ def test_messages_at_one_time_are_counted_in_a_warning(binary, tmp_path):
 
 
 @pytest.mark.parametrize("storage", sorted(STORAGES))
-def test_a_bag_compressed_message_by_message_reads_and_by_file_is_named(binary, tmp_path, storage):
+def test_a_bag_compressed_message_by_message_or_file_by_file_reads(binary, tmp_path, storage):
     # rosbag2's `--compression-mode message`: each message a zstd frame. Before: "CDR
     # representation 0x28b5 is not supported" (the frame's magic taken for CDR).
+    # `--compression-mode file`: each file one zstd stream (`bag_0.db3.zstd`). Before:
+    # refused with "decompress it with `zstd -d`".
     store = typesys.get_typestore(typesys.Stores.ROS2_HUMBLE)
     kind = "std_msgs/msg/Float64"
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
     for mode in ("MESSAGE", "FILE"):
         path = tmp_path / f"{storage}_{mode.lower()}"
         w = rosbag2.Writer(path, version=8, storage_plugin=getattr(rosbag2.StoragePlugin, STORAGES[storage]))
@@ -597,15 +602,53 @@ def test_a_bag_compressed_message_by_message_reads_and_by_file_is_named(binary, 
             for k in range(100):
                 data = store.serialize_cdr(store.types[kind](data=float(k) / 3), kind)
                 w.write(c, T0_NS + k * 1_000_000, data)
-        out = tmp_path / f"{storage}_{mode.lower()}.csv"
-        res = run(binary, "convert", "--in", path, "--out", out, "--quiet", ok=(mode == "MESSAGE"))
-        if mode == "MESSAGE":
+        parts = sorted(p.name for p in path.iterdir() if p.name != "metadata.yaml")
+        assert all(p.endswith(".zstd") for p in parts) == (mode == "FILE"), parts
+        # The folder, and (compressed whole) its one file given alone.
+        inputs = [path] + ([path / parts[0]] if mode == "FILE" else [])
+        for k, given in enumerate(inputs):
+            out = tmp_path / f"{storage}_{mode.lower()}_{k}.csv"
+            res = subprocess.run(
+                [str(binary), "convert", "--in", str(given), "--out", str(out), "--quiet"],
+                capture_output=True, text=True, timeout=600, env={**os.environ, "TMPDIR": str(scratch)},
+            )
+            assert res.returncode == 0 and res.stderr == "", res.stderr
             header, rows = read_csv(out)
             assert header == ["time", "/torque/data"]
             assert rows[:, 1].tolist() == [k / 3 for k in range(100)]
             assert rows[:, 0].tolist() == [(T0_NS + k * 1_000_000) / 1e9 for k in range(100)]
-        else:
-            err = [l for l in res.stderr.splitlines() if l.startswith("error:")]
-            assert res.returncode == 1 and len(err) == 1, res.stderr
-            assert ".zstd: compressed file by file" in err[0] and "zstd -d" in err[0], err
-            assert not out.exists()
+    # The decompressed copies are gone.
+    assert list(scratch.iterdir()) == []
+
+
+@pytest.mark.parametrize("storage", sorted(STORAGES))
+def test_a_bag_compressed_file_by_file_that_is_damaged_gets_one_line(binary, tmp_path, storage):
+    """A file compressed whole that is not zstd, or cut short: an MCAP file gives the
+    messages before the cut with a warning (as uncompressed), SQLite one line."""
+    store = typesys.get_typestore(typesys.Stores.ROS2_HUMBLE)
+    kind = "std_msgs/msg/Float64"
+    path = tmp_path / "bag"
+    w = rosbag2.Writer(path, version=8, storage_plugin=getattr(rosbag2.StoragePlugin, STORAGES[storage]))
+    w.set_compression(rosbag2.CompressionMode.FILE, rosbag2.CompressionFormat.ZSTD)
+    with w:
+        c = w.add_connection("/torque", kind, typestore=store)
+        for k in range(20000):
+            # Values that do not compress much, so that the file has many blocks.
+            data = store.serialize_cdr(store.types[kind](data=math.sin(k * 1.1) * 1e3), kind)
+            w.write(c, T0_NS + k * 1_000_000, data)
+    (part,) = [p for p in path.iterdir() if p.name.endswith(".zstd")]
+    whole = part.read_bytes()
+    part.write_bytes(whole[: len(whole) // 2])
+    out = tmp_path / "cut.csv"
+    res = run(binary, "convert", "--in", part, "--out", out, ok=False)
+    lines = res.stderr.splitlines()
+    if storage == "mcap":
+        assert res.returncode == 0 and "ends before its footer" in lines[0], res.stderr
+        header, rows = read_csv(out)
+        assert 0 < len(rows) < 20000
+    else:
+        assert res.returncode == 1 and len(lines) == 1 and lines[0].startswith(f"error: {part}:"), res.stderr
+        assert not out.exists()
+    part.write_bytes(b"not zstd at all")
+    res = run(binary, "convert", "--in", part, "--out", out, ok=False)
+    assert res.returncode == 1 and res.stderr.splitlines() == [f"error: {part}: zstd: Unknown frame descriptor"]

@@ -12,8 +12,8 @@ use strainwave_io::{RecordingReader, RecordingWriter, TimeMonitor};
 /// Arguments of `convert`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Input recording (.csv/.tsv/.txt, .parquet, .mcap, .db3, a rosbag2 folder; `-` for
-    /// text on standard input).
+    /// Input recording (.csv/.tsv/.txt, .parquet, .mcap, .db3, either compressed whole as
+    /// .zstd, a rosbag2 folder; `-` for text on standard input).
     #[arg(long = "in")]
     pub input: PathBuf,
     /// Output recording (.csv, .parquet or .mcap; `-` for CSV on standard output).

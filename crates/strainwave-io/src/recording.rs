@@ -38,16 +38,26 @@ pub fn format_of(path: &Path) -> Result<Format, IoError> {
     if path.is_dir() {
         let bag = path.join("metadata.yaml").is_file()
             || std::fs::read_dir(path).is_ok_and(|d| {
-                d.flatten().any(|e| matches!(e.path().extension().and_then(|x| x.to_str()), Some("mcap" | "db3")))
+                d.flatten().any(|e| matches!(log_extension(&e.path()).as_deref(), Some("mcap" | "db3")))
             });
         return if bag { Ok(Format::RosbagFolder) } else { Err(IoError::IsDirectory(path.to_path_buf())) };
     }
-    match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+    match log_extension(path).as_deref() {
         Some("csv") | Some("txt") | Some("tsv") | Some("dat") => Ok(Format::Csv),
         Some("parquet") | Some("pq") => Ok(Format::Parquet),
         Some("mcap") => Ok(Format::Mcap),
         Some("db3") => Ok(Format::Db3),
         _ => Err(IoError::UnknownFormat(path.to_path_buf())),
+    }
+}
+
+/// The extension of `path` in lower case, that of the file inside for a log file
+/// compressed whole (`mcap` for `bag_0.mcap.zstd`).
+fn log_extension(path: &Path) -> Option<String> {
+    let ext = |p: &Path| p.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    match ext(path).as_deref() {
+        Some("zstd" | "zst") => ext(&path.with_extension("")).filter(|e| e == "mcap" || e == "db3"),
+        _ => ext(path),
     }
 }
 
@@ -611,5 +621,9 @@ mod tests {
         assert_eq!(format_of(Path::new("-")).unwrap(), Format::Csv);
         assert_eq!(format_of(Path::new("a.parquet")).unwrap(), Format::Parquet);
         assert!(format_of(Path::new("a.xlsx")).is_err());
+        // A log compressed whole is its inner format; other files so compressed are not read.
+        assert_eq!(format_of(Path::new("bag_0.mcap.zstd")).unwrap(), Format::Mcap);
+        assert_eq!(format_of(Path::new("bag_0.DB3.zst")).unwrap(), Format::Db3);
+        assert!(format_of(Path::new("a.csv.zstd")).is_err());
     }
 }

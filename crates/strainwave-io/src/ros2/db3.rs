@@ -28,10 +28,11 @@ fn sql_error(path: &Path, e: rusqlite::Error) -> IoError {
 }
 
 impl Db3Stream {
-    /// Opens the file read-only and registers its topics.
-    pub fn open(path: &Path, registry: &mut Registry) -> Result<Self, IoError> {
+    /// Opens `file` read-only and registers its topics; `path` names it in errors (the
+    /// log's own file, where `file` is its decompressed copy).
+    pub fn open(file: &Path, path: &Path, registry: &mut Registry) -> Result<Self, IoError> {
         let flags = OpenFlags::SQLITE_OPEN_READ_ONLY | OpenFlags::SQLITE_OPEN_NO_MUTEX;
-        let conn = Connection::open_with_flags(path, flags).map_err(|e| sql_error(path, e))?;
+        let conn = Connection::open_with_flags(file, flags).map_err(|e| sql_error(path, e))?;
         let err = |e| sql_error(path, e);
         let mut definitions: HashMap<String, (String, String)> = HashMap::new();
         let has_definitions: bool =

@@ -14,3 +14,5 @@ pub mod msg_def;
 mod record_check;
 #[cfg(feature = "mcap")]
 pub mod source;
+#[cfg(feature = "mcap")]
+pub mod unpacked;

@@ -30,9 +30,10 @@ const CHUNK_FIXED_BYTES: u64 = 28;
 type Verdict = Result<u64, &'static str>;
 
 /// Refuses a file with a record or string that runs past the end of what holds it.
-pub(super) fn check_records(path: &Path) -> Result<(), IoError> {
+/// `path` names `file` in errors.
+pub(super) fn check_records(file: &Path, path: &Path) -> Result<(), IoError> {
     let os = |source| IoError::Os { path: path.to_path_buf(), source };
-    let file = File::open(path).map_err(os)?;
+    let file = File::open(file).map_err(os)?;
     let file_bytes = file.metadata().map_err(os)?.len();
     let mut r = BufReader::with_capacity(1 << 16, file);
     let mut pos = mcap::MAGIC.len() as u64;
@@ -263,7 +264,7 @@ mod tests {
     fn check(bytes: &[u8], name: &str) -> Result<(), IoError> {
         let p = std::env::temp_dir().join(format!("sw-chunk-check-{}-{name}.mcap", std::process::id()));
         std::fs::write(&p, bytes).unwrap();
-        let r = check_records(&p);
+        let r = check_records(&p, &p);
         std::fs::remove_file(&p).unwrap();
         r
     }
@@ -343,7 +344,7 @@ mod string_tests {
     fn check(bytes: &[u8], name: &str) -> Result<(), IoError> {
         let p = std::env::temp_dir().join(format!("sw-record-check-{}-{name}.mcap", std::process::id()));
         std::fs::write(&p, bytes).unwrap();
-        let r = check_records(&p);
+        let r = check_records(&p, &p);
         std::fs::remove_file(&p).unwrap();
         r
     }

@@ -1,6 +1,7 @@
 //! Messages of a log, in file order: an MCAP file, a rosbag2 SQLite file (`.db3`, with the
 //! `sqlite` feature) or a rosbag2 folder (its `.mcap` or `.db3` files in the order its
-//! `metadata.yaml` lists them). One message is held at a time (MCAP: one decompressed
+//! `metadata.yaml` lists them); each may be compressed whole (`.mcap.zstd`, see
+//! `unpacked`). One message is held at a time (MCAP: one decompressed
 //! chunk; SQLite: a page of [`DB3_PAGE_ROWS`] rows).
 
 use std::borrow::Cow;
@@ -9,6 +10,7 @@ use std::fs::File;
 use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
+use super::unpacked;
 use crate::error::IoError;
 
 /// Largest MCAP record (or decompressed chunk) read, bytes.
@@ -119,7 +121,7 @@ pub fn log_files(path: &Path) -> Result<Vec<PathBuf>, IoError> {
     if files.is_empty() {
         for e in std::fs::read_dir(path).map_err(os)? {
             let p = e.map_err(os)?.path();
-            if matches!(p.extension().and_then(|e| e.to_str()), Some("mcap" | "db3")) {
+            if matches!(unpacked::inner(&p).extension().and_then(|e| e.to_str()), Some("mcap" | "db3")) {
                 files.push(p);
             }
         }
@@ -145,21 +147,23 @@ fn mcap_error(path: &Path, e: mcap::McapError) -> IoError {
     }
 }
 
-fn open_mcap(path: &Path) -> Result<mcap::io::MessageReader<BufReader<File>>, IoError> {
+/// Opens `file` (named `path` in errors: the log's own file, where `file` is its
+/// decompressed copy) after checking its records.
+fn open_mcap(file: &Path, path: &Path) -> Result<mcap::io::MessageReader<BufReader<File>>, IoError> {
     let os = |source| IoError::Os { path: path.to_path_buf(), source };
-    let mut file = File::open(path).map_err(os)?;
+    let mut file_handle = File::open(file).map_err(os)?;
     let mut magic = Vec::with_capacity(mcap::MAGIC.len());
-    (&mut file).take(mcap::MAGIC.len() as u64).read_to_end(&mut magic).map_err(os)?;
+    (&mut file_handle).take(mcap::MAGIC.len() as u64).read_to_end(&mut magic).map_err(os)?;
     if magic != mcap::MAGIC {
         return Err(IoError::Csv {
             path: path.to_path_buf(),
             msg: "not an MCAP file (no MCAP magic at the start)".into(),
         });
     }
-    file.seek(SeekFrom::Start(0)).map_err(os)?;
-    super::record_check::check_records(path)?;
+    file_handle.seek(SeekFrom::Start(0)).map_err(os)?;
+    super::record_check::check_records(file, path)?;
     let options = mcap::sans_io::LinearReaderOptions::default().with_record_length_limit(MAX_RECORD_BYTES);
-    Ok(mcap::io::MessageReader::new_with_options(BufReader::with_capacity(1 << 16, file), options))
+    Ok(mcap::io::MessageReader::new_with_options(BufReader::with_capacity(1 << 16, file_handle), options))
 }
 
 enum FileStream {
@@ -179,6 +183,8 @@ pub struct MessageStream {
     files: Vec<PathBuf>,
     next_file: usize,
     current: Option<FileStream>,
+    /// The current file's decompressed copy, if compressed whole.
+    unpacked: Option<unpacked::Unpacked>,
     /// The log time of the last message given from the current file, ns.
     last_log_ns: Option<u64>,
     cut_short: Vec<(PathBuf, Option<u64>)>,
@@ -187,7 +193,14 @@ pub struct MessageStream {
 impl MessageStream {
     /// Opens the log at `path` (a file or a rosbag2 folder).
     pub fn open(path: &Path) -> Result<Self, IoError> {
-        Ok(Self { files: log_files(path)?, next_file: 0, current: None, last_log_ns: None, cut_short: Vec::new() })
+        Ok(Self {
+            files: log_files(path)?,
+            next_file: 0,
+            current: None,
+            unpacked: None,
+            last_log_ns: None,
+            cut_short: Vec::new(),
+        })
     }
 
     /// The files read so far that end before their footer, each with the log time of
@@ -197,30 +210,29 @@ impl MessageStream {
     }
 
     fn open_next(&mut self, registry: &mut Registry) -> Result<bool, IoError> {
+        // The last file's decompressed copy is removed first.
+        (self.current, self.unpacked) = (None, None);
         let Some(path) = self.files.get(self.next_file).cloned() else { return Ok(false) };
         self.next_file += 1;
         self.last_log_ns = None;
-        if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("zstd") || e.eq_ignore_ascii_case("zst")) {
-            return Err(IoError::Csv {
-                path,
-                msg: "compressed file by file (rosbag2 `compression_mode: file`), which is not read: \
-                      decompress it with `zstd -d` and read the .db3 or .mcap file it gives"
-                    .into(),
-            });
-        }
-        let is_db3 = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("db3"));
+        let file = if unpacked::is_compressed(&path) {
+            self.unpacked.insert(unpacked::Unpacked::new(&path)?).path().to_path_buf()
+        } else {
+            path.clone()
+        };
+        let is_db3 = unpacked::inner(&path).extension().is_some_and(|e| e.eq_ignore_ascii_case("db3"));
         self.current = Some(if is_db3 {
             #[cfg(feature = "sqlite")]
             {
-                FileStream::Db3(super::db3::Db3Stream::open(&path, registry)?)
+                FileStream::Db3(super::db3::Db3Stream::open(&file, &path, registry)?)
             }
             #[cfg(not(feature = "sqlite"))]
             {
-                let _ = registry;
+                let _ = (registry, file);
                 return Err(IoError::FeatureOff { path, feature: "sqlite" });
             }
         } else {
-            FileStream::Mcap { reader: Box::new(open_mcap(&path)?), path, ids: HashMap::new() }
+            FileStream::Mcap { reader: Box::new(open_mcap(&file, &path)?), path, ids: HashMap::new() }
         });
         Ok(true)
     }
