@@ -109,3 +109,49 @@ def test_a_timestamp_is_seconds_whatever_its_unit_metadata_says(binary, tmp_path
     header, rows = convert(binary, path, tmp_path)
     assert header == ["time", "torque"]  # seconds, the unit of a time column by default
     assert np.max(np.abs(rows[:, 0] - (EPOCH_S + np.arange(N) / 1000))) < 1e-6
+
+
+def test_text_category_and_flag_columns_are_left_out_with_a_warning(binary, tmp_path):
+    # A test stand's export as pandas writes it: a step name (text), a category, a flag.
+    # Before: the whole file refused ("column `step` has type Utf8, expected a number").
+    table = pa.table(
+        {
+            "time": np.arange(N) / RATE_HZ,
+            "step": pa.array(["ramp" if k < N // 2 else "hold" for k in range(N)]),
+            "torque": signal(),
+            "state": pa.array(["a", "b"] * (N // 2)).dictionary_encode(),
+            "ok": pa.array([True] * N),
+        }
+    )
+    path = tmp_path / "stand.parquet"
+    pq.write_table(table, path)
+    out = tmp_path / "stand.csv"
+    res = subprocess.run(
+        [str(binary), "convert", "--in", str(path), "--out", str(out)], capture_output=True, text=True, timeout=120
+    )
+    assert res.returncode == 0, res.stderr
+    warned = [l for l in res.stderr.splitlines() if l.startswith("warning:")]
+    assert warned == [
+        f"warning: {path}: column `step` (Utf8) is not numeric: left out",
+        f"warning: {path}: column `state` (Dictionary(Int32, Utf8)) is not numeric: left out",
+        f"warning: {path}: column `ok` (Boolean) is not numeric: left out",
+    ], res.stderr
+    header, rows = convert(binary, path, tmp_path)
+    assert header == ["time", "torque"]
+    assert rows[:, 1].tolist() == signal().tolist()
+    # A file with no numeric column at all is refused, naming a column.
+    pq.write_table(pa.table({"step": pa.array(["a"] * 3)}), path)
+    res = subprocess.run(
+        [str(binary), "convert", "--in", str(path), "--out", str(out)], capture_output=True, text=True, timeout=120
+    )
+    assert res.returncode == 1 and res.stderr.strip() == f"error: {path}: column `step` has type Utf8, expected a number"
+
+
+def test_the_package_reads_a_text_column_with_a_warning(tmp_path):
+    # The package reads as the command line: a DAQ export's text column left out, warned of.
+    sw = pytest.importorskip("strainwave", reason="pip install ./python (./scripts/test-all does)")
+    path = tmp_path / "daq.txt"
+    path.write_text("time\ttorque [N*m]\tstate\n0\t1,5\tRamp up\n0,001\t2\thold\n", encoding="utf-8")
+    with pytest.warns(sw.RecordingWarning, match="daq.txt: column `state` holds text in data row 1: left out"):
+        df = sw.read_recording(path)
+    assert list(df.columns) == ["time", "torque"] and df["torque"].tolist() == [1.5, 2.0]

@@ -1,6 +1,7 @@
 //! Parquet recordings through Arrow: every column read as `f64` (integer, `f16` and `f32`
 //! columns are widened, timestamps become seconds since the epoch with the unit `s`;
-//! nulls become NaN; any other type is an error naming the column),
+//! nulls become NaN; a column of another type, text or categories, is left out with a
+//! warning naming it; a file without a numeric column is an error),
 //! written as non-nullable `Float64` columns with snappy compression, in row groups
 //! of [`crate::DEFAULT_CHUNK_ROWS`] rows, so both directions stream in constant memory.
 //! A column's unit is its field's metadata `unit` (both ways); a `time` column in another
@@ -121,6 +122,7 @@ pub struct ParquetReader {
     batch: Option<RecordBatch>,
     row_in_batch: usize,
     rows_read: u64,
+    warnings: Vec<String>,
 }
 
 impl ParquetReader {
@@ -138,9 +140,12 @@ impl ParquetReader {
             .map_err(|e| pq_err(path, e))?
             .map_err(|e| pq_err(path, e))?;
         check_byte_ranges(builder.metadata(), size).map_err(|msg| pq_err(path, msg))?;
-        let schema = builder.schema().clone();
-        for f in schema.fields() {
-            if !numeric(f.data_type()) {
+        // Columns that are not numbers (text, categories) are left out, named in a warning.
+        let all = builder.schema().clone();
+        let (kept, left_out): (Vec<_>, Vec<_>) =
+            all.fields().iter().enumerate().partition(|(_, f)| numeric(f.data_type()));
+        if kept.is_empty() {
+            if let Some((_, f)) = left_out.first() {
                 return Err(IoError::WrongType {
                     path: path.to_path_buf(),
                     column: f.name().clone(),
@@ -148,6 +153,15 @@ impl ParquetReader {
                 });
             }
         }
+        let warnings = left_out
+            .iter()
+            .map(|(_, f)| {
+                format!("column `{}` ({}) is not numeric: left out", crate::error::shown(f.name()), f.data_type())
+            })
+            .collect();
+        let mask = parquet::arrow::ProjectionMask::roots(builder.parquet_schema(), kept.iter().map(|(i, _)| *i));
+        let builder = builder.with_projection(mask);
+        let schema = Arc::new(Schema::new(kept.iter().map(|(_, f)| Arc::clone(f)).collect::<Vec<_>>()));
         let columns: Vec<String> = schema.fields().iter().map(|f| f.name().clone()).collect();
         // As the CSV reader: a name twice would leave which column a command reads to chance.
         let mut seen = std::collections::HashSet::new();
@@ -164,12 +178,27 @@ impl ParquetReader {
         let batches = crate::guard::guarded(|| builder.with_batch_size(crate::DEFAULT_CHUNK_ROWS).build())
             .map_err(|e| pq_err(path, e))?
             .map_err(|e| pq_err(path, e))?;
-        Ok(Self { path: path.to_path_buf(), columns, units, time, batches, batch: None, row_in_batch: 0, rows_read: 0 })
+        Ok(Self {
+            path: path.to_path_buf(),
+            columns,
+            units,
+            time,
+            batches,
+            batch: None,
+            row_in_batch: 0,
+            rows_read: 0,
+            warnings,
+        })
     }
 
-    /// Column names in file order.
+    /// Column names in file order (the numeric columns).
     pub fn columns(&self) -> &[String] {
         &self.columns
+    }
+
+    /// The columns left out, one warning each.
+    pub fn warnings(&self) -> &[String] {
+        &self.warnings
     }
 
     /// Each column's unit (field metadata `unit`), if it has one.

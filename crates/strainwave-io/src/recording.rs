@@ -154,8 +154,8 @@ impl RecordingReader {
                 if let Some(name) = &options.time_column {
                     r.set_time_column(name);
                 }
-                let (columns, units) = (r.columns().to_vec(), r.units().to_vec());
-                (Reader::Csv(r), columns, units, Vec::new())
+                let (columns, units, warnings) = (r.columns().to_vec(), r.units().to_vec(), r.warnings().to_vec());
+                (Reader::Csv(r), columns, units, warnings)
             }
             #[cfg(feature = "parquet")]
             Format::Parquet => {
@@ -163,8 +163,8 @@ impl RecordingReader {
                 if let Some(name) = &options.time_column {
                     r.set_time_column(name);
                 }
-                let (columns, units) = (r.columns().to_vec(), r.units().to_vec());
-                (Reader::Parquet(r), columns, units, Vec::new())
+                let (columns, units, warnings) = (r.columns().to_vec(), r.units().to_vec(), r.warnings().to_vec());
+                (Reader::Parquet(r), columns, units, warnings)
             }
             #[cfg(not(feature = "parquet"))]
             Format::Parquet => return Err(IoError::FeatureOff { path: path.to_path_buf(), feature: "parquet" }),
@@ -572,7 +572,7 @@ mod tests {
     }
 
     #[test]
-    fn parquet_column_of_the_wrong_type_is_named() {
+    fn parquet_columns_of_text_are_left_out_and_named() {
         use arrow_array::{ArrayRef, Float64Array, RecordBatch, StringArray};
         use std::sync::Arc;
         let dir = std::env::temp_dir().join(format!("sw-pqt-{}", std::process::id()));
@@ -583,6 +583,19 @@ mod tests {
             ("label", Arc::new(StringArray::from(vec!["a", "b"])) as ArrayRef),
         ])
         .unwrap();
+        let mut w =
+            parquet::arrow::ArrowWriter::try_new(std::fs::File::create(&p).unwrap(), batch.schema(), None).unwrap();
+        w.write(&batch).unwrap();
+        w.close().unwrap();
+        let mut r = RecordingReader::open(&p).unwrap();
+        assert_eq!(r.columns(), ["time"]);
+        assert_eq!(r.warnings(), ["column `label` (Utf8) is not numeric: left out"]);
+        let mut row = Vec::new();
+        assert!(r.read_row(&mut row).unwrap() && r.read_row(&mut row).unwrap() && row == [1.0]);
+        assert!(!r.read_row(&mut row).unwrap());
+        // With no numeric column at all, the file is refused.
+        let batch =
+            RecordBatch::try_from_iter(vec![("label", Arc::new(StringArray::from(vec!["a"])) as ArrayRef)]).unwrap();
         let mut w =
             parquet::arrow::ArrowWriter::try_new(std::fs::File::create(&p).unwrap(), batch.schema(), None).unwrap();
         w.write(&batch).unwrap();

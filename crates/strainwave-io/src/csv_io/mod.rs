@@ -67,6 +67,8 @@ pub struct CsvReader {
     done: bool,
     /// The time column, read in seconds.
     time: TimeInSeconds,
+    /// The text columns left out, one warning each.
+    warnings: Vec<String>,
 }
 
 impl CsvReader {
@@ -116,14 +118,23 @@ impl CsvReader {
         if header.is_empty() || (header.len() == 1 && header[0].is_empty()) {
             return Err(IoError::Empty(path));
         }
-        let (columns, mut units): (Vec<String>, Vec<Option<String>>) = header.iter().map(split_unit).unzip();
-        // A time in another unit (`Time [ms]`) is read in seconds, as every command takes it.
-        let time = TimeInSeconds::new(&columns, &mut units);
+        let (columns, units): (Vec<String>, Vec<Option<String>>) = header.iter().map(split_unit).unzip();
         let mut seen = std::collections::HashSet::with_capacity(columns.len());
         if let Some(c) = columns.iter().find(|c| !seen.insert(c.as_str())) {
             return Err(IoError::DuplicateColumn { path, column: c.clone() });
         }
         parser.columns = columns.clone();
+        // Text columns (a DAQ's state or comment) are left out, named in a warning.
+        parser.text = parser.text_columns()?;
+        let text = |i: usize| parser.text.get(i) == Some(&true);
+        let warnings = (0..columns.len())
+            .filter(|&i| text(i))
+            .map(|i| format!("column `{}` holds text in data row 1: left out", crate::error::shown(&columns[i])))
+            .collect();
+        let (columns, mut units): (Vec<String>, Vec<Option<String>>) =
+            columns.into_iter().zip(units).enumerate().filter(|&(i, _)| !text(i)).map(|(_, c)| c).unzip();
+        // A time in another unit (`Time [ms]`) is read in seconds, as every command takes it.
+        let time = TimeInSeconds::new(&columns, &mut units);
         std::thread::Builder::new()
             .name("csv-parse".into())
             .spawn(move || parser.run())
@@ -141,6 +152,7 @@ impl CsvReader {
             next: 0,
             done: false,
             time,
+            warnings,
         })
     }
 
@@ -156,7 +168,8 @@ impl CsvReader {
         self.time.keep_as_written(&mut self.units);
     }
 
-    /// Column names in file order (units taken off, see [`split_unit`]).
+    /// Column names in file order (units taken off, see [`split_unit`]), but for the text
+    /// columns left out: those whose first data row holds text where others hold numbers.
     pub fn columns(&self) -> &[String] {
         &self.columns
     }
@@ -164,6 +177,11 @@ impl CsvReader {
     /// Each column's unit from the header, if it has one.
     pub fn units(&self) -> &[Option<String>] {
         &self.units
+    }
+
+    /// The text columns left out, one warning each.
+    pub fn warnings(&self) -> &[String] {
+        &self.warnings
     }
 
     /// The delimiter in use.

@@ -21,6 +21,8 @@ pub(super) enum Batch {
 pub(super) struct Parser {
     path: PathBuf,
     pub(super) columns: Vec<String>,
+    /// Per column of the header: a text column, whose cells are not read (empty: none).
+    pub(super) text: Vec<bool>,
     /// Cells after the last column that the header leaves unnamed (a delimiter at the end
     /// of each line, as spreadsheet and DAQ exports write): they must be empty.
     pub(super) unnamed_tail: usize,
@@ -62,6 +64,7 @@ impl Parser {
         Self {
             path,
             columns: Vec::new(),
+            text: Vec::new(),
             unnamed_tail: 0,
             input,
             buf: vec![0; READ_BUFFER_BYTES],
@@ -112,8 +115,54 @@ impl Parser {
         }
     }
 
-    pub(super) fn run(mut self) {
+    /// The columns whose cell in the first data row is text while others hold numbers
+    /// (a DAQ's state or comment column), by peeking at the input after the header
+    /// without consuming it. None when that row is not wholly within the buffer, holds
+    /// no number, or has another length: the parse then names what is wrong with it.
+    pub(super) fn text_columns(&mut self) -> Result<Vec<bool>, IoError> {
         let n = self.columns.len();
+        let mut record = csv::ByteRecord::new();
+        loop {
+            let rest = &self.buf[self.start..self.end];
+            let mut csv = csv::ReaderBuilder::new()
+                .has_headers(false)
+                .flexible(true)
+                .delimiter(self.delimiter)
+                .comment(Some(b'#'))
+                .from_reader(rest);
+            let found = csv.read_byte_record(&mut record).unwrap_or(false);
+            // A record that reaches the end of the bytes read may go on past them.
+            if (found && (csv.position().byte() as usize) < rest.len()) || self.eof {
+                if !found {
+                    return Ok(Vec::new());
+                }
+                break;
+            }
+            // Comment lines and the row beyond a buffer's worth: no peeking that far.
+            if rest.len() >= READ_BUFFER_BYTES {
+                return Ok(Vec::new());
+            }
+            self.fill()?;
+        }
+        if !(n..=n + self.unnamed_tail).contains(&record.len()) {
+            return Ok(Vec::new());
+        }
+        let number = |cell: &[u8]| parse_slow(cell, self.decimal_comma).is_some();
+        let empty = |cell: &[u8]| String::from_utf8_lossy(cell).trim().is_empty();
+        let text: Vec<bool> = record.iter().take(n).map(|cell| !empty(cell) && !number(cell)).collect();
+        // A row without a number (a units line, a preamble) is no row of data.
+        let numbers = record.iter().take(n).any(number);
+        Ok(if numbers && text.contains(&true) { text } else { Vec::new() })
+    }
+
+    /// Whether cell `i` belongs to a text column.
+    #[inline]
+    fn is_text(&self, i: usize) -> bool {
+        self.text.get(i) == Some(&true)
+    }
+
+    pub(super) fn run(mut self) {
+        let n = self.columns.len() - self.text.iter().filter(|&&t| t).count();
         let result = loop {
             match self.parse_row() {
                 Ok(true) => {
@@ -271,6 +320,10 @@ impl Parser {
             let decimal_comma = self.decimal_comma;
             for b in memchr::memchr_iter(self.delimiter, line).chain(std::iter::once(line.len())) {
                 cells += 1;
+                if self.is_text(cells - 1) {
+                    a = b + 1;
+                    continue;
+                }
                 let cell = &text[a..b];
                 let value =
                     if decimal_comma && cell.contains(',') { parse_decimal_comma(cell) } else { parse_cell(cell) };
@@ -366,17 +419,12 @@ impl Parser {
             });
         }
         let decimal_comma = self.decimal_comma;
-        let parse = |cell: &[u8]| {
-            let text = String::from_utf8_lossy(cell);
-            let cell = text.trim();
-            if decimal_comma && cell.contains(',') {
-                parse_decimal_comma(cell)
-            } else {
-                cell.parse().ok()
-            }
-        };
+        let parse = |cell: &[u8]| parse_slow(cell, decimal_comma);
         let before = self.batch.len();
         for (i, cell) in record.iter().take(n).enumerate() {
+            if self.is_text(i) {
+                continue;
+            }
             match parse(cell) {
                 Some(v) => self.batch.push(v),
                 None => {
@@ -392,6 +440,18 @@ impl Parser {
             }
         }
         Ok(())
+    }
+}
+
+/// A cell's value as a row that does not parse at once reads it: Unicode whitespace
+/// trimmed, a decimal comma where the delimiter allows one.
+fn parse_slow(cell: &[u8], decimal_comma: bool) -> Option<f64> {
+    let text = String::from_utf8_lossy(cell);
+    let cell = text.trim();
+    if decimal_comma && cell.contains(',') {
+        parse_decimal_comma(cell)
+    } else {
+        cell.parse().ok()
     }
 }
 

@@ -287,12 +287,27 @@ fn reference(data: &[u8]) -> Outcome {
     if let Some(c) = columns.iter().enumerate().find_map(|(i, c)| columns[..i].contains(c).then_some(c)) {
         return (Err(IoError::DuplicateColumn { path: path.into(), column: c.clone() }.to_string()), Vec::new());
     }
+    // Text columns: where the first record holds text, others numbers (its length right).
+    let parse = |cell: &[u8]| String::from_utf8_lossy(cell).trim().parse::<f64>();
+    let mut text = vec![false; columns.len()];
+    let mut first = csv::ByteRecord::new();
+    let mut peek = csv::ReaderBuilder::new().flexible(true).trim(csv::Trim::All).from_reader(data);
+    let _ = peek.byte_headers();
+    if peek.read_byte_record(&mut first).unwrap_or(false)
+        && (columns.len()..=columns.len() + tail).contains(&first.len())
+        && first.iter().take(columns.len()).any(|c| parse(c).is_ok())
+    {
+        for (t, cell) in text.iter_mut().zip(first.iter()) {
+            *t = !String::from_utf8_lossy(cell).trim().is_empty() && parse(cell).is_err();
+        }
+    }
+    let kept: Vec<String> = columns.iter().zip(&text).filter(|(_, &t)| !t).map(|(c, _)| c.clone()).collect();
     let mut rows = Vec::new();
     let mut record = csv::ByteRecord::new();
     let mut n = 0;
     loop {
         let row = match csv.read_byte_record(&mut record) {
-            Ok(false) => return (Ok(columns), rows),
+            Ok(false) => return (Ok(kept), rows),
             Err(e) => Err(csv_error(path, e).to_string()),
             Ok(true) => {
                 n += 1;
@@ -305,13 +320,13 @@ fn reference(data: &[u8]) -> Outcome {
                     let (got, want) = (record.len(), width + tail);
                     Err(IoError::RowLength { path: path.into(), row: n, got, want }.to_string())
                 } else {
-                    let parse = |cell: &[u8]| String::from_utf8_lossy(cell).trim().parse::<f64>();
                     // A first row of text alone is named as a likely preamble.
                     let all_text = n == 1 && record.iter().take(width).all(|c| parse(c).is_err());
                     record
                         .iter()
                         .take(width)
                         .enumerate()
+                        .filter(|&(i, _)| !text[i])
                         .map(|(i, cell)| {
                             parse(cell).map(f64::to_bits).map_err(|_| {
                                 let (path, value, column) = (path.into(), shown_cell(cell), columns[i].clone());
@@ -328,7 +343,7 @@ fn reference(data: &[u8]) -> Outcome {
         let stop = row.is_err();
         rows.push((row, n));
         if stop {
-            return (Ok(columns), rows);
+            return (Ok(kept), rows);
         }
     }
 }
@@ -610,9 +625,42 @@ fn a_preamble_above_the_header_is_named_as_such() {
         let e = r.read_row(&mut Vec::new()).unwrap_err().to_string();
         assert!(e.starts_with(&format!("daq.csv: {want}")) && e.contains("preamble"), "{e}");
     }
-    // A first row with one number in it is a bad cell, not a preamble.
-    let e = reader("time,a\n0,x\n").unwrap().read_row(&mut Vec::new()).unwrap_err().to_string();
-    assert_eq!(e, "rec.csv: row 1, column `a`: `x` is not a number");
+    // A first row with a number in it is data: its text columns are left out.
+    let mut r = reader("time,a,b\n0,x,\n").unwrap();
+    let e = r.read_row(&mut Vec::new()).unwrap_err().to_string();
+    assert_eq!(e, "rec.csv: row 1, column `b`: `` is not a number");
+    assert_eq!(r.columns(), ["time", "b"]);
+}
+
+/// A DAQ's state or comment column, text in the first data row where others hold
+/// numbers, is left out with a warning; text in a numeric column later is an error.
+#[test]
+fn a_text_column_is_left_out_with_a_warning() {
+    let text = "# device\n\n# operator\ntime;torque [N*m];state;note\n0;1,5;\"Ramp up\";a b\n0,001;2;\"hold\";\n";
+    let mut r = CsvReader::from_reader(Path::new("daq.csv"), Box::new(std::io::Cursor::new(text.to_string()))).unwrap();
+    assert_eq!(r.columns(), ["time", "torque"]);
+    assert_eq!(r.units(), [None, Some("N*m".to_string())]);
+    assert_eq!(
+        r.warnings(),
+        ["column `state` holds text in data row 1: left out", "column `note` holds text in data row 1: left out"]
+    );
+    let mut row = Vec::new();
+    assert!(r.read_row(&mut row).unwrap() && row == [0.0, 1.5]);
+    assert!(r.read_row(&mut row).unwrap() && row == [0.001, 2.0]);
+    assert!(!r.read_row(&mut row).unwrap());
+    // Numbers first, text later: the row and cell are named.
+    let mut r = reader("time,a,b\n0,1,2\n1,2,RUN\n").unwrap();
+    assert!(r.warnings().is_empty() && r.read_row(&mut row).unwrap());
+    let e = r.read_row(&mut row).unwrap_err().to_string();
+    assert_eq!(e, "rec.csv: row 2, column `b`: `RUN` is not a number");
+    // Read a few bytes at a time, the same.
+    let data = b"time,state,x\n\n0,\"a,b\",1\r\n1,c,2".to_vec();
+    let input = Trickle { data, at: 0, rng: Rng(7) };
+    let mut r = CsvReader::from_reader(Path::new("rec.csv"), Box::new(input)).unwrap();
+    assert_eq!(r.columns(), ["time", "x"]);
+    let mut all = Vec::new();
+    assert_eq!(r.read_chunk(&mut all, 10).unwrap(), 2);
+    assert_eq!(all, [0.0, 1.0, 1.0, 2.0]);
 }
 
 /// A recording read whole stops with an error at its bound, before the values are held.
