@@ -30,7 +30,10 @@ def _frame(names: Sequence[str], arrays: Sequence[np.ndarray], source: Optional[
 
 
 def _columns(data: Any, input_name: str) -> tuple[list[str], list[np.ndarray]]:
-    """Column names and contiguous float64 arrays of a DataFrame or a mapping of arrays."""
+    """Column names and contiguous float64 arrays of a DataFrame or a mapping of arrays.
+    A column whose first value is text (a state, a category) is left out with a
+    :class:`RecordingWarning`, as the command line leaves out a file's text column; text
+    further down a column of numbers is an error naming its row."""
     if isinstance(data, pd.DataFrame):
         items = [(str(c), data[c]) for c in data.columns] if data.columns.is_unique else [
             (str(c), data.iloc[:, k]) for k, c in enumerate(data.columns)
@@ -47,13 +50,29 @@ def _columns(data: Any, input_name: str) -> tuple[list[str], list[np.ndarray]]:
             raise StrainwaveError(f"{input_name}: column `{name}` appears twice in the header")
         try:
             a = np.ascontiguousarray(np.asarray(values, dtype=np.float64))
-        except (TypeError, ValueError) as e:
-            raise StrainwaveError(f"{input_name}: column `{name}`: not numbers ({e})") from None
+        except (TypeError, ValueError):
+            row, value = _first_text(values)
+            if row == 1 and str(value).strip():
+                warnings.warn(
+                    f"{input_name}: column `{name}` holds text in data row 1: left out", RecordingWarning, stacklevel=3
+                )
+                continue
+            raise StrainwaveError(f"{input_name}: row {row}, column `{name}`: `{value}` is not a number") from None
         if a.ndim != 1:
             raise StrainwaveError(f"{input_name}: column `{name}`: expected one dimension, got shape {a.shape}")
         names.append(name)
         arrays.append(a)
     return names, arrays
+
+
+def _first_text(values: Any) -> tuple[int, Any]:
+    """The first value (1-based row) of a column that is not a number."""
+    for k, v in enumerate(np.asarray(values, dtype=object).ravel()):
+        try:
+            np.asarray(v, dtype=np.float64)
+        except (TypeError, ValueError):
+            return k + 1, v
+    return 1, ""
 
 
 class RecordingWarning(UserWarning):

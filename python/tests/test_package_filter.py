@@ -147,9 +147,24 @@ def test_bad_config_and_bad_file_are_the_cli_errors(cli, recording, tmp_path):
     assert str(e.value) == expected
 
 
+def test_a_text_column_is_left_out_with_a_warning_and_text_among_numbers_is_named(recording):
+    # Before: any text column refused the frame ("column `state`: not numbers").
+    rec = sw.read_recording(recording)
+    plain = sw.filter_recording(rec, config=CONFIG)
+    with pytest.warns(sw.RecordingWarning, match=r"taghirad\.csv: column `state` holds text in data row 1: left out$"):
+        out = sw.filter_recording(rec.assign(state="RUN"), config=CONFIG)
+    assert out.columns.tolist() == plain.columns.tolist() and out["torque"].equals(plain["torque"])
+    # Text further down a column of numbers: the row, 1-based, as the command line names it.
+    bad = rec.astype({"bridge_voltage": object})
+    bad.loc[3, "bridge_voltage"] = "ERR"
+    with pytest.raises(sw.StrainwaveError, match=r"taghirad\.csv: row 4, column `bridge_voltage`: `ERR` is not a number$"):
+        sw.filter_recording(bad, config=CONFIG)
+
+
 def test_non_numeric_and_ragged_columns_are_errors():
-    with pytest.raises(sw.StrainwaveError, match=r"^<DataFrame>: column `time`: not numbers"):
-        sw.filter_recording(pd.DataFrame({"time": ["a", "b"]}), config=CONFIG)
+    with pytest.warns(sw.RecordingWarning, match="column `time` holds text"):
+        with pytest.raises(sw.StrainwaveError, match=r"^<DataFrame>: no column `time`"):
+            sw.filter_recording(pd.DataFrame({"time": ["a", "b"]}), config=CONFIG)
     with pytest.raises(sw.StrainwaveError, match="has 3 rows, the first column 2"):
         sw._native.filter_columns(str(CONFIG), ["a", "b"], [np.zeros(2), np.zeros(3)], input_name="x")
     with pytest.raises(sw.StrainwaveError, match="no data rows"):
