@@ -107,6 +107,22 @@ pub enum IoError {
         /// Cell text.
         value: String,
     },
+    /// A cell of a date-and-time column that is not one.
+    #[error(
+        "{path}: row {row}, column `{}`: `{}` is not a date and time as in data row 1 (`2026-11-29 06:00:00.125`)",
+        shown(column),
+        shown(value)
+    )]
+    NotATime {
+        /// File.
+        path: PathBuf,
+        /// 1-based data row.
+        row: u64,
+        /// Column name.
+        column: String,
+        /// Cell text.
+        value: String,
+    },
     /// The first data row is text in every cell: most likely the line read as the header
     /// is a preamble above it (a DAQ's device and date lines), or a units line follows it.
     #[error(

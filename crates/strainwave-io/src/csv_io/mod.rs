@@ -36,6 +36,7 @@ const BATCH_CELLS: usize = 1 << 16;
 /// Batches the parsing thread may have ready ahead of the reader.
 const BATCHES_AHEAD: usize = 2;
 
+mod date_time;
 mod dialect;
 mod format;
 mod parser;
@@ -43,6 +44,7 @@ mod writer;
 
 pub use dialect::{delimiter_name, detect_delimiter, split_unit};
 
+use date_time::parse_date_time;
 use format::*;
 pub use format::{format_f64, format_row};
 use parser::*;
@@ -124,15 +126,21 @@ impl CsvReader {
             return Err(IoError::DuplicateColumn { path, column: c.clone() });
         }
         parser.columns = columns.clone();
-        // Text columns (a DAQ's state or comment) are left out, named in a warning.
-        parser.text = parser.text_columns()?;
-        let text = |i: usize| parser.text.get(i) == Some(&true);
+        // Text columns (a DAQ's state or comment) are left out, named in a warning; dates
+        // and times are seconds since 1970.
+        parser.kinds = parser.column_kinds()?;
+        let kind = |i: usize| parser.kinds.get(i).copied().unwrap_or(CellKind::Number);
         let warnings = (0..columns.len())
-            .filter(|&i| text(i))
+            .filter(|&i| kind(i) == CellKind::Text)
             .map(|i| format!("column `{}` holds text in data row 1: left out", crate::error::shown(&columns[i])))
             .collect();
-        let (columns, mut units): (Vec<String>, Vec<Option<String>>) =
-            columns.into_iter().zip(units).enumerate().filter(|&(i, _)| !text(i)).map(|(_, c)| c).unzip();
+        let (columns, mut units): (Vec<String>, Vec<Option<String>>) = columns
+            .into_iter()
+            .zip(units)
+            .enumerate()
+            .filter(|&(i, _)| kind(i) != CellKind::Text)
+            .map(|(i, (c, u))| (c, if kind(i) == CellKind::DateTime { Some("s".to_string()) } else { u }))
+            .unzip();
         // A time in another unit (`Time [ms]`) is read in seconds, as every command takes it.
         let time = TimeInSeconds::new(&columns, &mut units);
         std::thread::Builder::new()
@@ -258,6 +266,7 @@ impl CsvReader {
         let row_error = matches!(
             e,
             IoError::NotANumber { .. }
+                | IoError::NotATime { .. }
                 | IoError::TextRow { .. }
                 | IoError::RowLength { .. }
                 | IoError::UnnamedCell { .. }

@@ -11,6 +11,17 @@ pub(super) enum Batch {
     End { rows: u64, result: Result<(), IoError> },
 }
 
+/// What a column's cells hold, as its cell in the first data row shows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum CellKind {
+    /// Numbers.
+    Number,
+    /// Text: the column is left out, its cells not read.
+    Text,
+    /// Dates and times, read as seconds since 1970 (see `date_time`).
+    DateTime,
+}
+
 /// The parsing side, run on its own thread.
 ///
 /// A record without a quote (the numeric case) is split by hand: it ends at the first `\r`
@@ -21,8 +32,8 @@ pub(super) enum Batch {
 pub(super) struct Parser {
     path: PathBuf,
     pub(super) columns: Vec<String>,
-    /// Per column of the header: a text column, whose cells are not read (empty: none).
-    pub(super) text: Vec<bool>,
+    /// Per column of the header, what its cells hold (empty: numbers, every column).
+    pub(super) kinds: Vec<CellKind>,
     /// Cells after the last column that the header leaves unnamed (a delimiter at the end
     /// of each line, as spreadsheet and DAQ exports write): they must be empty.
     pub(super) unnamed_tail: usize,
@@ -64,7 +75,7 @@ impl Parser {
         Self {
             path,
             columns: Vec::new(),
-            text: Vec::new(),
+            kinds: Vec::new(),
             unnamed_tail: 0,
             input,
             buf: vec![0; READ_BUFFER_BYTES],
@@ -115,11 +126,12 @@ impl Parser {
         }
     }
 
-    /// The columns whose cell in the first data row is text while others hold numbers
-    /// (a DAQ's state or comment column), by peeking at the input after the header
-    /// without consuming it. None when that row is not wholly within the buffer, holds
-    /// no number, or has another length: the parse then names what is wrong with it.
-    pub(super) fn text_columns(&mut self) -> Result<Vec<bool>, IoError> {
+    /// What each column holds, from the first data row (peeked at after the header,
+    /// not consumed): a cell of text where others of the row hold numbers is a text
+    /// column (a DAQ's state or comment), a date and time a time column. Empty (numbers
+    /// everywhere) when that row is not wholly within the buffer, holds no number, or has
+    /// another length: the parse then names what is wrong with it.
+    pub(super) fn column_kinds(&mut self) -> Result<Vec<CellKind>, IoError> {
         let n = self.columns.len();
         let mut record = csv::ByteRecord::new();
         loop {
@@ -147,22 +159,37 @@ impl Parser {
         if !(n..=n + self.unnamed_tail).contains(&record.len()) {
             return Ok(Vec::new());
         }
-        let number = |cell: &[u8]| parse_slow(cell, self.decimal_comma).is_some();
-        let empty = |cell: &[u8]| String::from_utf8_lossy(cell).trim().is_empty();
-        let text: Vec<bool> = record.iter().take(n).map(|cell| !empty(cell) && !number(cell)).collect();
+        let kinds: Vec<CellKind> = record
+            .iter()
+            .take(n)
+            .map(|cell| {
+                let text = String::from_utf8_lossy(cell);
+                if text.trim().is_empty() || parse_slow(cell, self.decimal_comma).is_some() {
+                    CellKind::Number
+                } else if parse_date_time(&text).is_some() {
+                    CellKind::DateTime
+                } else {
+                    CellKind::Text
+                }
+            })
+            .collect();
         // A row without a number (a units line, a preamble) is no row of data.
-        let numbers = record.iter().take(n).any(number);
-        Ok(if numbers && text.contains(&true) { text } else { Vec::new() })
+        let numbers = record
+            .iter()
+            .take(n)
+            .zip(&kinds)
+            .any(|(cell, &k)| k == CellKind::DateTime || parse_slow(cell, self.decimal_comma).is_some());
+        Ok(if numbers && kinds.iter().any(|&k| k != CellKind::Number) { kinds } else { Vec::new() })
     }
 
-    /// Whether cell `i` belongs to a text column.
+    /// What column `i`'s cells hold.
     #[inline]
-    fn is_text(&self, i: usize) -> bool {
-        self.text.get(i) == Some(&true)
+    fn kind(&self, i: usize) -> CellKind {
+        self.kinds.get(i).copied().unwrap_or(CellKind::Number)
     }
 
     pub(super) fn run(mut self) {
-        let n = self.columns.len() - self.text.iter().filter(|&&t| t).count();
+        let n = self.columns.len() - self.kinds.iter().filter(|&&k| k == CellKind::Text).count();
         let result = loop {
             match self.parse_row() {
                 Ok(true) => {
@@ -320,13 +347,16 @@ impl Parser {
             let decimal_comma = self.decimal_comma;
             for b in memchr::memchr_iter(self.delimiter, line).chain(std::iter::once(line.len())) {
                 cells += 1;
-                if self.is_text(cells - 1) {
-                    a = b + 1;
-                    continue;
-                }
                 let cell = &text[a..b];
-                let value =
-                    if decimal_comma && cell.contains(',') { parse_decimal_comma(cell) } else { parse_cell(cell) };
+                let value = match self.kind(cells - 1) {
+                    CellKind::Number if decimal_comma && cell.contains(',') => parse_decimal_comma(cell),
+                    CellKind::Number => parse_cell(cell),
+                    CellKind::Text => {
+                        a = b + 1;
+                        continue;
+                    }
+                    CellKind::DateTime => parse_date_time(cell),
+                };
                 match value {
                     Some(v) if cells <= n => self.batch.push(v),
                     _ => {
@@ -422,10 +452,12 @@ impl Parser {
         let parse = |cell: &[u8]| parse_slow(cell, decimal_comma);
         let before = self.batch.len();
         for (i, cell) in record.iter().take(n).enumerate() {
-            if self.is_text(i) {
-                continue;
-            }
-            match parse(cell) {
+            let value = match self.kind(i) {
+                CellKind::Number => parse(cell),
+                CellKind::Text => continue,
+                CellKind::DateTime => parse_date_time(&String::from_utf8_lossy(cell)),
+            };
+            match value {
                 Some(v) => self.batch.push(v),
                 None => {
                     self.batch.truncate(before);
@@ -434,6 +466,9 @@ impl Parser {
                     // A first row of text alone: most likely the header is a preamble line.
                     if self.rows == 1 && record.iter().take(n).all(|c| parse(c).is_none()) {
                         return Err(IoError::TextRow { path, column, value });
+                    }
+                    if self.kind(i) == CellKind::DateTime {
+                        return Err(IoError::NotATime { path, row: self.rows, column, value });
                     }
                     return Err(IoError::NotANumber { path, row: self.rows, column, value });
                 }

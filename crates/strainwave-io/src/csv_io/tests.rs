@@ -681,3 +681,28 @@ fn a_table_beyond_its_bound_is_an_error() {
     let e = Table::collect_within(Path::new("r.csv"), &columns, 9, rows()).unwrap_err().to_string();
     assert!(e.starts_with("r.csv: more than 4 rows of 2 columns: too large to read whole"), "{e}");
 }
+
+/// A time column of dates and times (pandas' `to_csv` of a datetime index, a logger's
+/// export) is read as seconds since 1970 UTC; a later cell that is not one is named.
+#[test]
+fn a_date_and_time_column_is_seconds_since_1970() {
+    let text = "time,torque\n2026-11-29 06:00:00.000000,1.5\n2026-11-29 06:00:00.001000,2\n";
+    let mut r = reader(text).unwrap();
+    assert_eq!(r.columns(), ["time", "torque"]);
+    assert_eq!(r.units(), [Some("s".to_string()), None]);
+    assert!(r.warnings().is_empty());
+    let mut all = Vec::new();
+    assert_eq!(r.read_chunk(&mut all, 10).unwrap(), 2);
+    assert_eq!(all[0], 1_795_932_000.0);
+    assert!((all[2] - all[0] - 0.001).abs() < 1e-6 && all[1] == 1.5 && all[3] == 2.0);
+    // Semicolons and decimal commas, a zone, a text column beside it.
+    let text = "Zeit;Moment [N*m];Schritt\n2026-11-29T07:00:00,5+01:00;1,5;Rampe\n";
+    let mut r = CsvReader::from_reader(Path::new("daq.csv"), Box::new(std::io::Cursor::new(text.to_string()))).unwrap();
+    assert_eq!(r.columns(), ["Zeit", "Moment"]);
+    let mut row = Vec::new();
+    assert!(r.read_row(&mut row).unwrap() && row == [1_795_932_000.5, 1.5]);
+    let mut r = reader("time,x\n2026-11-29 06:00:00,1\n2026-11-29 06:00:01,2\n06:00:02,3\n").unwrap();
+    assert!(r.read_row(&mut row).unwrap() && r.read_row(&mut row).unwrap() && row == [1_795_932_001.0, 2.0]);
+    let e = r.read_row(&mut row).unwrap_err().to_string();
+    assert!(e.starts_with("rec.csv: row 3, column `time`: `06:00:02` is not a date and time as in data row 1"), "{e}");
+}
