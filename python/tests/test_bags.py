@@ -652,3 +652,41 @@ def test_a_bag_compressed_file_by_file_that_is_damaged_gets_one_line(binary, tmp
     part.write_bytes(b"not zstd at all")
     res = run(binary, "convert", "--in", part, "--out", out, ok=False)
     assert res.returncode == 1 and res.stderr.splitlines() == [f"error: {part}: zstd: Unknown frame descriptor"]
+
+
+@pytest.mark.parametrize("storage", sorted(STORAGES))
+def test_transforms_are_columns_by_frame_not_by_place_in_the_message(binary, tmp_path, storage):
+    # /tf carries the frames of several publishers: robot_state_publisher's links in one
+    # message, a localization's odom -> base_link in another. Before: `transforms.0.*`
+    # took whichever frame came first in each message (link1's x, then base_link's).
+    store = typesys.get_typestore(typesys.Stores.ROS2_HUMBLE)
+    T = store.types
+    kind = "tf2_msgs/msg/TFMessage"
+
+    def transform(stamp, child, x):
+        t = T["builtin_interfaces/msg/Time"](sec=stamp // 10**9, nanosec=stamp % 10**9)
+        return T["geometry_msgs/msg/TransformStamped"](
+            header=T["std_msgs/msg/Header"](stamp=t, frame_id="base"),
+            child_frame_id=child,
+            transform=T["geometry_msgs/msg/Transform"](
+                translation=T["geometry_msgs/msg/Vector3"](x=x, y=0.0, z=0.0),
+                rotation=T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0),
+            ),
+        )
+
+    path = tmp_path / "tf"
+    with rosbag2.Writer(path, version=8, storage_plugin=getattr(rosbag2.StoragePlugin, STORAGES[storage])) as w:
+        c = w.add_connection("/tf", kind, typestore=store)
+        for k in range(100):
+            stamp = T0_NS + k * 1_000_000
+            frames = [("link1", 1.0), ("link2", 2.0)] if k % 2 == 0 else [("base_link", 3.0)]
+            message = T[kind](transforms=[transform(stamp, child, x) for child, x in frames])
+            w.write(c, stamp, store.serialize_cdr(message, kind))
+    out = tmp_path / "tf.csv"
+    res = run(binary, "convert", "--in", path, "--out", out, "--quiet")
+    header, rows = read_csv(out)
+    assert "/tf/transforms.0.transform.translation.x" not in header, header
+    for frame, x in (("link1", 1.0), ("link2", 2.0), ("base_link", 3.0)):
+        column = rows[:, header.index(f"/tf/{frame}.translation.x")]
+        assert np.all(column[~np.isnan(column)] == x) and np.sum(~np.isnan(column)) >= 49, (frame, column[:6])
+        assert np.all(rows[~np.isnan(column), header.index(f"/tf/{frame}.rotation.w")] == 1.0)

@@ -43,6 +43,7 @@ const DEFAULT_GAP_MAX_NS: i64 = 10_000_000_000;
 enum Special {
     JointState,
     DynamicJointState,
+    Transforms,
     Other,
 }
 
@@ -100,6 +101,7 @@ fn kind_of(info: &ChannelInfo) -> Kind {
             let special = match def.root().name.as_str() {
                 "sensor_msgs/JointState" => Special::JointState,
                 "control_msgs/DynamicJointState" => Special::DynamicJointState,
+                "tf2_msgs/TFMessage" => Special::Transforms,
                 _ => Special::Other,
             };
             Kind::Cdr { def: Box::new(def), special, layouts: HashMap::new() }
@@ -108,7 +110,9 @@ fn kind_of(info: &ChannelInfo) -> Kind {
     }
 }
 
-/// Names of the values of one layout: `(name, joint-style)`.
+/// Names of the values of one layout: `(name, joint-style)`. A transform of a
+/// `TFMessage` is named by its frame (`base_link.translation.x`), not its place in the
+/// message: messages of one topic carry different frames (each publisher its own).
 fn bare_names(special: Special, naming: &Naming) -> Vec<(String, bool)> {
     let strings: HashMap<&str, &str> = naming.strings.iter().map(|(p, s)| (p.as_str(), s.as_str())).collect();
     naming
@@ -116,21 +120,23 @@ fn bare_names(special: Special, naming: &Naming) -> Vec<(String, bool)> {
         .iter()
         .map(|path| {
             let parts: Vec<&str> = path.split('.').collect();
-            let joint = match (special, parts.as_slice()) {
+            match (special, parts.as_slice()) {
                 (Special::JointState, [field @ ("position" | "velocity" | "effort"), i]) => {
-                    strings.get(format!("name.{i}").as_str()).map(|j| format!("{j}.{field}"))
+                    strings.get(format!("name.{i}").as_str()).map(|j| (format!("{j}.{field}"), true))
                 }
                 (Special::DynamicJointState, ["interface_values", i, "values", k]) => {
                     let joint = strings.get(format!("joint_names.{i}").as_str());
                     let iface = strings.get(format!("interface_values.{i}.interface_names.{k}").as_str());
-                    joint.zip(iface).map(|(j, f)| format!("{j}.{f}"))
+                    joint.zip(iface).map(|(j, f)| (format!("{j}.{f}"), true))
+                }
+                (Special::Transforms, ["transforms", i, rest @ ..]) => {
+                    let frame = strings.get(format!("transforms.{i}.child_frame_id").as_str());
+                    let rest = rest.strip_prefix(&["transform"]).unwrap_or(rest);
+                    frame.filter(|f| !f.is_empty()).map(|f| (format!("{f}.{}", rest.join(".")), false))
                 }
                 _ => None,
-            };
-            match joint {
-                Some(name) => (name, true),
-                None => (path.clone(), false),
             }
+            .unwrap_or_else(|| (path.clone(), false))
         })
         .collect()
 }
