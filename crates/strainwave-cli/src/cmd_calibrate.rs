@@ -169,7 +169,8 @@ const OUTLIER_MIN_ROWS: usize = 20;
 /// [`OUTLIER_FACTOR`] times the column's range: its largest magnitude once the largest
 /// 1 % (at least 3) are set aside, so that neither a few glitches nor long idle stretches
 /// near zero set it.
-fn refuse_outlier(c: &[f64], path: &Path, name: &str) -> Result<()> {
+/// `times`: the rows' times, to name a row the reader made.
+fn refuse_outlier(c: &[f64], (path, times): (&Path, Option<&[f64]>), name: &str) -> Result<()> {
     if c.len() < OUTLIER_MIN_ROWS {
         return Ok(());
     }
@@ -181,10 +182,15 @@ fn refuse_outlier(c: &[f64], path: &Path, name: &str) -> Result<()> {
     }
     if let Some(row) = c.iter().position(|v| v.abs() > OUTLIER_FACTOR * range) {
         bail!(
-            "{}: row {}: `{name}` = {:?} is over {OUTLIER_FACTOR} times the column's range (its largest magnitude \
+            "{}: {}: `{name}` = {:?} is over {OUTLIER_FACTOR} times the column's range (its largest magnitude \
              {range:?} without the top 1 %); a glitch or a unit slip? Fix or drop the row",
             path.display(),
-            row + 1,
+            strainwave_io::row_label(
+                &path.to_string_lossy(),
+                row as u64 + 1,
+                times.and_then(|t| t.get(row)).copied().unwrap_or(f64::NAN),
+                "row"
+            ),
             c[row]
         );
     }
@@ -201,8 +207,9 @@ fn load(a: &Args, need_speed: bool, mounting: Option<&str>) -> Result<Vec<Experi
         }
         let reference = column(&t, path, &a.reference, "--reference")?;
         let sensor = column(&t, path, &a.sensor, "--sensor")?;
-        refuse_outlier(reference, path, &a.reference)?;
-        refuse_outlier(sensor, path, &a.sensor)?;
+        let times = t.column(&a.time);
+        refuse_outlier(reference, (path, times), &a.reference)?;
+        refuse_outlier(sensor, (path, times), &a.sensor)?;
         let speed = match (&a.speed, need_speed) {
             (Some(s), _) => Some(column(&t, path, s, "--speed")?),
             (None, true) => bail!("--model {} needs --speed COL", a.model.name()),
@@ -249,6 +256,7 @@ fn load(a: &Args, need_speed: bool, mounting: Option<&str>) -> Result<Vec<Experi
                 mounting: pick(mount),
                 file: path.display().to_string(),
                 file_rows: rows.iter().map(|&i| i as u64 + 1).collect(),
+                file_times: pick(t.column(&a.time)),
             });
         }
     }
@@ -267,7 +275,7 @@ fn keep_held(exps: &mut [ExperimentRows], hold_s: f64, band: Option<f64>, cols: 
         if let Some(i) = (1..e.time.len()).find(|&i| e.time[i] < e.time[i - 1]) {
             let (t, before) = (e.time[i], e.time[i - 1]);
             match rows::locate_in(e, i) {
-                Some((file, r)) => bail!("{file}: row {r}: --held: time goes backwards ({t} s after {before} s)"),
+                Some(at) => bail!("{}: {}: --held: time goes backwards ({t} s after {before} s)", at.file, at.name),
                 None => bail!("--held on `{}`: row {}: time goes backwards ({t} s after {before} s)", e.label, i + 1),
             }
         }
@@ -284,6 +292,9 @@ fn keep_held(exps: &mut [ExperimentRows], hold_s: f64, band: Option<f64>, cols: 
         }
         if !e.file_rows.is_empty() {
             e.file_rows = e.file_rows.iter().zip(&h).filter(|(_, &k)| k).map(|(r, _)| *r).collect();
+        }
+        if !e.file_times.is_empty() {
+            e.file_times = e.file_times.iter().zip(&h).filter(|(_, &k)| k).map(|(t, _)| *t).collect();
         }
         if e.reference.is_empty() {
             bail!(
@@ -418,7 +429,7 @@ pub fn run(a: &Args) -> Result<()> {
         // Finite values whose squares overflow: name the row of the largest one.
         let size = |k: usize| all.reference[k].abs().max(all.sensor[k].abs());
         let k = (0..all.reference.len()).max_by(|&i, &j| size(i).total_cmp(&size(j))).unwrap_or(m.max_abs_row);
-        let at = rows::locate(&exps, k).map_or(format!("row {}", k + 1), |(f, r)| format!("{f}: row {r}"));
+        let at = rows::locate(&exps, k).map_or(format!("row {}", k + 1), |at| format!("{}: {}", at.file, at.name));
         bail!(
             "{at}: the fit's error figures are not finite with `{}` = {:?} and `{}` = {:?} (values this large overflow; \
              check the columns' scale)",
@@ -484,9 +495,9 @@ pub fn run(a: &Args) -> Result<()> {
             "fit": file.metrics.as_ref().map(|m| {
                 let mut v = summary::statistics(m, &all.reference);
                 // The largest error's file and data row, when the metrics cover every row.
-                if let Some((f, r)) = (m.rows == all.reference.len()).then(|| rows::locate(&exps, m.max_abs_row)).flatten() {
-                    v["max_abs_file"] = f.into();
-                    v["max_abs_file_row"] = r.into();
+                if let Some(at) = (m.rows == all.reference.len()).then(|| rows::locate(&exps, m.max_abs_row)).flatten() {
+                    v["max_abs_file"] = at.file.into();
+                    v["max_abs_file_row"] = at.row.into();
                 }
                 v
             }),

@@ -94,10 +94,12 @@ pub fn run(a: &Args) -> Result<()> {
     let mut row = Vec::with_capacity(columns.len());
     let mut prev_t = f64::NEG_INFINITY;
     while r.read_row(&mut row)? {
-        let n = r.rows_read();
-        let t = row[time_at];
+        let (n, t) = (r.rows_read(), row[time_at]);
         if !(t.is_finite() && t > prev_t) {
-            bail!("{input}: row {n}, column `{time_name}`: time {t:?} s does not come after the row before ({prev_t:?} s)");
+            let at = r.row_name(&row);
+            bail!(
+                "{input}: {at}, column `{time_name}`: time {t:?} s does not come after the row before ({prev_t:?} s)"
+            );
         }
         prev_t = t;
         for (s, v) in stats.iter_mut().zip(&row) {

@@ -331,3 +331,70 @@ fn identify_says_why_two_holdout_blocks_are_too_few_for_several_stribeck_speeds(
     error(&with, &["--holdout 2: choosing among the 5 candidates of `friction.stribeck_speed_rad_s`", "--holdout 3"]);
     assert!(!out.exists());
 }
+
+/// `calibrate` and `identify` name a resampled row by its time too (they said "row 1000"
+/// and "data row 41" of files whose bad rows are 500 and 50).
+#[test]
+fn calibrate_and_identify_name_a_resampled_row_by_its_time() {
+    let d = tmp("resampled-fits");
+    let locked = d.join("locked.csv");
+    let o = run(&["simulate", "--preset", "taghirad", "--procedure", "locked-wg", "--out", s(&locked), "--quiet"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let bad = d.join("glitch.csv");
+    let reference = 6; // reference_torque
+    edit_lines(&locked, &bad, |k, l| {
+        let mut cells: Vec<String> = l.split(',').map(String::from).collect();
+        if k == 501 {
+            cells[reference] = "4e9".into();
+        }
+        cells.join(",")
+    });
+    let calibrate = ["calibrate", "--in", s(&bad), "--experiment-column", "experiment"];
+    let calibrate = [&calibrate[..], &["--reference", "reference_torque", "--sensor", "bridge_voltage"]].concat();
+    error(&calibrate, &["glitch.csv: row 501: `reference_torque` = 4000000000.0 is over 100 times"]);
+    let resampled = [&calibrate[..], &["--resample-hz", "2000"]].concat();
+    error(&resampled, &["glitch.csv: resampled row 1000 (time 0.4995 s): `reference_torque` = 2000000008.0"]);
+
+    let text = std::fs::read_to_string("../../data/lara8/validate.csv").unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let c = lines[0].split(',').position(|h| h == "joint_torque_current_3").unwrap();
+    let mut cells: Vec<String> = lines[50].split(',').map(String::from).collect();
+    cells[c] = "1e308".into();
+    lines[50] = cells.join(",");
+    let log = d.join("edited.csv");
+    std::fs::write(&log, lines.join("\n") + "\n").unwrap();
+    let out = d.join("model.toml");
+    let identify = ["identify", "--config", "../../examples/lara8-joint3.toml", "--loaded", s(&log), "--out", s(&out)];
+    error(&identify, &["edited.csv: data row 50: column `joint_torque_current_3`"]);
+    // The log's time column is `Timestamp` (channels.time): --resample-hz reads it there.
+    let at = "edited.csv: resampled row 41 (time 92125.577816271 s): column `joint_torque_current_3`";
+    error(&[&identify[..], &["--resample-hz", "200"]].concat(), &[at]);
+}
+
+/// `--resample-hz` resamples on the config's time channel: a recording whose time column
+/// is not `time` failed with "no column `time` … set --time-column", an option `filter`
+/// does not have.
+#[test]
+fn resampling_uses_the_configs_time_channel() {
+    let d = tmp("resample-time-channel");
+    let rec = d.join("rec.csv");
+    let o = run(&["simulate", "--preset", "taghirad", "--duration", "1", "--out", s(&rec), "--quiet"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let renamed = d.join("t_s.csv");
+    edit_lines(&rec, &renamed, |k, l| if k == 0 { l.replacen("time,", "t_s,", 1) } else { l.to_string() });
+    let base = std::fs::read_to_string("../../examples/joint-taghirad.toml").unwrap();
+    let cfg = d.join("joint.toml");
+    let edited: Vec<&str> = base.lines().filter(|l| !l.starts_with("learned")).collect();
+    std::fs::write(&cfg, edited.join("\n").replace("time = \"time\"", "time = \"t_s\"")).unwrap();
+    let out = d.join("out.csv");
+    let o = run(&["filter", "--config", s(&cfg), "--in", s(&renamed), "--out", s(&out), "--resample-hz", "2000", "-q"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let rows = std::fs::read_to_string(&out).unwrap().lines().count() - 1;
+    assert_eq!(rows, 1999, "1000 rows at 1 kHz resampled at 2 kHz");
+    // A time channel with a scale is not seconds: refused, saying what to do.
+    let scaled = d.join("scaled.toml");
+    std::fs::write(&scaled, edited.join("\n").replace("time = \"time\"", "time = { column = \"t_s\", scale = 0.001 }"))
+        .unwrap();
+    let args = ["filter", "--config", s(&scaled), "--in", s(&renamed), "--out", s(&out), "--resample-hz", "2000"];
+    error(&args, &["t_s.csv: --resample-hz needs the time in seconds", "`t_s [ms]`"]);
+}

@@ -105,6 +105,24 @@ impl Reader {
     }
 }
 
+/// The resampler of a table on time column `ti` (`hz` and `max_gap_s` checked).
+fn resampler(ti: usize, hz: f64, max_gap_s: f64) -> Option<Resampled> {
+    LinearResampler::new(ti, hz, max_gap_s).map(|resampler| Resampled { resampler, ready: VecDeque::new(), skipped: 0 })
+}
+
+/// `--resample-hz` on a table without the time column `time`.
+fn no_time_column(path: &Path, columns: &[String], time: &str) -> IoError {
+    IoError::MissingColumn {
+        path: path.to_path_buf(),
+        column: time.into(),
+        available: format!(
+            "{} (needed by --resample-hz; name the time column in the config's channels.time, or with convert's \
+             --time-column)",
+            columns.join(", ")
+        ),
+    }
+}
+
 /// A table's rows interpolated onto a uniform clock (`--resample-hz`).
 struct Resampled {
     resampler: LinearResampler,
@@ -124,6 +142,10 @@ pub struct RecordingReader {
     /// standard error.
     reader_warnings: (usize, bool),
     resampled: Option<Resampled>,
+    /// `--resample-hz` on a table whose time column is not known yet (a config's time
+    /// channel names it, see [`Self::set_time_channel`]): rate, Hz, largest gap, s, and the
+    /// error if the first row comes first.
+    resample_pending: Option<(f64, f64, IoError)>,
     input_rows: u64,
     rows_read: u64,
 }
@@ -188,28 +210,24 @@ impl RecordingReader {
                 return Err(IoError::FeatureOff { path: path.to_path_buf(), feature: "mcap" })
             }
         };
-        // Logs resample in the aligner; tables here, between neighbouring rows.
-        let resampled = match options.resample_hz {
-            Some(hz) if !bag => {
-                let time = options.time_column.as_deref().unwrap_or("time");
-                let Some(ti) = columns.iter().position(|c| c == time) else {
-                    return Err(IoError::MissingColumn {
-                        path: path.to_path_buf(),
-                        column: time.into(),
-                        available: format!("{} (needed by --resample-hz; set --time-column)", columns.join(", ")),
-                    });
-                };
-                let max_gap_s = options.max_gap_s.unwrap_or(crate::resample::DEFAULT_MAX_GAP_S);
-                let Some(resampler) = LinearResampler::new(ti, hz, max_gap_s) else {
-                    return Err(IoError::Csv {
-                        path: path.to_path_buf(),
-                        msg: format!("--resample-hz must be positive, got {hz} (--max-gap {max_gap_s})"),
-                    });
-                };
-                Some(Resampled { resampler, ready: VecDeque::new(), skipped: 0 })
+        // Logs resample in the aligner; tables here, between neighbouring rows, on the
+        // time column (`time` or `--time-column`, unless a config's time channel names
+        // another before the first row).
+        let (mut resampled, mut resample_pending) = (None, None);
+        if let Some(hz) = options.resample_hz.filter(|_| !bag) {
+            let max_gap_s = options.max_gap_s.unwrap_or(crate::resample::DEFAULT_MAX_GAP_S);
+            if LinearResampler::new(0, hz, max_gap_s).is_none() {
+                return Err(IoError::Csv {
+                    path: path.to_path_buf(),
+                    msg: format!("--resample-hz must be positive, got {hz} (--max-gap {max_gap_s})"),
+                });
             }
-            _ => None,
-        };
+            let time = options.time_column.as_deref().unwrap_or("time");
+            match columns.iter().position(|c| c == time) {
+                Some(ti) => resampled = resampler(ti, hz, max_gap_s),
+                None => resample_pending = Some((hz, max_gap_s, no_time_column(path, &columns, time))),
+            }
+        }
         let reader_warnings = (warnings.len(), false);
         Ok(Self {
             inner,
@@ -219,6 +237,7 @@ impl RecordingReader {
             warnings,
             reader_warnings,
             resampled,
+            resample_pending,
             input_rows: 0,
             rows_read: 0,
         })
@@ -240,6 +259,28 @@ impl RecordingReader {
         let name = (channel.scale_offset() == (1.0, 0.0)).then(|| channel.column_name());
         if let Some(units) = self.inner.set_time_column(name) {
             self.units = units;
+        }
+        // `--resample-hz` runs on this column, in seconds.
+        let spec = match (&self.resampled, self.resample_pending.take()) {
+            (Some(rs), _) => Some((rs.resampler.rate_hz(), rs.resampler.max_gap_s())),
+            (None, Some((hz, gap, _))) => Some((hz, gap)),
+            (None, None) => None,
+        };
+        let Some((hz, max_gap_s)) = spec else { return };
+        let (column, ti) = (channel.column_name(), self.columns.iter().position(|c| c == channel.column_name()));
+        self.resampled = None;
+        match (name, ti) {
+            (Some(_), Some(ti)) => self.resampled = resampler(ti, hz, max_gap_s),
+            (None, Some(_)) => {
+                let msg = format!(
+                    "--resample-hz needs the time in seconds, and the time channel `{column}` has a scale or \
+                     offset; give the column's unit in its header instead (`{column} [ms]`)"
+                );
+                self.resample_pending = Some((hz, max_gap_s, IoError::Csv { path: self.path.clone(), msg }));
+            }
+            (_, None) => {
+                self.resample_pending = Some((hz, max_gap_s, no_time_column(&self.path, &self.columns, column)))
+            }
         }
     }
 
@@ -341,6 +382,9 @@ impl RecordingReader {
 
     /// Reads the next row; `Ok(false)` at the end.
     pub fn read_row(&mut self, row: &mut Vec<f64>) -> Result<bool, IoError> {
+        if let Some((_, _, e)) = self.resample_pending.take() {
+            return Err(e);
+        }
         let Some(rs) = self.resampled.as_mut() else {
             let more = self.inner.read_row(row)?;
             self.rows_read += u64::from(more);

@@ -55,6 +55,11 @@ impl LinearResampler {
         self.rate_hz
     }
 
+    /// The longest gap interpolated over, s.
+    pub fn max_gap_s(&self) -> f64 {
+        self.max_gap_s
+    }
+
     /// The time column's index.
     pub fn time_index(&self) -> usize {
         self.time_index

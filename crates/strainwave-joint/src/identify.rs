@@ -494,6 +494,7 @@ pub fn identify(
         holdout,
         skipped: ld.skipped + nl.as_ref().map_or(0, |r| r.skipped),
         first_skipped: ld.first_skipped.or(nl.as_ref().and_then(|r| r.first_skipped)),
+        first_skipped_at: ld.first_skipped_at.clone().or(nl.as_ref().and_then(|r| r.first_skipped_at.clone())),
         rows: n,
         sample_rate_hz: fs,
     };

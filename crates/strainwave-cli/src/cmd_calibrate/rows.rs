@@ -34,9 +34,21 @@ impl Columns<'_> {
     }
 }
 
-/// The file and data row (1-based) of row `row` (0-based) of the experiments' rows
-/// taken one after the other, as `pooled` joins them.
-pub fn locate(exps: &[ExperimentRows], row: usize) -> Option<(&str, u64)> {
+/// Where a row is in the user's file: the file, its data row (1-based) and its name
+/// in messages (see [`ExperimentRows::row_name`]).
+#[derive(Debug, PartialEq)]
+pub struct RowAt<'a> {
+    /// The file.
+    pub file: &'a str,
+    /// Its data row, 1-based.
+    pub row: u64,
+    /// `row N`, or `resampled row N (time T s)` where the rows are not the file's.
+    pub name: String,
+}
+
+/// The file and row of row `row` (0-based) of the experiments' rows taken one after
+/// the other, as `pooled` joins them.
+pub fn locate(exps: &[ExperimentRows], row: usize) -> Option<RowAt<'_>> {
     let mut left = row;
     for e in exps {
         if left < e.reference.len() {
@@ -47,10 +59,9 @@ pub fn locate(exps: &[ExperimentRows], row: usize) -> Option<(&str, u64)> {
     None
 }
 
-/// The file and data row (1-based) of row `row` (0-based) of one experiment.
-pub fn locate_in(e: &ExperimentRows, row: usize) -> Option<(&str, u64)> {
-    let file_row = e.file_rows.get(row).copied()?;
-    (!e.file.is_empty()).then_some((e.file.as_str(), file_row))
+/// The file and row of row `row` (0-based) of one experiment.
+pub fn locate_in(e: &ExperimentRows, row: usize) -> Option<RowAt<'_>> {
+    Some(RowAt { file: e.file.as_str(), row: e.file_rows.get(row).copied()?, name: e.row_name(row, "row")? })
 }
 
 /// `err` from a fit of the pooled rows of `exps`, its row (if any) given as file and
@@ -66,15 +77,15 @@ pub fn experiment_error(e: &ExperimentRows, cols: &Columns, doing: &str, err: Ca
 }
 
 fn at_file_row<'a>(
-    locate: impl Fn(usize) -> Option<(&'a str, u64)>,
+    locate: impl Fn(usize) -> Option<RowAt<'a>>,
     cols: &Columns,
     doing: &str,
     err: CalibrationError,
 ) -> anyhow::Error {
     match err {
         CalibrationError::SpeedOutsideTable { row, speed_rad_s, min_rad_s, max_rad_s } => match locate(row) {
-            Some((file, r)) => anyhow!(
-                "{file}: row {r}, {}: speed {speed_rad_s} rad/s is outside the calibrated range \
+            Some(RowAt { file, name, .. }) => anyhow!(
+                "{file}: {name}, {}: speed {speed_rad_s} rad/s is outside the calibrated range \
                  [{min_rad_s}, {max_rad_s}] rad/s of --speed-edges and --extrapolation is `reject`",
                 cols.describe("speed_rad_s")
             ),
@@ -82,11 +93,13 @@ fn at_file_row<'a>(
                 .context(doing.to_string()),
         },
         CalibrationError::NonFiniteRow { what, row, column } => match locate(row) {
-            Some((file, r)) => anyhow!("{file}: row {r}: {doing}: {} is not finite", cols.describe(column)),
+            Some(RowAt { file, name, .. }) => {
+                anyhow!("{file}: {name}: {doing}: {} is not finite", cols.describe(column))
+            }
             None => anyhow!(CalibrationError::NonFiniteRow { what, row, column }).context(doing.to_string()),
         },
         CalibrationError::AtRow { what, row, why } => match locate(row) {
-            Some((file, r)) => anyhow!("{file}: row {r}: {doing}: {why}"),
+            Some(RowAt { file, name, .. }) => anyhow!("{file}: {name}: {doing}: {why}"),
             None => anyhow!(CalibrationError::AtRow { what, row, why }).context(doing.to_string()),
         },
         other => anyhow!(other).context(doing.to_string()),
@@ -111,11 +124,12 @@ mod tests {
     fn pooled_rows_map_to_their_file_and_row() {
         // a.csv kept rows 2, 3, 7 (after --held); b.csv rows 1, 2.
         let exps = [exp("a.csv", &[2, 3, 7]), exp("b.csv", &[1, 2])];
-        assert_eq!(locate(&exps, 0), Some(("a.csv", 2)));
-        assert_eq!(locate(&exps, 2), Some(("a.csv", 7)));
-        assert_eq!(locate(&exps, 3), Some(("b.csv", 1)));
-        assert_eq!(locate(&exps, 4), Some(("b.csv", 2)));
-        assert_eq!(locate(&exps, 5), None);
+        let at = |k| locate(&exps, k).map(|r| (r.file, r.row, r.name));
+        assert_eq!(at(0), Some(("a.csv", 2, "row 2".to_string())));
+        assert_eq!(at(2), Some(("a.csv", 7, "row 7".to_string())));
+        assert_eq!(at(3), Some(("b.csv", 1, "row 1".to_string())));
+        assert_eq!(at(4), Some(("b.csv", 2, "row 2".to_string())));
+        assert_eq!(at(5), None);
     }
 
     #[test]

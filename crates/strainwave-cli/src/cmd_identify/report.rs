@@ -63,9 +63,9 @@ pub fn table(s: &Summary, model_path: &Path) -> String {
     }
     if s.skipped > 0 {
         out.push_str(&format!(
-            "note: {} rows with unusable values skipped (--lenient; first at data row {})\n",
+            "note: {} rows with unusable values skipped (--lenient; first at {})\n",
             s.skipped,
-            s.first_skipped.unwrap_or(0)
+            s.first_skipped_at.as_deref().unwrap_or("-")
         ));
     }
     if let Some(h) = &s.holdout {

@@ -32,6 +32,20 @@ pub struct ExperimentRows {
     pub file: String,
     /// The data row (1-based, as users count) of each entry in the file (empty: none).
     pub file_rows: Vec<u64>,
+    /// The time (s) of each entry, that names a row the reader made (resampled or
+    /// aligned) as users can find it (empty: none).
+    pub file_times: Vec<f64>,
+}
+
+impl ExperimentRows {
+    /// Entry `row`'s name in its file, as messages give it: `{plain} N` of the file, or
+    /// `resampled row N (time T s)` where the rows are not the file's; `None` without a
+    /// file.
+    pub fn row_name(&self, row: usize, plain: &str) -> Option<String> {
+        let n = self.file_rows.get(row).copied()?;
+        let t = self.file_times.get(row).copied().unwrap_or(f64::NAN);
+        (!self.file.is_empty()).then(|| strainwave_io::row_label(&self.file, n, t, plain))
+    }
 }
 
 /// Columns of the error table.
@@ -191,14 +205,14 @@ pub fn din_series(exps: &[ExperimentRows]) -> Result<(Vec<LoadSeries>, Vec<Strin
 
 /// A `split_load_series` error with the row given as the file's data row.
 fn din_row_error(e: &ExperimentRows, err: CalibrationError) -> anyhow::Error {
-    let file_row = |row: usize| e.file_rows.get(row).copied().unwrap_or(row as u64 + 1);
+    let at = |row: usize| e.row_name(row, "data row").unwrap_or_else(|| format!("data row {}", row + 1));
     let (file, label) = (&e.file, &e.label);
     match err {
         CalibrationError::AtRow { row, why, .. } if !file.is_empty() => {
-            anyhow::anyhow!("{file}: data row {} (--din on `{label}`): {why}", file_row(row))
+            anyhow::anyhow!("{file}: {} (--din on `{label}`): {why}", at(row))
         }
         CalibrationError::NonFiniteRow { row, column, .. } if !file.is_empty() => {
-            anyhow::anyhow!("{file}: data row {} (--din on `{label}`): `{column}` is not finite", file_row(row))
+            anyhow::anyhow!("{file}: {} (--din on `{label}`): `{column}` is not finite", at(row))
         }
         other => anyhow::anyhow!("--din on `{label}`: {other}"),
     }

@@ -29,6 +29,8 @@ pub struct Run {
     pub skipped: usize,
     /// First skipped data row (1-based).
     pub first_skipped: Option<usize>,
+    /// The file and row of the first skipped row, as messages name it.
+    pub first_skipped_at: Option<String>,
 }
 
 fn column<'a>(t: &'a strainwave_io::Table, ch: &Channel, key: &str, path: &str) -> Result<&'a [f64]> {
@@ -59,7 +61,7 @@ fn angles_from_counts(
     motor: &[f64],
     link: &[f64],
     rows: &[usize],
-    path: &str,
+    at: &dyn Fn(usize) -> String,
 ) -> Result<(Vec<f64>, Vec<f64>)> {
     let (m, l) = enc.configs()?;
     let spring = ThreeSlopeStiffness::linear(1.0e4).map_err(|e| anyhow::anyhow!("{e}"))?;
@@ -71,17 +73,15 @@ fn angles_from_counts(
     for &k in rows {
         let (mc, lc) = (motor[k], link[k]);
         if mc.fract() != 0.0 || lc.fract() != 0.0 {
-            bail!("{path}: data row {}: encoder counts {mc:?}, {lc:?} are not whole numbers", k + 1);
+            bail!("{}: encoder counts {mc:?}, {lc:?} are not whole numbers", at(k));
         }
         // Beyond 2^53 counts a float no longer holds every whole number.
         if mc.abs() > 9.0e15 || lc.abs() > 9.0e15 {
-            bail!("{path}: data row {}: encoder counts {mc:?}, {lc:?}: beyond ±9e15, not a counter", k + 1);
+            bail!("{}: encoder counts {mc:?}, {lc:?}: beyond ±9e15, not a counter", at(k));
         }
-        let e = est
-            .step_counts(&mut st, mc as i64, lc as i64)
-            .map_err(|e| anyhow::anyhow!("{}: data row {}: {e}", path, k + 1))?;
+        let e = est.step_counts(&mut st, mc as i64, lc as i64).map_err(|e| anyhow::anyhow!("{}: {e}", at(k)))?;
         if e.flags.any_jump() {
-            bail!("{}: data row {}: encoder count jumped (wrapping counter? check encoders.single_turn)", path, k + 1);
+            bail!("{}: encoder count jumped (wrapping counter? check encoders.single_turn)", at(k));
         }
         la.push(e.output_angle_rad);
         ma.push((e.output_angle_rad - e.torsion_rad) * n_s);
@@ -94,6 +94,7 @@ fn angles_from_counts(
 /// `lenient` the row is skipped and counted.
 pub fn load_run(cfg: &ArmConfig, input: RunInput<'_>, with_reference: bool, lenient: bool) -> Result<Run> {
     let read;
+    let from_file = matches!(input, RunInput::File(_));
     let (table, path) = match input {
         RunInput::File(p) => {
             // The reader's errors name the file.
@@ -131,20 +132,31 @@ pub fn load_run(cfg: &ArmConfig, input: RunInput<'_>, with_reference: bool, leni
             None
         }
     };
+    // `file: data row N`, or the row's time where the reader made the rows (resampled,
+    // a log's rows aligned on one clock).
+    let at = |k: usize| -> String {
+        if !from_file {
+            return format!("{path}: data row {}", k + 1);
+        }
+        let (name, (scale, offset)) =
+            ch.time.as_ref().map_or(("time", (1.0, 0.0)), |c| (c.column_name(), c.scale_offset()));
+        let t = table.column(name).and_then(|v| v.get(k)).map_or(f64::NAN, |v| v * scale + offset);
+        format!("{path}: {}", strainwave_io::row_label(path, k as u64 + 1, t, "data row"))
+    };
     let mut rows = Vec::with_capacity(table.rows());
-    let (mut skipped, mut first_skipped) = (0usize, None);
+    let (mut skipped, mut first_skipped, mut first_skipped_at) = (0usize, None, None);
     for k in 0..table.rows() {
         if let Some((key, c, why)) = cols.iter().find_map(|(key, c, v)| Some((key, c, unusable(key, c, v[k])?))) {
             if !lenient {
                 bail!(
-                    "{}: data row {}: column `{}` (channels.{key}) {why} (use --lenient to skip such rows)",
-                    path,
-                    k + 1,
+                    "{}: column `{}` (channels.{key}) {why} (use --lenient to skip such rows)",
+                    at(k),
                     c.column_name(),
                 );
             }
             skipped += 1;
             first_skipped.get_or_insert(k + 1);
+            first_skipped_at.get_or_insert_with(|| at(k));
             continue;
         }
         rows.push(k);
@@ -163,13 +175,13 @@ pub fn load_run(cfg: &ArmConfig, input: RunInput<'_>, with_reference: bool, leni
         Some(enc) => {
             refuse_count_scaling(mc, "motor")?;
             refuse_count_scaling(lc, "link")?;
-            angles_from_counts(gear, enc, mv, lv, &rows, path)?
+            angles_from_counts(gear, enc, mv, lv, &rows, &at)?
         }
         None => (scaled(mc, mv), scaled(lc, lv)),
     };
     let reference = get("reference_torque").map(|(c, v)| scaled(c, v));
     let time = get("time").map(|(c, v)| scaled(c, v));
-    Ok(Run { motor, link, reference, time, skipped, first_skipped })
+    Ok(Run { motor, link, reference, time, skipped, first_skipped, first_skipped_at })
 }
 
 /// The sample rate: given, or from the time channel.

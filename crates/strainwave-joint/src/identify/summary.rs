@@ -31,6 +31,8 @@ pub struct Summary {
     pub skipped: usize,
     /// First skipped data row (1-based).
     pub first_skipped: Option<usize>,
+    /// The file and row of the first skipped row, as messages name it.
+    pub first_skipped_at: Option<String>,
     /// Rows of the loaded run used.
     pub rows: usize,
     /// Sample rate, Hz.
