@@ -369,6 +369,11 @@ fn calibrate_and_identify_name_a_resampled_row_by_its_time() {
     // The log's time column is `Timestamp` (channels.time): --resample-hz reads it there.
     let at = "edited.csv: resampled row 41 (time 92125.577816271 s): column `joint_torque_current_3`";
     error(&[&identify[..], &["--resample-hz", "200"]].concat(), &[at]);
+    // Resampled encoder counts are not whole: the message says why.
+    error(
+        &[&identify[..], &["--resample-hz", "200", "--lenient"]].concat(),
+        &["resampled row 2 (time ", "are not whole numbers (--resample-hz interpolates between rows"],
+    );
 }
 
 /// `--resample-hz` resamples on the config's time channel: a recording whose time column

@@ -27,7 +27,7 @@ pub use csv_io::{read_table, CsvReader, CsvWriter, Table, DEFAULT_CHUNK_ROWS};
 pub use error::IoError;
 pub use read_options::{default_read_options, set_default_read_options, ReadOptions, TimeSource};
 pub use recording::{
-    format_of, read_all, read_all_with_time, row_label, row_name, Format, RecordingReader, RecordingWriter,
-    MAX_TABLE_VALUES,
+    format_of, interpolated_by, read_all, read_all_with_time, row_label, row_name, Format, RecordingReader,
+    RecordingWriter, MAX_TABLE_VALUES,
 };
 pub use time_axis::{TimeEvent, TimeMonitor};

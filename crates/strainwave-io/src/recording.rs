@@ -574,6 +574,19 @@ pub fn row_name(path: &Path, table: &crate::Table, k: usize, plain: &str) -> Str
     row_label(&path.to_string_lossy(), k as u64 + 1, t, plain)
 }
 
+/// What interpolates between the rows of the recording `input`, read with the process's
+/// read options, if anything does: `--resample-hz` for a table, `--align linear` for a
+/// log (its values then lie between the file's, and a counter is no longer whole).
+pub fn interpolated_by(input: &str) -> Option<&'static str> {
+    let options = default_read_options();
+    match format_of(Path::new(input)) {
+        Ok(Format::Mcap | Format::Db3 | Format::RosbagFolder) => {
+            (options.align == crate::ros2::align::Align::Linear).then_some("--align linear")
+        }
+        _ => options.resample_hz.map(|_| "--resample-hz"),
+    }
+}
+
 /// How messages name row `n` (1-based) of the recording `input`, read with the process's
 /// read options, whose time is `time_s`: `"{plain} {n}"` as in the file, unless the rows
 /// are not the file's (resampled by `--resample-hz`, or a log's messages aligned on one

@@ -174,7 +174,7 @@ impl Estimator {
                 Some(_) => {
                     if !(m.is_finite() && l.is_finite() && m.fract() == 0.0 && l.fract() == 0.0) {
                         let at = source.row_name(&row);
-                        bail!("{input}: {at}: encoder counts {m:?}, {l:?} are not whole numbers");
+                        bail!("{input}: {at}: encoder counts {m:?}, {l:?} are not whole numbers{}", counts_hint(input));
                     }
                     est.step_counts(&mut st, m as i64, l as i64)
                 }
@@ -191,7 +191,8 @@ impl Estimator {
             })?;
             if e.link_torque_nm.is_nan() || e.link_torque_nm.abs() > range {
                 bail!(
-                    "{input}: data row {k}: estimated torque {:.2} N·m is outside the model range ±{range:.1} N·m",
+                    "{input}: {}: estimated torque {:.2} N·m is outside the model range ±{range:.1} N·m",
+                    source.row_name(&row),
                     e.link_torque_nm
                 );
             }
@@ -222,4 +223,11 @@ impl Estimator {
         let rows = w.finish()?;
         Ok(EstimateSummary { rows, wraps, jumps, first_jump, unchecked_time })
     }
+}
+
+/// Why counts of `input` may not be whole: an option interpolates between its rows.
+pub(crate) fn counts_hint(input: &str) -> String {
+    strainwave_io::interpolated_by(input).map_or(String::new(), |by| {
+        format!(" ({by} interpolates between rows: read encoder counts without it, or map angles instead)")
+    })
 }

@@ -10,6 +10,7 @@ use strainwave_io::Channel;
 
 use super::config::{ArmConfig, EncodersConfig};
 use super::RunInput;
+use crate::estimate::counts_hint;
 
 /// A reference torque beyond this many times the gear's rated torque is not a reading
 /// of it (a corrupt row): refused, or skipped with `--lenient`.
@@ -61,7 +62,7 @@ fn angles_from_counts(
     motor: &[f64],
     link: &[f64],
     rows: &[usize],
-    at: &dyn Fn(usize) -> String,
+    (at, hint): (&dyn Fn(usize) -> String, &str),
 ) -> Result<(Vec<f64>, Vec<f64>)> {
     let (m, l) = enc.configs()?;
     let spring = ThreeSlopeStiffness::linear(1.0e4).map_err(|e| anyhow::anyhow!("{e}"))?;
@@ -73,7 +74,7 @@ fn angles_from_counts(
     for &k in rows {
         let (mc, lc) = (motor[k], link[k]);
         if mc.fract() != 0.0 || lc.fract() != 0.0 {
-            bail!("{}: encoder counts {mc:?}, {lc:?} are not whole numbers", at(k));
+            bail!("{}: encoder counts {mc:?}, {lc:?} are not whole numbers{}", at(k), hint);
         }
         // Beyond 2^53 counts a float no longer holds every whole number.
         if mc.abs() > 9.0e15 || lc.abs() > 9.0e15 {
@@ -175,7 +176,8 @@ pub fn load_run(cfg: &ArmConfig, input: RunInput<'_>, with_reference: bool, leni
         Some(enc) => {
             refuse_count_scaling(mc, "motor")?;
             refuse_count_scaling(lc, "link")?;
-            angles_from_counts(gear, enc, mv, lv, &rows, &at)?
+            let hint = if from_file { counts_hint(path) } else { String::new() };
+            angles_from_counts(gear, enc, mv, lv, &rows, (&at, &hint))?
         }
         None => (scaled(mc, mv), scaled(lc, lv)),
     };
