@@ -82,7 +82,7 @@ class RecordingWarning(UserWarning):
 
 def read_recording(path: PathLike) -> pd.DataFrame:
     """Reads a whole recording, in any format the command line reads (CSV, Parquet, MCAP,
-    by the file's name), into a DataFrame of float64 columns in the file's order. What the
+    rosbag2 `.db3` and folders, by the file's name), into a DataFrame of float64 columns in the file's order. What the
     reader warns of is raised as :class:`RecordingWarning` and kept in
     ``df.attrs["strainwave_warnings"]``.
 

@@ -690,3 +690,16 @@ def test_transforms_are_columns_by_frame_not_by_place_in_the_message(binary, tmp
         column = rows[:, header.index(f"/tf/{frame}.translation.x")]
         assert np.all(column[~np.isnan(column)] == x) and np.sum(~np.isnan(column)) >= 49, (frame, column[:6])
         assert np.all(rows[~np.isnan(column), header.index(f"/tf/{frame}.rotation.w")] == 1.0)
+
+
+def test_the_package_reads_each_storage_as_the_command_line(binary, bag, tmp_path):
+    # Before: a `.db3` bag (rosbag2's default storage on Humble) gave "this build has no
+    # `sqlite` support" in Python.
+    sw = pytest.importorskip("strainwave", reason="pip install ./python (./scripts/test-all does)")
+    out = tmp_path / "cli.csv"
+    run(binary, "convert", "--in", bag["folder"], "--out", out)
+    header, rows = read_csv(out)
+    for source in (bag["folder"], bag["file"]):
+        df = sw.read_recording(source)
+        assert df.columns.tolist() == header
+        assert np.array_equal(df.to_numpy(), rows, equal_nan=True), source
