@@ -155,3 +155,24 @@ def test_the_package_reads_a_text_column_with_a_warning(tmp_path):
     with pytest.warns(sw.RecordingWarning, match="daq.txt: column `state` holds text in data row 1: left out"):
         df = sw.read_recording(path)
     assert list(df.columns) == ["time", "torque"] and df["torque"].tolist() == [1.5, 2.0]
+
+
+def test_decimal_columns_read_as_numbers(binary, tmp_path):
+    # A historian database's fixed-point columns, as pandas' read_sql hands them on.
+    # Before: refused ("has type Decimal128(10, 3), expected a number").
+    from decimal import Decimal
+
+    values = [Decimal("1.250"), Decimal("-0.125"), Decimal("1234567.001"), None]
+    table = pa.table(
+        {
+            "time": np.arange(4) / RATE_HZ,
+            "torque": pa.array(values, type=pa.decimal128(10, 3)),
+            "count": pa.array([Decimal(5), Decimal(-7), Decimal(0), Decimal(1)], type=pa.decimal128(38, 0)),
+        }
+    )
+    path = tmp_path / "decimal.parquet"
+    pq.write_table(table, path)
+    header, rows = convert(binary, path, tmp_path)
+    assert header == ["time", "torque", "count"]
+    assert rows[:3, 1].tolist() == [1.25, -0.125, 1234567.001] and np.isnan(rows[3, 1])
+    assert rows[:, 2].tolist() == [5.0, -7.0, 0.0, 1.0]

@@ -1,5 +1,5 @@
-//! Parquet recordings through Arrow: every column read as `f64` (integer, `f16` and `f32`
-//! columns are widened, timestamps become seconds since the epoch with the unit `s`;
+//! Parquet recordings through Arrow: every column read as `f64` (integer, `f16`, `f32` and
+//! decimal columns are widened, timestamps become seconds since the epoch with the unit `s`;
 //! nulls become NaN; a column of another type, text or categories, is left out with a
 //! warning naming it; a file without a numeric column is an error),
 //! written as non-nullable `Float64` columns with snappy compression, in row groups
@@ -14,9 +14,9 @@ use std::sync::Arc;
 
 use arrow_array::cast::AsArray;
 use arrow_array::types::{
-    Float16Type, Float32Type, Float64Type, Int16Type, Int32Type, Int64Type, Int8Type, TimestampMicrosecondType,
-    TimestampMillisecondType, TimestampNanosecondType, TimestampSecondType, UInt16Type, UInt32Type, UInt64Type,
-    UInt8Type,
+    Decimal128Type, Float16Type, Float32Type, Float64Type, Int16Type, Int32Type, Int64Type, Int8Type,
+    TimestampMicrosecondType, TimestampMillisecondType, TimestampNanosecondType, TimestampSecondType, UInt16Type,
+    UInt32Type, UInt64Type, UInt8Type,
 };
 use arrow_array::{Array, ArrayRef, Float64Array, RecordBatch};
 use arrow_schema::{DataType, Field, Schema, SchemaRef, TimeUnit};
@@ -50,6 +50,7 @@ fn numeric(dt: &DataType) -> bool {
             | DataType::UInt16
             | DataType::UInt32
             | DataType::UInt64
+            | DataType::Decimal128(..)
     )
 }
 
@@ -80,6 +81,10 @@ fn value(a: &dyn Array, k: usize) -> f64 {
         DataType::UInt16 => a.as_primitive::<UInt16Type>().value(k) as f64,
         DataType::UInt32 => a.as_primitive::<UInt32Type>().value(k) as f64,
         DataType::UInt64 => a.as_primitive::<UInt64Type>().value(k) as f64,
+        // A database's fixed-point numbers (`Decimal(10, 3)`: value × 10⁻³).
+        DataType::Decimal128(_, scale) => {
+            a.as_primitive::<Decimal128Type>().value(k) as f64 / 10f64.powi(i32::from(*scale))
+        }
         _ => f64::NAN,
     }
 }
