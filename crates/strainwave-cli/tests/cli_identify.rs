@@ -230,6 +230,19 @@ fn errors_name_the_run_once() {
     assert!(!model.exists());
 }
 
+/// Joint 3 holds still in the jog log: its friction cannot be identified, and the error
+/// says how to fit without it (it said "fit the link torque alone", not how).
+#[test]
+fn friction_of_a_joint_that_holds_still_is_refused_saying_what_to_do() {
+    let d = dir("still");
+    let (o, model, _) = identify(&d, &example(3), &log("jogging_final"), &["--quiet"]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(e.contains("friction: not identifiable: the joint moves faster than"), "{e}");
+    assert!(e.contains("(a joint config without a [friction] table)"), "{e}");
+    assert!(!model.exists());
+}
+
 #[test]
 fn a_non_finite_count_names_its_row_or_is_skipped_with_lenient() {
     let d = dir("nan");
