@@ -254,6 +254,18 @@ fn stiffness_hint(e: anyhow::Error) -> anyhow::Error {
     }
 }
 
+/// Friction that cannot be identified (a joint that holds still): how to fit without it.
+fn friction_hint(e: strainwave_analysis::AnalysisError) -> anyhow::Error {
+    match &e {
+        strainwave_analysis::AnalysisError::Invalid { what: "friction", why }
+            if why.starts_with("not identifiable") =>
+        {
+            anyhow::anyhow!("{e} (a joint config without a [friction] table)")
+        }
+        _ => e.into(),
+    }
+}
+
 /// The config's own checks, before any recording is read, so that their errors can
 /// name the config file.
 fn check_config(cfg: &ArmConfig, windup_offset: bool) -> Result<()> {
@@ -427,7 +439,7 @@ pub fn identify(
     let loaded_name = loaded.name();
     let fit_all = |o: &ComplianceFitOptions| {
         fit_compliance(&gear, &kin, &ld_angles, &reference, o)
-            .map_err(anyhow::Error::from)
+            .map_err(friction_hint)
             .map_err(stiffness_hint)
             .with_context(|| format!("{loaded_name}: compliance fit"))
     };

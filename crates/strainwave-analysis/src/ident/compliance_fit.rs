@@ -273,7 +273,7 @@ pub fn fit_compliance<K: KinematicError<f64> + Clone>(
             "friction",
             format!(
                 "not identifiable: the joint moves faster than {:.3} rad/s in {moving} of {} rows (max {vmax:.3} \
-                 rad/s); fit the link torque alone (a joint config without a [friction] table)",
+                 rad/s); fit the link torque alone",
                 5.0 * fopts.smoothing_speed_rad_s,
                 rows.len()
             ),
