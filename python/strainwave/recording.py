@@ -29,11 +29,12 @@ def _frame(names: Sequence[str], arrays: Sequence[np.ndarray], source: Optional[
     return df
 
 
-def _columns(data: Any, input_name: str) -> tuple[list[str], list[np.ndarray]]:
+def _columns(data: Any, input_name: str, lenient: bool = False) -> tuple[list[str], list[np.ndarray]]:
     """Column names and contiguous float64 arrays of a DataFrame or a mapping of arrays.
     A column whose first value is text (a state, a category) is left out with a
-    :class:`RecordingWarning`, as the command line leaves out a file's text column; text
-    further down a column of numbers is an error naming its row."""
+    :class:`RecordingWarning`, as the command line leaves out a file's text column. An
+    empty string is a missing value (NaN); other text further down a column of numbers is
+    an error naming its row, or with ``lenient`` a NaN counted in one warning."""
     if isinstance(data, pd.DataFrame):
         items = [(str(c), data[c]) for c in data.columns] if data.columns.is_unique else [
             (str(c), data.iloc[:, k]) for k, c in enumerate(data.columns)
@@ -43,6 +44,7 @@ def _columns(data: Any, input_name: str) -> tuple[list[str], list[np.ndarray]]:
     else:
         raise TypeError(f"expected a pandas DataFrame or a mapping of column name to array, got {type(data).__name__}")
     names, arrays = [], []
+    unreadable: list[tuple[int, str, Any]] = []
     for name, values in items:
         # As the command line refuses a header that names a column twice: which one the
         # config means is not known.
@@ -52,27 +54,55 @@ def _columns(data: Any, input_name: str) -> tuple[list[str], list[np.ndarray]]:
             a = np.ascontiguousarray(np.asarray(values, dtype=np.float64))
         except (TypeError, ValueError):
             row, value = _first_text(values)
-            if row == 1 and str(value).strip():
+            if row == 1:
                 warnings.warn(
                     f"{input_name}: column `{name}` holds text in data row 1: left out", RecordingWarning, stacklevel=3
                 )
                 continue
-            raise StrainwaveError(f"{input_name}: row {row}, column `{name}`: `{value}` is not a number") from None
+            if row > 1 and not lenient:
+                raise StrainwaveError(f"{input_name}: row {row}, column `{name}`: `{value}` is not a number") from None
+            a, texts = _numbers_or_nan(values)
+            unreadable += [(k, name, v) for k, v in texts]
         if a.ndim != 1:
             raise StrainwaveError(f"{input_name}: column `{name}`: expected one dimension, got shape {a.shape}")
         names.append(name)
         arrays.append(a)
+    if unreadable:
+        row, name, value = min(unreadable, key=lambda u: u[0])
+        warnings.warn(
+            f"{input_name}: {len(unreadable)} cell(s) that are not numbers read as NaN, the first at row {row}, "
+            f"column `{name}`: `{value}`",
+            RecordingWarning,
+            stacklevel=3,
+        )
     return names, arrays
 
 
+def _number(v: Any) -> Optional[float]:
+    """``v`` as a number: an empty string is NaN (a missing value); other text is None."""
+    if isinstance(v, str) and not v.strip():
+        return float("nan")
+    try:
+        return float(np.asarray(v, dtype=np.float64))
+    except (TypeError, ValueError):
+        return None
+
+
 def _first_text(values: Any) -> tuple[int, Any]:
-    """The first value (1-based row) of a column that is not a number."""
+    """The first value (1-based row) of a column that is not a number, nor empty."""
     for k, v in enumerate(np.asarray(values, dtype=object).ravel()):
-        try:
-            np.asarray(v, dtype=np.float64)
-        except (TypeError, ValueError):
+        if _number(v) is None:
             return k + 1, v
-    return 1, ""
+    return 0, ""
+
+
+def _numbers_or_nan(values: Any) -> tuple[np.ndarray, list[tuple[int, Any]]]:
+    """A column with text: NaN for each cell that is not a number; those cells (1-based row)."""
+    cells = np.asarray(values, dtype=object).ravel()
+    numbers = [_number(v) for v in cells]
+    texts = [(k + 1, v) for k, (v, x) in enumerate(zip(cells, numbers)) if x is None]
+    a = np.array([np.nan if x is None else x for x in numbers], dtype=np.float64)
+    return a, texts
 
 
 class RecordingWarning(UserWarning):
@@ -141,7 +171,7 @@ def filter_recording(
     """
     if input_name is None:
         input_name = (data.attrs.get(SOURCE_ATTR) if isinstance(data, pd.DataFrame) else None) or "<DataFrame>"
-    names, arrays = _columns(data, input_name)
+    names, arrays = _columns(data, input_name, lenient)
     added, columns, notes, warnings, extrapolated = _native.filter_columns(
         os.fspath(config),
         names,

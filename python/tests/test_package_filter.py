@@ -1,6 +1,7 @@
 """The `strainwave` Python package against the `strainwave` command line: the same
 recordings read, the same twin, the same filter outputs bit for bit, the same errors."""
 
+import numpy as np
 import pytest
 from conftest import ROOT, assert_bitwise_equal, assert_frame_is_csv, cli_error, read_csv_exact
 
@@ -159,6 +160,16 @@ def test_a_text_column_is_left_out_with_a_warning_and_text_among_numbers_is_name
     bad.loc[3, "bridge_voltage"] = "ERR"
     with pytest.raises(sw.StrainwaveError, match=r"taghirad\.csv: row 4, column `bridge_voltage`: `ERR` is not a number$"):
         sw.filter_recording(bad, config=CONFIG)
+    # With lenient=True the cell is a missing value, as `filter --lenient` reads it: its
+    # sample is skipped with a flag (bit 0), counted in one warning.
+    with pytest.warns(sw.RecordingWarning, match=r"1 cell\(s\) that are not numbers read as NaN, the first at row 4, "):
+        out = sw.filter_recording(bad, config=CONFIG, lenient=True)
+    assert int(out["filter_flags"].iloc[3]) & 1 == 1 and np.isfinite(out["torque"].iloc[4])
+    # An empty string is a missing value, lenient or not (as an empty cell of a file).
+    blank = rec.astype({"true_ripple": object})
+    blank.loc[3, "true_ripple"] = " "
+    out = sw.filter_recording(blank, config=CONFIG)
+    assert np.isnan(out["true_ripple"].iloc[3]) and out["torque"].equals(plain["torque"])
 
 
 def test_non_numeric_and_ragged_columns_are_errors():

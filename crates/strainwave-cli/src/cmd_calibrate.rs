@@ -72,7 +72,7 @@ impl From<ExtrapolationArg> for Extrapolation {
 /// Arguments of `calibrate`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Input recordings (CSV or Parquet), one per experiment; repeat the option.
+    /// Input recordings (any format `convert` reads), one per experiment; repeat the option.
     #[arg(long = "in", required = true, value_name = "REC")]
     pub inputs: Vec<PathBuf>,
     /// A column numbering the experiments inside each input (instead of one file each).

@@ -14,7 +14,7 @@ pub struct Args {
     /// Joint configuration (gear, channels, calibration, filter); see examples/joint-taghirad.toml.
     #[arg(long)]
     pub config: PathBuf,
-    /// Input recording (.csv, .parquet; `-` for CSV on standard input). With --learn,
+    /// Input recording (any format `convert` reads; `-` for text on standard input). With --learn,
     /// several recordings may follow (`--in a.csv b.csv`): each run is learned from and
     /// merged into FILE in turn; --out then takes the last run's output, or is left out.
     #[arg(long = "in", required = true, num_args = 1..)]
@@ -47,7 +47,8 @@ pub struct Args {
     pub prefix: String,
     /// Go on over bad rows instead of stopping at the first: samples with a non-finite
     /// torque or angle are skipped by the canceller (flag bits 0-1 in filter_flags) and
-    /// time that does not move forward restarts the phase; counts are reported at the end.
+    /// time that does not move forward restarts the phase; a text cell that is not a
+    /// number (`OVL`) is read as NaN; counts are reported at the end.
     #[arg(long)]
     pub lenient: bool,
     /// No summary on stderr.
@@ -89,12 +90,21 @@ pub fn run(a: &Args) -> Result<()> {
     for (i, input) in a.input.iter().enumerate() {
         // Only the last run's output is kept; the others go nowhere.
         let out = if i == last { a.out.as_deref() } else { None };
-        filter_one(a, &cfg, input, out)?;
+        filter_one(a, &cfg, input, out).map_err(|e| lenient_hint(e, a.lenient))?;
     }
     if let Some(r) = rollback {
         r.keep();
     }
     Ok(())
+}
+
+/// A cell that is not a number stops a run; the message says how to go on over it.
+fn lenient_hint(e: anyhow::Error, lenient: bool) -> anyhow::Error {
+    let not_a_number = e.chain().any(|c| matches!(c.downcast_ref(), Some(IoError::NotANumber { .. })));
+    if lenient || !not_a_number {
+        return e;
+    }
+    anyhow::anyhow!("{}; pass --lenient to read such cells as missing (NaN)", strainwave_joint::one_line(&e))
 }
 
 /// One recording through the filter (and the learning beside it).

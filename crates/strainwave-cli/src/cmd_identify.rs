@@ -36,7 +36,8 @@ pub struct Args {
     #[arg(long)]
     pub allow_unconverged: bool,
     /// Skip rows with a non-finite value in a used column (counted in the summary)
-    /// instead of stopping at the first.
+    /// instead of stopping at the first; a text cell that is not a number (`OVL`) is read
+    /// as NaN.
     #[arg(long)]
     pub lenient: bool,
     /// Write a JSON summary (fits, parameters with standard errors, holdout) here.

@@ -14,13 +14,13 @@ use anyhow::{bail, Result};
 use crate::report::html::{esc, table, Report, Section};
 use crate::report::plot::{LinePlot, Marker, Series};
 use crate::report::smoothed::{denoised_section, SmoothedTorque};
-use crate::report::streaming::{ColumnStats, MinMaxDecimator, WelchAmplitude};
+use crate::report::streaming::{ColumnStats, HeldSpeed, MinMaxDecimator, WelchAmplitude};
 use strainwave_joint::JointConfig;
 
 /// Arguments of `report`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Recording (.csv or .parquet).
+    /// Recording (any format `convert` reads; `-` for text on standard input).
     #[arg(long = "in")]
     pub input: PathBuf,
     /// Joint configuration, for order lines and channel names.
@@ -73,10 +73,18 @@ pub fn run(a: &Args) -> Result<()> {
     }
     let torque_at: Vec<usize> = torque_cols.iter().filter_map(|c| at(c)).collect();
     let truth_at = at("true_torque");
+    // The angles in radians (a channel's scale and offset applied).
     let angle_at = cfg.as_ref().and_then(|c| {
-        let col = |ch: &Option<strainwave_io::Channel>| ch.as_ref().and_then(|ch| at(ch.column_name()));
+        let col = |ch: &Option<strainwave_io::Channel>| {
+            ch.as_ref().and_then(|ch| at(ch.column_name()).map(|k| (k, ch.scale_offset())))
+        };
         col(&c.channels.motor_angle).zip(col(&c.channels.output_angle))
     });
+    let gear = match (&cfg, angle_at) {
+        (Some(c), Some(_)) => Some(c.gear()?),
+        _ => None,
+    };
+    let mut held = HeldSpeed::default();
     let measured_name = measured_nm.unwrap_or("measured_torque".to_string());
     let mut smoothed = SmoothedTorque::new(&columns, &measured_name, PLOT_COLUMNS)
         .or_else(|| SmoothedTorque::new(&columns, "measured_torque", PLOT_COLUMNS));
@@ -117,6 +125,10 @@ pub fn run(a: &Args) -> Result<()> {
         }
         if let Some((nis, flags)) = health_at {
             health.push(row[nis], row[flags]);
+        }
+        if let (Some(g), Some(((m, ms), (o, os)))) = (&gear, angle_at) {
+            let (motor, output) = (row[m] * ms.0 + ms.1, row[o] * os.0 + os.1);
+            held.push(t, g.relative_angle(motor, output), output);
         }
         if first.is_none() {
             first = Some(row.clone());
@@ -163,18 +175,12 @@ pub fn run(a: &Args) -> Result<()> {
         sections.push(Section { title: "Torque".into(), body: plot.to_svg() });
         // Spectra, with order lines from the joint config.
         let mut markers = Vec::new();
-        if let (Some(c), Some((m, o))) = (&cfg, angle_at) {
-            let gear = c.gear()?;
-            let phi0 = gear.relative_angle(first[m], first[o]);
-            let phi1 = gear.relative_angle(last[m], last[o]);
-            let rate = ((phi1 - phi0) / span_s).abs() / std::f64::consts::TAU;
-            let out_rate = ((last[o] - first[o]) / span_s).abs() / std::f64::consts::TAU;
-            if rate.is_finite() && out_rate.is_finite() {
-                for (k, label) in [(2.0, "2×"), (4.0, "4×")] {
-                    markers.push(Marker { x: k * rate, label: format!("{label} (mean speed)") });
-                }
-                markers.push(Marker { x: out_rate, label: "1× output".into() });
+        if let Some((rel, out)) = held.speeds_rad_s() {
+            let (rate, out_rate) = (rel / std::f64::consts::TAU, out / std::f64::consts::TAU);
+            for (k, label) in [(2.0, "2×"), (4.0, "4×")] {
+                markers.push(Marker { x: k * rate, label: format!("{label} {:.1} Hz (speed held)", k * rate) });
             }
+            markers.push(Marker { x: out_rate, label: format!("1× output {out_rate:.2} Hz") });
         }
         let spec_series: Vec<Series> = torque_cols
             .iter()

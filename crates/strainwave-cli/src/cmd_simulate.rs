@@ -19,7 +19,8 @@ pub struct Args {
     /// A scenario TOML file (start one from `--preset NAME --print-scenario`).
     #[arg(long)]
     pub scenario: Option<PathBuf>,
-    /// Output recording (CSV; `-` for standard output).
+    /// Output recording (.csv, .tsv, .parquet or .mcap, by its extension; `-` for CSV on
+    /// standard output).
     #[arg(long, required_unless_present = "print_scenario")]
     pub out: Option<PathBuf>,
     /// Override the scenario's duration, s.

@@ -138,6 +138,12 @@ fn main() -> ExitCode {
             if let Command::Convert(a) = &cli.command {
                 options.time_column = Some(a.time_column.clone());
             }
+            // `--lenient` goes on over a text cell too, as a missing value.
+            options.unreadable_as_nan = match &cli.command {
+                Command::Filter(a) => a.lenient,
+                Command::Identify(a) => a.lenient,
+                _ => false,
+            };
             strainwave_io::set_default_read_options(options);
         }
         Err(e) => {

@@ -165,6 +165,7 @@ pub fn check_window(n: usize, nperseg: usize) -> Result<()> {
 /// command name). Logs: `--topic`, `--time`, `--align`, `--max-gap`, `--resample-hz`;
 /// text: `--delimiter`.
 #[derive(clap::Args, Debug, Clone)]
+#[command(next_help_heading = "Reading recordings (every command that reads one)")]
 pub struct ReadArgs {
     /// Log topic to read (repeatable; default: every topic).
     #[arg(long = "topic", global = true, value_name = "TOPIC")]
@@ -252,6 +253,7 @@ impl ReadArgs {
             delimiter,
             time_column: None,
             print_warnings: true,
+            unreadable_as_nan: false,
         })
     }
 }

@@ -158,6 +158,26 @@ fn missing_encoder_column_is_a_one_line_error() {
 }
 
 #[test]
+fn a_config_of_another_command_is_named_as_such() {
+    // `identify` and `filter` take `--config` too; their configs fail as models at a
+    // missing key (before: "line 25, column 1: missing field `coefficients`").
+    let d = dir("other-config");
+    let input = d.join("in.csv");
+    std::fs::write(&input, "time,motor_angle,link_angle\n0,0,0\n0.001,0,0\n").unwrap();
+    let joint = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/joint-taghirad.toml");
+    for (config, kind) in [(examples(), "an `identify` config"), (joint, "a joint config (for `filter`)")] {
+        let out = estimate(&config, &input, &d.join("out.csv"));
+        assert_eq!(out.status.code(), Some(1));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains(&format!("{kind}, not a model: pass the model file that `identify --out` writes")),
+            "{err}"
+        );
+        assert_eq!(err.matches(config.file_name().unwrap().to_str().unwrap()).count(), 1, "{err}");
+    }
+}
+
+#[test]
 fn an_unreadable_recording_is_named_once() {
     let d = dir("unreadable");
     let model = d.join("model.toml");

@@ -232,7 +232,9 @@ fn bad_inputs_are_one_line_errors_and_write_nothing() {
     let cases = [
         (with("ratio = 100.0", "ratio = 0.0"), "gear.ratio"),
         (with("motor_velocity = \"motor_velocity\"", "motor_velocity = \"tacho\""), "no column `tacho`"),
-        (with("output_angle = \"output_angle\"", "output_angle = \"link_angle\""), "learned on another joint"),
+        // A column the recording lacks, named as such (not as a learned file of another
+        // joint, the channel being part of the joint's identity).
+        (with("output_angle = \"output_angle\"", "output_angle = \"link_angle\""), "no column `link_angle`"),
         (with("noise_nm = 0.0162", "noise_nm = -1.0"), "noise_nm"),
         // Positive, but its variance overflows: named once, by its key and value.
         (with("noise_nm = 0.0162", "noise_nm = 1e300"), "toml: `filter.noise_nm` = 1e300 N·m: its square"),
@@ -286,7 +288,7 @@ fn report_renders_sections_for_a_filtered_recording() {
     let o = run(&["report", "--in", f.to_str().unwrap(), "--config", &config(), "--out", html.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
     let text = std::fs::read_to_string(&html).unwrap();
-    for s in ["Torque over time", "Amplitude spectrum", "Errors against true_torque", "2× (mean speed)"] {
+    for s in ["Torque over time", "Amplitude spectrum", "Errors against true_torque", "(speed held)"] {
         assert!(text.contains(s), "{s}");
     }
     assert!(!text.contains("<script"));
@@ -297,6 +299,79 @@ fn report_renders_sections_for_a_filtered_recording() {
     assert!(errors.contains("measured_torque") && !errors.contains("bridge_voltage"), "{errors}");
     let over_time = text.split("Torque over time").nth(1).unwrap().split("<h2").next().unwrap();
     assert!(!over_time.contains("bridge_voltage"));
+}
+
+/// An empty cell is a missing value; a text cell (a DAQ's `OVL`) stops the run with a
+/// hint, and `--lenient` reads it as missing: its sample is skipped with a flag.
+#[test]
+fn empty_and_text_cells_are_missing_values() {
+    let d = tmp("cells");
+    let sim = std::fs::read_to_string(simulate(&d, "0.2")).unwrap();
+    let header: Vec<&str> = sim.lines().next().unwrap().split(',').collect();
+    let at = |name: &str| header.iter().position(|c| *c == name).unwrap();
+    // Data row 101 (line 102) with `cell` in column `column`.
+    let with = |column: &str, cell: &str| {
+        let mut lines: Vec<String> = sim.lines().map(String::from).collect();
+        let mut cells: Vec<String> = lines[101].split(',').map(String::from).collect();
+        cells[at(column)] = cell.to_string();
+        lines[101] = cells.join(",");
+        let f = d.join(format!("{column}-{}.csv", cell.len()));
+        std::fs::write(&f, lines.join("\n") + "\n").unwrap();
+        f
+    };
+    let (out, config) = (d.join("out.csv"), config());
+    let filter = |input: &Path, lenient: bool| {
+        let mut args =
+            vec!["filter", "--config", &config, "--in", input.to_str().unwrap(), "--out", out.to_str().unwrap()];
+        args.extend(lenient.then_some("--lenient"));
+        run(&args)
+    };
+    // Empty in a column the filter does not use: passes through as NaN.
+    let o = filter(&with("true_ripple", ""), false);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (columns, rows) = read(&out);
+    let ripple = columns.iter().position(|c| c == "true_ripple").unwrap();
+    assert!(rows[100][ripple].is_nan() && rows.len() == 200);
+    // Empty in the torque channel: a NaN, with its hint.
+    assert_user_error(
+        &filter(&with("bridge_voltage", " "), false),
+        "data row 101: column `bridge_voltage` (`channels.torque`) is NaN",
+    );
+    // Text: the cell named, with the option that goes on.
+    let text = with("bridge_voltage", "OVL");
+    assert_user_error(
+        &filter(&text, false),
+        "row 101, column `bridge_voltage`: `OVL` is not a number; pass --lenient to read such cells as missing (NaN)",
+    );
+    let o = filter(&text, true);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o)
+        .contains("1 cell(s) that are not numbers read as NaN, the first at row 101, column `bridge_voltage`: `OVL`"));
+    let (columns, rows) = read(&out);
+    let (flags, torque) = (col(&columns, &rows, "filter_flags"), col(&columns, &rows, "torque"));
+    assert_eq!(rows.len(), 200);
+    assert_eq!(flags[100] as u32 & 1, 1, "measurement skipped");
+    assert!(torque[99].is_finite() && torque[101].is_finite());
+}
+
+#[test]
+fn report_marks_the_order_lines_of_a_run_that_reverses() {
+    // The taghirad run holds 156 rad/s one way, then the other: its net angle is small
+    // and its ramps take the mean speed below the plateau, but its 2× line is at
+    // 2 × 156 / 2π ≈ 50 Hz (drawn at 7.5 Hz before).
+    let d = tmp("report-reverse");
+    let sim = simulate_preset(&d, "taghirad");
+    let html = d.join("r.html");
+    let o = run(&["report", "--in", sim.to_str().unwrap(), "--config", &config(), "--out", html.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&html).unwrap();
+    let hz = |label: &str| -> f64 {
+        let after = text.split(label).nth(1).unwrap_or_else(|| panic!("no {label}"));
+        after.trim_start().split(' ').next().unwrap().parse().unwrap()
+    };
+    let (two, four) = (hz("2×"), hz("4×"));
+    assert!((48.5..51.0).contains(&two), "2× marked at {two} Hz");
+    assert!((2.0 * two - four).abs() < 0.2, "4× at {four} Hz");
 }
 
 fn simulate_preset(d: &Path, preset: &str) -> PathBuf {

@@ -23,7 +23,7 @@ pub mod time_axis;
 mod time_unit;
 
 pub use channels::{BoundChannel, Channel, ChannelTable};
-pub use csv_io::{read_table, CsvReader, CsvWriter, Table, DEFAULT_CHUNK_ROWS};
+pub use csv_io::{read_table, CsvReader, CsvWriter, Table, TextOptions, DEFAULT_CHUNK_ROWS};
 pub use error::IoError;
 pub use read_options::{default_read_options, set_default_read_options, ReadOptions, TimeSource};
 pub use recording::{

@@ -39,6 +39,9 @@ pub struct ReadOptions {
     pub time_column: Option<String>,
     /// [`crate::RecordingReader::open`] prints the reader's warnings to standard error.
     pub print_warnings: bool,
+    /// A text table's cells that are not numbers are read as NaN, counted in one warning
+    /// at the end, instead of stopping the read (`filter --lenient`).
+    pub unreadable_as_nan: bool,
 }
 
 static DEFAULT: OnceLock<ReadOptions> = OnceLock::new();

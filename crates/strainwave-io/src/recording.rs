@@ -172,7 +172,11 @@ impl RecordingReader {
         let bag = matches!(format, Format::Mcap | Format::Db3 | Format::RosbagFolder);
         let (inner, columns, units, warnings) = match format {
             Format::Csv => {
-                let mut r = CsvReader::open_with(path, options.delimiter)?;
+                let text = crate::csv_io::TextOptions {
+                    delimiter: options.delimiter,
+                    unreadable_as_nan: options.unreadable_as_nan,
+                };
+                let mut r = CsvReader::open_with(path, text)?;
                 if let Some(name) = &options.time_column {
                     r.set_time_column(name);
                 }
@@ -298,17 +302,21 @@ impl RecordingReader {
 
     /// The warnings the reader found while reading, printed as those at the start were.
     fn take_reader_warnings(&mut self) {
-        #[cfg(feature = "mcap")]
-        if let Reader::Bag(r) = &self.inner {
-            let (taken, print) = self.reader_warnings;
-            for w in r.warnings().iter().skip(taken) {
-                if print {
-                    let _ = writeln!(std::io::stderr(), "warning: {}: {w}", self.path.display());
-                }
-                self.warnings.push(w.clone());
+        let all = match &self.inner {
+            Reader::Csv(r) => r.warnings(),
+            #[cfg(feature = "mcap")]
+            Reader::Bag(r) => r.warnings(),
+            #[cfg(feature = "parquet")]
+            Reader::Parquet(_) => return,
+        };
+        let (taken, print) = self.reader_warnings;
+        for w in all.iter().skip(taken) {
+            if print {
+                let _ = writeln!(std::io::stderr(), "warning: {}: {w}", self.path.display());
             }
-            self.reader_warnings.0 = r.warnings().len();
+            self.warnings.push(w.clone());
         }
+        self.reader_warnings.0 = all.len();
     }
 
     /// Input rows read so far: a table's data rows (before `--resample-hz`), a log's

@@ -206,6 +206,9 @@ pub fn filter_recording<S: RowSource, W: RowSink>(
              the misalignment needs several output revolutions (see `filter --learn`){guard}"
         ));
     }
+    // A channel the recording lacks is named as such, before the learned file's
+    // identity check would report the config's channel as another joint's.
+    bind(cfg, source.columns(), &opts.input_name)?;
     // Operating from learned priors when the config has them (a `--learn` run may
     // create the file the config names); learning runs beside it, cold (crate::learn).
     let learned = OutputPrior::load(cfg, opts.learn.is_some())?;

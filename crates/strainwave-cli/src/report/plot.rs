@@ -216,8 +216,8 @@ impl LinePlot {
             MARGIN_T + ph / 2.0,
             esc(&self.y_label)
         );
-        // Markers.
-        for m in &self.markers {
+        // Markers, their labels on three rows so that neighbours do not overlap.
+        for (i, m) in self.markers.iter().enumerate() {
             if m.x < x0 || m.x > x1 {
                 continue;
             }
@@ -231,7 +231,7 @@ impl LinePlot {
                 svg,
                 r##"<text x="{:.1}" y="{:.1}" font-size="11" fill="#333">{}</text>"##,
                 x + 3.0,
-                MARGIN_T + 12.0,
+                MARGIN_T + 12.0 * (1 + i % 3) as f64,
                 esc(&m.label)
             );
         }

@@ -1,6 +1,6 @@
 //! What `report` keeps of a recording while it streams through it once, in memory that
 //! does not grow with its length: per-column sums, a min/max decimation of each plotted
-//! signal and averaged amplitude spectra.
+//! signal, averaged amplitude spectra and the speeds held.
 
 use strainwave_analysis::spectrum::amplitude_spectrum;
 
@@ -187,6 +187,74 @@ impl WelchAmplitude {
     }
 }
 
+/// The speed a joint's relative angle (wave generator against flexspline) and its output
+/// angle held longest (rad/s, either way): the fullest bin of a histogram of each
+/// step's speed, weighted by the step's time, in bins 2 % wide from 10⁻³ to 10⁶ rad/s.
+/// An order line is sharp where a run holds its speed, so that is where its marker goes
+/// (a run that reverses has a mean angle rate near zero; one with ramps, a mean below its
+/// plateau). Steps are wrapped to (−π, π], so angles given modulo a turn count the same;
+/// non-finite values are stepped over.
+#[derive(Debug, Clone)]
+pub struct HeldSpeed {
+    last: Option<(f64, f64, f64)>,
+    relative: Vec<f64>,
+    output: Vec<f64>,
+}
+
+/// Bins of [`HeldSpeed`]: the lowest speed, the ratio of one bin's edges, their number.
+const SPEED_MIN_RAD_S: f64 = 1e-3;
+const SPEED_BIN_RATIO: f64 = 1.02;
+const SPEED_BINS: usize = 1047;
+
+impl Default for HeldSpeed {
+    fn default() -> Self {
+        Self { last: None, relative: vec![0.0; SPEED_BINS], output: vec![0.0; SPEED_BINS] }
+    }
+}
+
+impl HeldSpeed {
+    /// Adds one row: time (s), relative and output angle (rad).
+    pub fn push(&mut self, t: f64, relative_rad: f64, output_rad: f64) {
+        if !(t.is_finite() && relative_rad.is_finite() && output_rad.is_finite()) {
+            return;
+        }
+        if let Some((t0, r, o)) = self.last {
+            let dt = t - t0;
+            if dt > 0.0 {
+                add(&mut self.relative, wrap_rad(relative_rad - r).abs() / dt, dt);
+                add(&mut self.output, wrap_rad(output_rad - o).abs() / dt, dt);
+            }
+        }
+        self.last = Some((t, relative_rad, output_rad));
+    }
+
+    /// The relative and output speeds held longest, rad/s (`None` for a joint that did
+    /// not turn).
+    pub fn speeds_rad_s(&self) -> Option<(f64, f64)> {
+        Some((fullest(&self.relative)?, fullest(&self.output)?))
+    }
+}
+
+/// Adds `weight` to the bin of `speed` (below the lowest bin: not counted).
+fn add(bins: &mut [f64], speed: f64, weight: f64) {
+    if speed >= SPEED_MIN_RAD_S {
+        let k = ((speed / SPEED_MIN_RAD_S).ln() / SPEED_BIN_RATIO.ln()) as usize;
+        bins[k.min(bins.len() - 1)] += weight;
+    }
+}
+
+/// The centre of the fullest bin (`None` if all are empty).
+fn fullest(bins: &[f64]) -> Option<f64> {
+    let (k, w) = bins.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1))?;
+    (*w > 0.0).then(|| SPEED_MIN_RAD_S * SPEED_BIN_RATIO.powf(k as f64 + 0.5))
+}
+
+/// `a` wrapped to (−π, π].
+fn wrap_rad(a: f64) -> f64 {
+    let tau = std::f64::consts::TAU;
+    a - tau * (a / tau).round()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -247,5 +315,36 @@ mod tests {
         let k = a.iter().enumerate().max_by(|x, y| x.1.total_cmp(y.1)).unwrap().0;
         assert_eq!(f[k], 50.0);
         assert!((a[k] - 1.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn held_speed_is_the_plateau_of_a_run_that_ramps_and_reverses() {
+        // 1 s ramps to 150 rad/s, 2 s held, reversed the same way, at 1 kHz: the mean
+        // angle rate is 0 and the mean speed 100 rad/s; the speed held is 150. Wrapped
+        // angles give the same; a NaN row is stepped over.
+        let profile = |t: f64| {
+            let one_way = |t: f64| if t < 1.0 { 75.0 * t * t } else { 75.0 + 150.0 * (t - 1.0) };
+            if t < 3.0 {
+                one_way(t)
+            } else {
+                one_way(3.0) - one_way(t - 3.0)
+            }
+        };
+        let (mut plain, mut wrapped) = (HeldSpeed::default(), HeldSpeed::default());
+        for k in 0..=6000 {
+            let t = k as f64 * 1e-3;
+            let a = profile(t);
+            plain.push(t, a, -a / 50.0);
+            wrapped.push(t, a.rem_euclid(std::f64::consts::TAU), (-a / 50.0).rem_euclid(std::f64::consts::TAU));
+            if k == 50 {
+                plain.push(t + 1e-4, f64::NAN, 0.0);
+            }
+        }
+        for h in [plain, wrapped] {
+            let (rel, out) = h.speeds_rad_s().unwrap();
+            assert!((rel / 150.0 - 1.0).abs() < 0.02, "{rel}");
+            assert!((out / 3.0 - 1.0).abs() < 0.02, "{out}");
+        }
+        assert_eq!(HeldSpeed::default().speeds_rad_s(), None);
     }
 }

@@ -50,6 +50,16 @@ pub use format::{format_f64, format_row};
 use parser::*;
 pub use writer::CsvWriter;
 
+/// How a text table is read.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct TextOptions {
+    /// The cell delimiter (`None`: detected from the header line, see [`detect_delimiter`]).
+    pub delimiter: Option<u8>,
+    /// A cell that is not a number is read as NaN (counted in one warning at the end)
+    /// instead of stopping the read.
+    pub unreadable_as_nan: bool,
+}
+
 /// Streaming reader of a numeric CSV recording.
 ///
 /// The header is read by [`CsvReader::open`]; the rows are tokenized and parsed on a
@@ -77,12 +87,11 @@ impl CsvReader {
     /// Opens a file (or standard input for `-`) and reads its header; the delimiter is
     /// detected.
     pub fn open(path: &Path) -> Result<Self, IoError> {
-        Self::open_with(path, None)
+        Self::open_with(path, TextOptions::default())
     }
 
-    /// Opens a file (or standard input for `-`) with this delimiter (`None`: detected
-    /// from the header line, see [`detect_delimiter`]) and reads its header.
-    pub fn open_with(path: &Path, delimiter: Option<u8>) -> Result<Self, IoError> {
+    /// Opens a file (or standard input for `-`) with these options and reads its header.
+    pub fn open_with(path: &Path, options: TextOptions) -> Result<Self, IoError> {
         let input: Box<dyn Read + Send> = if path == Path::new("-") {
             Box::new(std::io::stdin())
         } else {
@@ -91,25 +100,26 @@ impl CsvReader {
             }
             Box::new(File::open(path).map_err(|source| IoError::Os { path: path.to_path_buf(), source })?)
         };
-        Self::from_reader_with(path, input, delimiter)
+        Self::from_reader_with(path, input, options)
     }
 
     /// Reads from any byte source; `path` is used in messages.
     pub fn from_reader(path: &Path, input: Box<dyn Read + Send>) -> Result<Self, IoError> {
-        Self::from_reader_with(path, input, None)
+        Self::from_reader_with(path, input, TextOptions::default())
     }
 
-    /// Reads from any byte source with this delimiter (`None`: detected).
-    pub fn from_reader_with(path: &Path, input: Box<dyn Read + Send>, delimiter: Option<u8>) -> Result<Self, IoError> {
+    /// Reads from any byte source with these options.
+    pub fn from_reader_with(path: &Path, input: Box<dyn Read + Send>, options: TextOptions) -> Result<Self, IoError> {
         let path = path.to_path_buf();
-        let detected = delimiter.is_none();
-        let (input, delimiter) = match delimiter {
+        let detected = options.delimiter.is_none();
+        let (input, delimiter) = match options.delimiter {
             Some(d) => (input, d),
             None => dialect::sniff(&path, input)?,
         };
         let (out, batches) = mpsc::sync_channel(BATCHES_AHEAD);
         let (spent, spent_rx) = mpsc::channel();
         let mut parser = Parser::new(path.clone(), input, out, spent_rx, delimiter);
+        parser.unreadable_as_nan = options.unreadable_as_nan;
         let mut header = parser.header()?;
         // A delimiter at the end of the header line names no column.
         let unnamed = header.iter().rev().take_while(|h| h.trim().is_empty()).count();
@@ -248,9 +258,13 @@ impl CsvReader {
                 self.next = 0;
                 Ok(true)
             }
-            Ok(Batch::End { rows, result }) => {
+            Ok(Batch::End { rows, result, unreadable }) => {
                 self.done = true;
                 self.rows_read = rows;
+                if let Some((count, first)) = unreadable {
+                    self.warnings
+                        .push(format!("{count} cell(s) that are not numbers read as NaN, the first at {first}"));
+                }
                 result.map(|()| false).map_err(|e| self.with_dialect(e))
             }
             Err(_) => {

@@ -8,7 +8,9 @@ pub(super) enum Batch {
     Rows(Vec<f64>),
     /// No more rows: the end of the input or the error that stopped it, with the rows
     /// counted (a row with a bad cell or the wrong length counts, as its message names it).
-    End { rows: u64, result: Result<(), IoError> },
+    /// With the cells read as NaN for not being numbers: their count and where the first
+    /// was (`row 3, column `b`: `x``).
+    End { rows: u64, result: Result<(), IoError>, unreadable: Option<(u64, String)> },
 }
 
 /// What a column's cells hold, as its cell in the first data row shows.
@@ -57,6 +59,10 @@ pub(super) struct Parser {
     /// The cell delimiter, and whether a comma in a cell is a decimal point.
     delimiter: u8,
     decimal_comma: bool,
+    /// A cell that is not a number is NaN (counted, the first named) instead of an error.
+    pub(super) unreadable_as_nan: bool,
+    unreadable: u64,
+    first_unreadable: Option<String>,
     /// The rows being gathered, and where they go.
     batch: Vec<f64>,
     out: SyncSender<Batch>,
@@ -91,6 +97,9 @@ impl Parser {
             field_ends: vec![0; 64],
             delimiter,
             decimal_comma: delimiter != b',',
+            unreadable_as_nan: false,
+            unreadable: 0,
+            first_unreadable: None,
             batch: Vec::with_capacity(BATCH_CELLS),
             out,
             spent,
@@ -202,7 +211,8 @@ impl Parser {
             }
         };
         if self.send() {
-            let _ = self.out.send(Batch::End { rows: self.rows, result });
+            let unreadable = self.first_unreadable.take().map(|first| (self.unreadable, first));
+            let _ = self.out.send(Batch::End { rows: self.rows, result, unreadable });
         }
     }
 
@@ -452,19 +462,35 @@ impl Parser {
         let parse = |cell: &[u8]| parse_slow(cell, decimal_comma);
         let before = self.batch.len();
         for (i, cell) in record.iter().take(n).enumerate() {
+            // An empty cell is a missing value.
             let value = match self.kind(i) {
-                CellKind::Number => parse(cell),
                 CellKind::Text => continue,
+                _ if is_blank(cell) => Some(f64::NAN),
+                CellKind::Number => parse(cell),
                 CellKind::DateTime => parse_date_time(&String::from_utf8_lossy(cell)),
             };
             match value {
                 Some(v) => self.batch.push(v),
                 None => {
-                    self.batch.truncate(before);
                     let (column, value) = (self.columns[i].clone(), shown_cell(cell));
-                    let path = self.path.clone();
                     // A first row of text alone: most likely the header is a preamble line.
-                    if self.rows == 1 && record.iter().take(n).all(|c| parse(c).is_none()) {
+                    let text_row = self.rows == 1 && record.iter().take(n).all(|c| is_blank(c) || parse(c).is_none());
+                    if self.unreadable_as_nan && !text_row {
+                        self.unreadable += 1;
+                        self.first_unreadable.get_or_insert_with(|| {
+                            format!(
+                                "row {}, column `{}`: `{}`",
+                                self.rows,
+                                crate::error::shown(&column),
+                                crate::error::shown(&value)
+                            )
+                        });
+                        self.batch.push(f64::NAN);
+                        continue;
+                    }
+                    self.batch.truncate(before);
+                    let path = self.path.clone();
+                    if text_row {
                         return Err(IoError::TextRow { path, column, value });
                     }
                     if self.kind(i) == CellKind::DateTime {
@@ -488,6 +514,11 @@ fn parse_slow(cell: &[u8], decimal_comma: bool) -> Option<f64> {
     } else {
         cell.parse().ok()
     }
+}
+
+/// Whether a cell holds nothing but whitespace.
+fn is_blank(cell: &[u8]) -> bool {
+    String::from_utf8_lossy(cell).trim().is_empty()
 }
 
 /// A cell as an error shows it: trimmed, at most 40 characters, `�` for bytes that are

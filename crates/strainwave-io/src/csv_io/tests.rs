@@ -14,6 +14,32 @@ fn shortest_round_trip_formatting() {
     }
 }
 
+/// An empty cell is a missing value (as pandas and DAQ exports take it); with
+/// `unreadable_as_nan` a cell that is not a number is one too, counted in a warning at
+/// the end; without, it stops the read at its row.
+#[test]
+fn empty_cells_are_missing_and_text_is_nan_only_when_asked() {
+    let text = "time;a;b\n0;1,5;\n0,001; ;2\n0,002;OVL;3\n0,003;4;ERR\n";
+    let mut row = Vec::new();
+    let mut strict = CsvReader::from_reader(Path::new("daq.csv"), Box::new(text.as_bytes())).unwrap();
+    assert!(strict.read_row(&mut row).unwrap() && row[1] == 1.5 && row[2].is_nan(), "{row:?}");
+    assert!(strict.read_row(&mut row).unwrap() && row[1].is_nan() && row[2] == 2.0, "{row:?}");
+    let e = strict.read_row(&mut row).unwrap_err().to_string();
+    assert!(e.starts_with("daq.csv: row 3, column `a`: `OVL` is not a number"), "{e}");
+    let options = TextOptions { delimiter: None, unreadable_as_nan: true };
+    let mut lenient = CsvReader::from_reader_with(Path::new("daq.csv"), Box::new(text.as_bytes()), options).unwrap();
+    let mut rows = Vec::new();
+    while lenient.read_row(&mut row).unwrap() {
+        rows.push(row.clone());
+    }
+    assert_eq!(rows.len(), 4);
+    assert!(rows[2][1].is_nan() && rows[2][2] == 3.0 && rows[3][1] == 4.0 && rows[3][2].is_nan(), "{rows:?}");
+    assert_eq!(
+        lenient.warnings(),
+        ["2 cell(s) that are not numbers read as NaN, the first at row 3, column `a`: `OVL`"]
+    );
+}
+
 #[test]
 fn reads_rows_and_names_bad_cells() {
     let mut r = reader("time,a\n0,1.5\n0.001,x\n").unwrap();
@@ -328,7 +354,10 @@ fn reference(data: &[u8]) -> Outcome {
                         .enumerate()
                         .filter(|&(i, _)| !text[i])
                         .map(|(i, cell)| {
-                            parse(cell).map(f64::to_bits).map_err(|_| {
+                            // An empty cell is a missing value.
+                            let blank = String::from_utf8_lossy(cell).trim().is_empty();
+                            let value = if blank { Ok(f64::NAN) } else { parse(cell) };
+                            value.map(f64::to_bits).map_err(|_| {
                                 let (path, value, column) = (path.into(), shown_cell(cell), columns[i].clone());
                                 match all_text {
                                     true => IoError::TextRow { path, column, value }.to_string(),
@@ -351,7 +380,11 @@ fn reference(data: &[u8]) -> Outcome {
 fn ours(data: &[u8], seed: u64) -> Outcome {
     let input = Trickle { data: data.to_vec(), at: 0, rng: Rng(seed) };
     // The `csv` crate reads commas: the same delimiter, set.
-    let mut r = match CsvReader::from_reader_with(Path::new("rec.csv"), Box::new(input), Some(b',')) {
+    let mut r = match CsvReader::from_reader_with(
+        Path::new("rec.csv"),
+        Box::new(input),
+        TextOptions { delimiter: Some(b','), ..Default::default() },
+    ) {
         Ok(r) => r,
         Err(e) => return (Err(e.to_string()), Vec::new()),
     };
@@ -625,11 +658,13 @@ fn a_preamble_above_the_header_is_named_as_such() {
         let e = r.read_row(&mut Vec::new()).unwrap_err().to_string();
         assert!(e.starts_with(&format!("daq.csv: {want}")) && e.contains("preamble"), "{e}");
     }
-    // A first row with a number in it is data: its text columns are left out.
+    // A first row with a number in it is data: its text columns are left out, an empty
+    // cell is a missing value.
     let mut r = reader("time,a,b\n0,x,\n").unwrap();
-    let e = r.read_row(&mut Vec::new()).unwrap_err().to_string();
-    assert_eq!(e, "rec.csv: row 1, column `b`: `` is not a number");
+    let mut row = Vec::new();
+    assert!(r.read_row(&mut row).unwrap());
     assert_eq!(r.columns(), ["time", "b"]);
+    assert!(row[0] == 0.0 && row[1].is_nan(), "{row:?}");
 }
 
 /// A DAQ's state or comment column, text in the first data row where others hold

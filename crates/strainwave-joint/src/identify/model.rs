@@ -76,11 +76,33 @@ pub struct ModelFile {
     pub friction: Option<FrictionParams>,
 }
 
+/// What kind of config `text` is when it is not a model file, which `identify` writes with
+/// `sample_rate_hz` at the top: a joint config (`[filter]`) or an `identify` config.
+fn other_kind(text: &str) -> Option<&'static str> {
+    let table: toml::Table = toml::from_str(text).ok()?;
+    if table.contains_key("sample_rate_hz") {
+        return None;
+    }
+    if table.contains_key("filter") {
+        Some("a joint config (for `filter`)")
+    } else if table.contains_key("kinematic") || table.contains_key("compliance") {
+        Some("an `identify` config")
+    } else {
+        None
+    }
+}
+
 impl ModelFile {
     /// Reads a model file.
     pub fn load(path: &Path) -> Result<Self> {
         let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
-        toml::from_str(&text).map_err(|e| crate::toml_error::one_line(path, &text, &e))
+        toml::from_str(&text).map_err(|e| match other_kind(&text) {
+            Some(kind) => anyhow::anyhow!(
+                "{}: {kind}, not a model: pass the model file that `identify --out` writes",
+                path.display()
+            ),
+            None => crate::toml_error::one_line(path, &text, &e),
+        })
     }
 
     /// The model's plain numbers, by their keys: the sample rate, torque range and rated
