@@ -148,6 +148,22 @@ pub fn overridden<S: Adjustable>(s: &mut S, duration: Option<f64>, seed: Option<
 }
 
 /// Runs `simulate`.
+/// A row of a twin's recording: every value finite, else an error naming the scenario,
+/// the first column that is not and the time (an extreme scenario value makes the
+/// dynamics or a sensor's reading overflow; the row is not written).
+pub fn finite_row(row: &[f64], columns: &[&str], scenario: &str) -> Result<()> {
+    if let Some(k) = row.iter().position(|v| !v.is_finite()) {
+        bail!(
+            "{scenario}: column `{}` is not finite at t = {} s ({}): look for an extreme value among the \
+             scenario's keys",
+            columns.get(k).unwrap_or(&"?"),
+            row.first().copied().unwrap_or(f64::NAN),
+            row[k]
+        );
+    }
+    Ok(())
+}
+
 pub fn run(a: &Args) -> Result<()> {
     if let Some(out) = &a.out {
         strainwave_io::output::refuse_input_as_output(out, a.scenario.as_deref())?;
@@ -200,6 +216,9 @@ pub fn run(a: &Args) -> Result<()> {
     let mut w = RecordingWriter::create(out, &columns)?;
     let mut row = Vec::with_capacity(columns.len());
     while sim.next_row(&mut row) {
+        if sim.diverged_at_s().is_none() {
+            finite_row(&row, &columns, &source())?;
+        }
         w.write_row(&row)?;
     }
     if let Some(t) = sim.diverged_at_s() {

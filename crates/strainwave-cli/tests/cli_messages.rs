@@ -403,3 +403,40 @@ fn resampling_uses_the_configs_time_channel() {
     let args = ["filter", "--config", s(&scaled), "--in", s(&renamed), "--out", s(&out), "--resample-hz", "2000"];
     error(&args, &["t_s.csv: --resample-hz needs the time in seconds", "`t_s [ms]`"]);
 }
+
+/// Extreme values in an arm or bench scenario: refused by key, or by the first value of the
+/// recording that stops being finite, with no output left (before: a panic in the arm
+/// twin, and NaN rows written with exit 0 by the bench twin).
+#[test]
+fn simulate_refuses_scenarios_that_overflow() {
+    let d = tmp("simulate-extreme");
+    let scenario = |preset: &str, key: &str, value: &str| {
+        let o = run(&["simulate", "--preset", preset, "--print-scenario"]);
+        let text = String::from_utf8(o.stdout).unwrap();
+        let line = text.lines().find(|l| l.starts_with(&format!("{key} ="))).unwrap_or_else(|| panic!("{key}"));
+        let p = d.join(format!("{preset}-{key}.toml"));
+        std::fs::write(&p, text.replacen(line, &format!("{key} = {value}"), 1)).unwrap();
+        p
+    };
+    let out = d.join("out.csv");
+    let cases = [
+        (scenario("hda-arm", "ratio", "1e-300"), "`gear.ratio` must be between 1 and 10000, got 1e-300"),
+        (scenario("hda-arm", "offset_rad", "1e308"), "column `reference_torque` is not finite at t = 0 s"),
+        (scenario("kit-bench", "brake_inertia_kg_m2", "1e-12"), "is not finite at t = "),
+        (scenario("taghirad", "adc_range_v", "1e308"), "column `bridge_voltage` is not finite at t = 0 s"),
+    ];
+    for (p, needle) in cases {
+        error(&["simulate", "--scenario", s(&p), "--duration", "0.05", "--out", s(&out)], &[needle]);
+        assert!(!out.exists());
+    }
+    for preset in ["hda-arm", "kit-bench"] {
+        error(&["simulate", "--preset", preset, "--duration", "1e-300", "--out", s(&out)], &["not one sample"]);
+    }
+    assert_eq!(
+        std::fs::read_dir(&d)
+            .unwrap()
+            .filter(|e| e.as_ref().unwrap().path().extension() != Some("toml".as_ref()))
+            .count(),
+        0
+    );
+}

@@ -256,6 +256,10 @@ impl ParquetReader {
     }
 }
 
+/// Most columns [`ParquetWriter`] writes: memory grows by about 25 kB per column whatever
+/// the rows (the writer's page and statistics buffers), so this bounds it near 400 MB.
+pub const MAX_WRITTEN_COLUMNS: usize = 16_384;
+
 /// Parquet writer; the file appears under its name only on [`ParquetWriter::finish`].
 pub struct ParquetWriter {
     path: PathBuf,
@@ -277,6 +281,14 @@ impl ParquetWriter {
     pub fn create_with_units(path: &Path, columns: &[&str], units: &[Option<&str>]) -> Result<Self, IoError> {
         if path.is_dir() {
             return Err(IoError::IsDirectory(path.to_path_buf()));
+        }
+        if columns.len() > MAX_WRITTEN_COLUMNS {
+            let msg = format!(
+                "{} columns: a Parquet file is written with at most {MAX_WRITTEN_COLUMNS} (each column's writer keeps \
+                 its own buffers); choose topics with --topic, or write CSV",
+                columns.len()
+            );
+            return Err(IoError::Csv { path: path.to_path_buf(), msg });
         }
         let tmp = crate::output::AtomicFile::create(path)?;
         let file = tmp.try_clone_file()?;
@@ -356,5 +368,24 @@ impl ParquetWriter {
             tmp.commit()?;
         }
         Ok(self.rows)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn more_columns_than_the_limit_are_refused_before_any_file() {
+        let dir = std::env::temp_dir().join(format!("strainwave-parquet-wide-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("wide.parquet");
+        let names: Vec<String> = (0..=MAX_WRITTEN_COLUMNS).map(|i| format!("c{i}")).collect();
+        let columns: Vec<&str> = names.iter().map(String::as_str).collect();
+        let e = ParquetWriter::create(&path, &columns).err().expect("refused").to_string();
+        assert!(e.contains("16385 columns: a Parquet file is written with at most 16384"), "{e}");
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "no file, no temporary");
+        assert!(ParquetWriter::create(&path, &columns[..3]).is_ok());
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -127,6 +127,32 @@ fn toml_location(text: &str, span: Option<std::ops::Range<usize>>) -> String {
     format!("line {line}, column {col}")
 }
 
+/// A run's length: `duration_s` and `sample_rate_hz` positive, at least one sample and at
+/// most 10⁹.
+pub(crate) fn run_length(duration_s: f64, sample_rate_hz: f64) -> Result<(), SimError> {
+    positive(sample_rate_hz, "sample_rate_hz")?;
+    positive(duration_s, "duration_s")?;
+    let samples = duration_s * sample_rate_hz;
+    if samples > 1e9 {
+        return Err(SimError::invalid("duration_s", "more than 10⁹ samples at sample_rate_hz".into()));
+    }
+    if samples.round() < 1.0 {
+        let msg = format!("= {duration_s:e} s: not one sample at sample_rate_hz = {sample_rate_hz} Hz");
+        return Err(SimError::invalid("duration_s", msg));
+    }
+    Ok(())
+}
+
+/// A gear ratio within [`strainwave_core::gear::RATIO_RANGE`].
+pub(crate) fn gear_ratio(ratio: f64) -> Result<(), SimError> {
+    let ratios = strainwave_core::gear::RATIO_RANGE;
+    if !ratios.contains(&ratio) {
+        let (lo, hi) = (ratios.start(), ratios.end());
+        return Err(SimError::invalid("gear.ratio", format!("must be between {lo} and {hi}, got {ratio:?}")));
+    }
+    Ok(())
+}
+
 /// `v` finite and `> 0`.
 pub(crate) fn positive(v: f64, key: &'static str) -> Result<(), SimError> {
     if v.is_finite() && v > 0.0 {

@@ -47,6 +47,7 @@ pub fn run(a: &super::Args) -> Result<()> {
     let mut w = RecordingWriter::create(out, &columns)?;
     let mut row = Vec::with_capacity(columns.len());
     while sim.next_row(&mut row) {
+        super::finite_row(&row, &columns, &name)?;
         w.write_row(&row)?;
     }
     let rows = w.finish()?;

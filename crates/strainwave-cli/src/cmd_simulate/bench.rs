@@ -30,6 +30,7 @@ pub fn run(a: &super::Args) -> Result<()> {
     let mut wtr = strainwave_io::RecordingWriter::create(out, &columns)?;
     let mut row = Vec::with_capacity(columns.len());
     while sim.next_row(&mut row) {
+        super::finite_row(&row, &columns, &name)?;
         wtr.write_row(&row)?;
     }
     let rows = wtr.finish()?;

@@ -102,7 +102,9 @@ impl ArmModel {
         if self.half_width_rad > 0.0 {
             for (pi, r) in p.iter_mut().zip(PLAY_WIDTHS) {
                 let r = r * self.half_width_rad;
-                *pi = pi.clamp(w - r, w + r);
+                // Not `clamp`, which panics on a NaN bound: a state gone NaN is reported
+                // by the caller.
+                *pi = pi.max(w - r).min(w + r);
             }
         }
         p

@@ -268,13 +268,9 @@ impl ArmScenario {
 
     /// Checks every value; the error names the key.
     pub fn validate(&self) -> Result<(), SimError> {
-        pos(self.sample_rate_hz, "sample_rate_hz")?;
-        pos(self.duration_s, "duration_s")?;
-        if self.duration_s * self.sample_rate_hz > 1e9 {
-            return Err(SimError::invalid("duration_s", "more than 1e9 samples".into()));
-        }
+        crate::check::run_length(self.duration_s, self.sample_rate_hz)?;
         let g = &self.gear;
-        pos(g.ratio, "gear.ratio")?;
+        crate::check::gear_ratio(g.ratio)?;
         pos(g.rated_torque_nm, "gear.rated_torque_nm")?;
         pos(g.flexspline_k0_nm_per_rad, "gear.flexspline_k0_nm_per_rad")?;
         nonneg(g.flexspline_c_per_nm, "gear.flexspline_c_per_nm")?;

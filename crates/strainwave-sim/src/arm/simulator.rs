@@ -144,7 +144,7 @@ impl ArmSimulator {
         let pid = |this: &mut Self, ref_rad: f64, ref_speed: f64| {
             let e = ref_rad - x.motor_angle_rad;
             let u = this.kp * e + this.kd * (ref_speed - x.motor_speed_rad_s) + this.integral_nm;
-            let clipped = u.clamp(-limit, limit);
+            let clipped = u.max(-limit).min(limit);
             if clipped == u {
                 this.integral_nm += this.ki * e * this.dt_s;
             }
@@ -171,7 +171,7 @@ impl ArmSimulator {
             }
             MotorCommand::TorqueSine { amplitude_nm, frequency_hz } => amplitude_nm * (TAU * frequency_hz * t).sin(),
         };
-        u.clamp(-limit, limit)
+        u.max(-limit).min(limit)
     }
 
     fn external_nm(&self, t: f64) -> f64 {

@@ -262,11 +262,7 @@ impl BenchScenario {
 
     /// Checks every value; the error names the key.
     pub fn validate(&self) -> Result<(), SimError> {
-        pos(self.sample_rate_hz, "sample_rate_hz")?;
-        pos(self.duration_s, "duration_s")?;
-        if self.duration_s * self.sample_rate_hz > 1e9 {
-            return Err(SimError::invalid("duration_s", "more than 10⁹ samples".into()));
-        }
+        crate::check::run_length(self.duration_s, self.sample_rate_hz)?;
         let m = &self.mechanics;
         pos(m.rotor_inertia_kg_m2, "mechanics.rotor_inertia_kg_m2")?;
         pos(m.brake_inertia_kg_m2, "mechanics.brake_inertia_kg_m2")?;

@@ -7,22 +7,9 @@ use crate::error::SimError;
 impl Scenario {
     /// Checks every value; the error names the key.
     pub fn validate(&self) -> Result<(), SimError> {
-        pos(self.sample_rate_hz, "sample_rate_hz")?;
-        pos(self.duration_s, "duration_s")?;
-        if self.duration_s * self.sample_rate_hz > 1e9 {
-            return Err(SimError::invalid("duration_s", "more than 10⁹ samples at sample_rate_hz".into()));
-        }
-        if (self.duration_s * self.sample_rate_hz).round() < 1.0 {
-            let msg =
-                format!("= {:e} s: not one sample at sample_rate_hz = {} Hz", self.duration_s, self.sample_rate_hz);
-            return Err(SimError::invalid("duration_s", msg));
-        }
+        crate::check::run_length(self.duration_s, self.sample_rate_hz)?;
         let g = &self.gear;
-        let ratios = strainwave_core::gear::RATIO_RANGE;
-        if !ratios.contains(&g.ratio) {
-            let (lo, hi) = (ratios.start(), ratios.end());
-            return Err(SimError::invalid("gear.ratio", format!("must be between {lo} and {hi}, got {:?}", g.ratio)));
-        }
+        crate::check::gear_ratio(g.ratio)?;
         pos(g.rated_torque_nm, "gear.rated_torque_nm")?;
         pos(g.k1_nm_per_rad, "gear.k1_nm_per_rad")?;
         pos(g.k2_nm_per_rad, "gear.k2_nm_per_rad")?;
