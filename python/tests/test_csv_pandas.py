@@ -61,3 +61,20 @@ def test_a_time_that_stops_being_a_date_is_named(binary, tmp_path):
     assert res.returncode == 1
     assert res.stderr.startswith(f"error: {path}: row 3, column `time`: `later` is not a date and time"), res.stderr
     assert not (tmp_path / "out.csv").exists()
+
+
+def test_nan_written_by_pandas_is_read_as_nan(binary, tmp_path):
+    # pandas writes a NaN as an empty field. Before: "row 3, column `torque`: `` is not a number".
+    torque = np.sin(np.arange(N) / 10.0)
+    torque[2] = np.nan
+    frame = pd.DataFrame({"time": np.arange(N) * 1e-3, "torque": torque, "speed": np.nan})
+    path = tmp_path / "with_nan.csv"
+    frame.to_csv(path, index=False)
+    assert path.read_text().splitlines()[3].endswith(",,"), "pandas writes NaN as an empty field"
+    res, rows = convert(binary, path, tmp_path / "out.csv")
+    assert res.returncode == 0, res.stderr
+    got = np.array([[float(x) for x in r] for r in rows[1:]])
+    assert np.array_equal(got[:, 1], torque, equal_nan=True) and np.isnan(got[:, 2]).all()
+    sw = pytest.importorskip("strainwave", reason="the package is not installed")
+    back = sw.read_recording(path)
+    assert np.array_equal(back["torque"].to_numpy(), torque, equal_nan=True)
