@@ -40,6 +40,17 @@ pub fn simulate(
             s.validate().context(if duration.is_some() { "duration" } else { "scenario" })?;
             let mut sim = Simulator::new(&s)?;
             let names: Vec<String> = sim.columns().iter().map(|c| c.to_string()).collect();
+            // The run is held in memory whole: bounded as a recording read whole is.
+            let values = sim.len().saturating_mul(names.len() as u64);
+            if values > strainwave_io::MAX_TABLE_VALUES {
+                bail!(
+                    "duration: {} samples × {} columns is more than {} values (1 GiB) in memory; \
+                     write it to a file with `strainwave simulate --out` instead",
+                    sim.len(),
+                    names.len(),
+                    strainwave_io::MAX_TABLE_VALUES
+                );
+            }
             // Room for the whole run, up to a bound (a very long run grows as it goes).
             let rows = usize::try_from(sim.len()).unwrap_or(0).min(1 << 22);
             let mut data: Vec<Vec<f64>> = names.iter().map(|_| Vec::with_capacity(rows)).collect();

@@ -82,6 +82,18 @@ pub fn stft_frames<'py>(
 ) -> PyResult<Frames<'py>> {
     let cfg = config(nperseg, noverlap, nfft, window, &detrend, "density")?;
     let x = samples(&x);
+    // Frames × bins complex values, bounded as a recording read whole is.
+    let step = cfg.nperseg.saturating_sub(cfg.noverlap.unwrap_or(cfg.nperseg / 8)).max(1);
+    let frames = x.len().saturating_sub(cfg.nperseg) / step + 1;
+    let bins = cfg.nfft.unwrap_or(cfg.nperseg).max(cfg.nperseg) / 2 + 1;
+    let values = (frames as u64).saturating_mul(2 * bins as u64);
+    if values > strainwave_io::MAX_TABLE_VALUES {
+        return Err(err(format!(
+            "{frames} frames × {bins} bins is more than {} values (1 GiB) in memory: raise the hop \
+             (nperseg − noverlap) or cut the signal",
+            strainwave_io::MAX_TABLE_VALUES
+        )));
+    }
     let s = py.detach(|| stft(&x, sample_rate_hz, &cfg)).map_err(err)?;
     let bins = s.freqs_hz.len();
     let flat: Vec<Complex64> = s.frames.into_iter().flatten().collect();

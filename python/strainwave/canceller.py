@@ -125,7 +125,7 @@ class RippleCanceller:
 
         Example::
 
-            >>> for block in np.array_split(rec, 10):
+            >>> for block in (rec.iloc[k : k + 1000] for k in range(0, len(rec), 1000)):
             ...     out = c.run(block)
         """
         if input_name is None:

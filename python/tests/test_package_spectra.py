@@ -158,3 +158,12 @@ def test_stft_is_scipy_spectrogram_amplitude():
     z[:, 1:-1] *= 2
     np.testing.assert_allclose(s["frames"], z, rtol=1e-9, atol=1e-12)
     assert abs(s["frames"][3, 20]) == pytest.approx(3.0, rel=1e-3)  # leakage of the 37 Hz tone
+
+
+def test_results_too_large_for_memory_are_errors_before_any_allocation():
+    # Before: the interpreter aborted ("memory allocation of 7168 bytes failed") under a
+    # memory limit; numpy raises for the same size. Both are refused at once now.
+    with pytest.raises(sw.StrainwaveError, match=r"frames × 501 bins is more than 134217728 values"):
+        sw.stft(np.zeros(200_000), sample_rate_hz=1000.0, nperseg=1000, noverlap=999)
+    with pytest.raises(sw.StrainwaveError, match=r"more than 134217728 values \(1 GiB\) in memory"):
+        sw.simulate("taghirad", duration=2e4)

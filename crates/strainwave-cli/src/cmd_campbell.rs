@@ -84,5 +84,6 @@ pub fn run(a: &Args) -> Result<()> {
         lines,
     };
     strainwave_io::output::write_file(&a.out, map.to_svg())?;
+    note!("Campbell diagram of `{}` -> {}", a.source.signal, a.out.display());
     Ok(())
 }

@@ -67,5 +67,6 @@ pub fn run(a: &Args) -> Result<()> {
         lines: Vec::new(),
     };
     strainwave_io::output::write_file(&a.out, map.to_svg())?;
+    note!("spectrogram of `{}` -> {}", a.source.signal, a.out.display());
     Ok(())
 }

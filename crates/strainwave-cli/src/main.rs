@@ -91,7 +91,7 @@ enum Command {
     Spectrogram(cmd_spectrogram::Args),
     /// Order slices: amplitude and phase of orders vs speed (table and SVG).
     #[command(
-        after_help = "Example:\n  strainwave orders --in bench.csv --signal accel_torque --speed speed_rpm --order 6 --order 12 --out orders.svg"
+        after_help = "Example:\n  strainwave orders --in bench.csv --signal accel_torque --speed speed_rpm --order 18 --order 36 --out orders.svg   # the kit-bench twin's 6th and 12th electrical orders (3 pole pairs)"
     )]
     Orders(cmd_orders::Args),
     /// Simulate the Taghirad joint and print the summary; write DIR/report.html.

@@ -34,9 +34,23 @@ impl SignalArgs {
             let at = strainwave_io::row_name(&self.input, t, i, "row");
             bail!("{}: {at}, column `{}`: {} is not finite", self.input.display(), self.signal, x[i]);
         }
+        // A spectrum sums squares of the values: beyond this they overflow (and no
+        // physical signal reaches it in any unit).
+        if let Some(i) = x.iter().position(|v| v.abs() > MAX_SPECTRAL_VALUE) {
+            let at = strainwave_io::row_name(&self.input, t, i, "row");
+            bail!(
+                "{}: {at}, column `{}`: {:e} is beyond ±{MAX_SPECTRAL_VALUE:e}, where its spectrum would overflow",
+                self.input.display(),
+                self.signal,
+                x[i]
+            );
+        }
         Ok(x)
     }
 }
+
+/// Largest magnitude of a signal the spectral commands take.
+pub const MAX_SPECTRAL_VALUE: f64 = 1e100;
 
 /// The speed column and its unit (`--speed`, `--speed-unit`).
 #[derive(clap::Args, Debug)]

@@ -239,6 +239,10 @@ fn bad_inputs_are_one_line_errors_and_write_nothing() {
         // Positive, but its variance overflows: named once, by its key and value.
         (with("noise_nm = 0.0162", "noise_nm = 1e300"), "toml: `filter.noise_nm` = 1e300 N·m: its square"),
         (with("noise_nm = 0.0162", "noise_nm = 1e-300"), "toml: `filter.noise_nm` = 1e-300 N·m: its square"),
+        // The process noise the full model's tuning makes of it: named by `noise_nm` too
+        // (before: `q_per_rad_nm2` and `q_per_sample_nm2`, keys this config has not).
+        (with("noise_nm = 0.0162", "noise_nm = 1e10"), "`filter.noise_nm` is out of range"),
+        (with("noise_nm = 0.0162", "noise_nm = 1e100"), "`filter.noise_nm` must be finite"),
         (with("model = \"full\"", "model = \"magic\""), "filter.model"),
         (with("model = \"full\"", "model = \"product\""), "orders [2 relative, 4 relative, 2 relative load-scaled"),
         (with("learned = \"joint-taghirad-learned.toml\"", "learned = \"missing.toml\""), "`filter.learned`: "),
@@ -260,6 +264,16 @@ fn bad_inputs_are_one_line_errors_and_write_nothing() {
         assert_user_error(&o, needle);
         assert!(!out.exists());
     }
+    // An angle the scale makes infinite, as a NaN in the file (before: skipped with a
+    // warning, the run going on). Cold: a learned file knows the channel's scale.
+    let cold: String = cfg_text.lines().filter(|l| !l.starts_with("learned")).map(|l| format!("{l}\n")).collect();
+    let scaled = d.join("scaled.toml");
+    let to = "motor_angle = { column = \"motor_angle\", scale = 1e308 }";
+    std::fs::write(&scaled, cold.replacen("motor_angle = \"motor_angle\"", to, 1)).unwrap();
+    let o = run(&["filter", "--config", scaled.to_str().unwrap(), "--in", sim.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_user_error(&o, "column `motor_angle` (`channels.motor_angle`) is");
+    assert!(stderr(&o).contains("which its scale and offset make infinite"));
+    assert!(!out.exists());
     let empty = d.join("empty.csv");
     std::fs::write(&empty, "").unwrap();
     assert_user_error(

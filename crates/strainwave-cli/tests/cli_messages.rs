@@ -440,3 +440,23 @@ fn simulate_refuses_scenarios_that_overflow() {
         0
     );
 }
+
+/// A signal whose spectrum would overflow is named by its row (before: an empty plot, or
+/// a table of NaN, with exit 0).
+#[test]
+fn spectral_commands_name_a_value_their_spectrum_would_overflow() {
+    let d = tmp("spectral-overflow");
+    let rec = d.join("big.csv");
+    let mut text = String::from("time,x,speed_rpm\n");
+    for k in 0..4096 {
+        let x = if k == 700 { 1e200 } else { (k as f64 * 0.3).sin() };
+        text += &format!("{},{x},{}\n", k as f64 * 1e-3, 1000.0 + k as f64);
+    }
+    std::fs::write(&rec, text).unwrap();
+    let svg = d.join("out.svg");
+    let needle = "row 701, column `x`: 1e200 is beyond ±1e100, where its spectrum would overflow";
+    error(&["spectrogram", "--in", s(&rec), "--signal", "x", "--out", s(&svg)], &[needle]);
+    error(&["campbell", "--in", s(&rec), "--signal", "x", "--speed", "speed_rpm", "--out", s(&svg)], &[needle]);
+    error(&["orders", "--in", s(&rec), "--signal", "x", "--speed", "speed_rpm", "--order", "2", "--out", s(&svg)], &[needle]);
+    assert!(!svg.exists());
+}

@@ -90,6 +90,13 @@ pub const GROSS_NIS: f64 = 1e6;
 /// real standstill's load changes raise it for a moment.
 pub const STILL_WINDOW_SHARE: f64 = 0.5;
 
+/// A line starts to be applied only while the running mean NIS over this share of
+/// [`GuardSettings::window_s`] (16 ms by default, a few cycles of a line) is at most
+/// [`GuardSettings::nis_recover`]: at a moment the data contradict the model (a load
+/// transient the oscillators took, in a model without a bias state), an estimate that
+/// just passed its tests is not yet trusted.
+pub const ADMIT_WINDOW_SHARE: f64 = 1.0 / 16.0;
+
 /// Initial variance of each component of an order learned from zero, N·m² (1σ 0.1 N·m).
 /// With a larger one (the models' 1 N·m²) the ripple orders take the torque of a first
 /// acceleration, while their line is still slow, for ripple, and confidently: the misfit
@@ -278,6 +285,14 @@ pub struct Guard<T: Real, const M: usize> {
     still_mean_nis: T,
     still_alpha: T,
     slow_alpha: T,
+    /// Running mean NIS over [`ADMIT_WINDOW_SHARE`] of [`GuardSettings::window_s`] (load
+    /// steps left out: the bias takes them): a line not applied on the sample before
+    /// starts only while it is at most [`GuardSettings::nis_recover`] (the model fits the
+    /// last few samples).
+    recent_nis: T,
+    recent_alpha: T,
+    /// The lines applied on the sample before.
+    applied: [bool; M],
     mean_e2: T,
     pass_through: bool,
     /// Measured samples in motion so far (saturating): the track record of the model.
@@ -315,6 +330,9 @@ impl<T: Real, const M: usize> Guard<T, M> {
             still_mean_nis: T::ZERO,
             still_alpha: (T::from_f64(1.0 / STILL_WINDOW_SHARE) / samples).min(T::ONE),
             slow_alpha: T::ONE / (settings.standstill_window_s * model.sample_rate_hz()).max(T::ONE),
+            recent_nis: T::ONE,
+            recent_alpha: (T::from_f64(1.0 / ADMIT_WINDOW_SHARE) / samples).min(T::ONE),
+            applied: [false; M],
             mean_e2: model.r_nm2,
             pass_through: false,
             moving_samples: 0,
@@ -456,7 +474,8 @@ impl<T: Real, const M: usize> Guard<T, M> {
             let bounded = bounded || !held_ok;
             let load_unknown = load_unknown[lead];
             flags.set(GuardFlags::LOAD_STEP_WITHHELD, load_unknown && verdict.apply);
-            let apply = verdict.apply && alone && held_ok && status != OrderStatus::Off && !load_unknown;
+            let admitted = self.applied[lead] || self.recent_nis <= s.nis_recover;
+            let apply = verdict.apply && alone && held_ok && admitted && status != OrderStatus::Off && !load_unknown;
             flags.set(GuardFlags::STANDSTILL_BOUND, bounded && verdict.apply && alone);
             for i in lead..M {
                 applied[i] |= apply && self.group[i] == lead;
@@ -482,6 +501,7 @@ impl<T: Real, const M: usize> Guard<T, M> {
             self.mean_nis += self.alpha * (nis - self.mean_nis);
             self.slow_mean_nis += self.slow_alpha * (nis - self.slow_mean_nis);
             if !load_step {
+                self.recent_nis += self.recent_alpha * (nis - self.recent_nis);
                 self.mean_e2 += self.alpha * (e * e - self.mean_e2);
             }
             for g in &mut self.orders {
@@ -491,6 +511,7 @@ impl<T: Real, const M: usize> Guard<T, M> {
             self.pass_through = if was { self.mean_nis > s.nis_recover } else { self.mean_nis > s.nis_pass_through };
         }
         flags.set(GuardFlags::PASS_THROUGH, pass_through);
+        self.applied = applied;
         self.stats.record(&applied, flags, out.nis.min(s.nis_clip).to_f64(), measured, self.mean_nis.to_f64());
         let unguarded_torque_nm = out.torque_nm;
         let mut output = out;

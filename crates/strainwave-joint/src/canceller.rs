@@ -173,8 +173,10 @@ pub fn in_config_terms(e: strainwave_core::Error, orders_model: bool, sample_rat
     let key = |p: &'static str| match p {
         "noise_nm" | "r_nm2" => "filter.noise_nm",
         "sample_rate_hz" => "filter.sample_rate_hz",
-        "q_per_sample_nm2" | "q_per_rad_nm2" | "multiple" => p,
+        "q_per_sample_nm2" | "q_per_rad_nm2" | "multiple" if orders_model => p,
         "q_nm2" if orders_model => "filter.bias_q_nm2",
+        // The presets' tuning makes the process noise of `noise_nm`.
+        "q_per_sample_nm2" | "q_per_rad_nm2" | "q_nm2" => "filter.noise_nm",
         other => other,
     };
     match e {

@@ -68,6 +68,19 @@ pub enum ModelChoice {
     Orders,
 }
 
+impl ModelChoice {
+    /// The value as a config writes it (`taghirad-6th-order`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Full => "full",
+            Self::Product => "product",
+            Self::Taghirad4thOrder => "taghirad-4th-order",
+            Self::Taghirad6thOrder => "taghirad-6th-order",
+            Self::Orders => "orders",
+        }
+    }
+}
+
 /// `filter.phase`: where the oscillators' phase comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]

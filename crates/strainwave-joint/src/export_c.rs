@@ -170,7 +170,7 @@ pub fn export_c(cfg: &JointConfig, learned: Option<&Path>, name: &str, precision
     };
     let guard = format!("STRAINWAVE_MODEL_{}_H", name.to_ascii_uppercase());
     let o = &mut w.out;
-    writeln!(o, "/* The canceller of {source}, `filter.model = {:?}`,", cfg.filter.model)?;
+    writeln!(o, "/* The canceller of {source}, `filter.model = \"{}\"`,", cfg.filter.model.name())?;
     writeln!(o, " * for the strainwave C ABI: pass &{name} to {prefix}_init(). Written by `strainwave export-c`;")?;
     writeln!(o, " * regenerate it rather than edit it. {name}_CHANNELS names the recording columns")?;
     writeln!(o, " * behind each sample field (host programs only). */")?;

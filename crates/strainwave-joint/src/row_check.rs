@@ -73,6 +73,14 @@ impl RowCheck {
                     partial()
                 );
             }
+            if !c.get(row).is_finite() {
+                bail!(
+                    "{}: column `{column}` (`channels.{key}`) is {v:?}, which its scale and offset make infinite; \
+                     fix the recording or `channels.{key}`, {hint}{}",
+                    name(row),
+                    partial()
+                );
+            }
         }
         match event {
             TimeEvent::NonFinite => bail!("{}: time is {t}; fix the recording {hint}{}", name(row), partial()),

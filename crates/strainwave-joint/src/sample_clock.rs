@@ -29,6 +29,8 @@ pub struct SampleClock {
     last_s: Option<f64>,
     /// Steps per bin of `log₂(step × model_hz)`.
     steps: Vec<u64>,
+    /// Steps of zero (a repeated time stamp).
+    zero_steps: u64,
 }
 
 impl SampleClock {
@@ -38,7 +40,7 @@ impl SampleClock {
         let (column, (scale, offset)) = (channel.column_name(), channel.scale_offset());
         let index = columns.iter().position(|c| c == column)?;
         let steps = vec![0; 2 * OCTAVES * BINS_PER_OCTAVE];
-        Some(Self { index, column: column.to_string(), scale, offset, model_hz, last_s: None, steps })
+        Some(Self { index, column: column.to_string(), scale, offset, model_hz, last_s: None, steps, zero_steps: 0 })
     }
 
     /// Reads `row`'s time: an error if it is not finite or before the last row's (`name`
@@ -56,22 +58,34 @@ impl SampleClock {
                     name(row)
                 );
             }
-            let octaves = ((t - last) * self.model_hz).log2();
-            let bin = ((octaves + OCTAVES as f64) * BINS_PER_OCTAVE as f64).max(0.0) as usize;
-            let last_bin = self.steps.len() - 1;
-            self.steps[bin.min(last_bin)] += 1;
+            if t == last {
+                self.zero_steps += 1;
+            } else {
+                let octaves = ((t - last) * self.model_hz).log2();
+                let bin = ((octaves + OCTAVES as f64) * BINS_PER_OCTAVE as f64).max(0.0) as usize;
+                let last_bin = self.steps.len() - 1;
+                self.steps[bin.min(last_bin)] += 1;
+            }
         }
         self.last_s = Some(t);
         Ok(())
     }
 
-    /// The rate of the median step of the rows read, Hz (none before two rows).
+    /// The rate of the median step of the rows read, Hz (none before two rows): infinite
+    /// when the median step is zero; beyond 16 times the model's rate either way, the
+    /// limit of the histogram (the end bin's rate).
     pub fn median_rate_hz(&self) -> Option<f64> {
-        let n: u64 = self.steps.iter().sum();
-        let mut seen = 0;
+        let n = self.steps.iter().sum::<u64>() + self.zero_steps;
+        if n == 0 {
+            return None;
+        }
+        if 2 * self.zero_steps >= n {
+            return Some(f64::INFINITY);
+        }
+        let mut seen = self.zero_steps;
         let bin = self.steps.iter().position(|&c| {
             seen += c;
-            n > 0 && 2 * seen >= n
+            2 * seen >= n
         })?;
         let octaves = (bin as f64 + 0.5) / BINS_PER_OCTAVE as f64 - OCTAVES as f64;
         Some(self.model_hz / octaves.exp2())
@@ -83,10 +97,19 @@ impl SampleClock {
         let Some(rate) = self.median_rate_hz() else { return Ok(()) };
         let model_hz = self.model_hz;
         if (rate / model_hz - 1.0).abs() > RATE_TOLERANCE {
+            let limit = 2f64.powi(OCTAVES as i32);
+            let steps = if rate.is_infinite() {
+                "does not move forward (its median step is zero)".to_string()
+            } else if rate > 0.99 * limit * model_hz {
+                format!("steps over {limit:.0} times faster (its median step)")
+            } else if rate < 1.01 * model_hz / limit {
+                format!("steps over {limit:.0} times slower (its median step)")
+            } else {
+                format!("steps at about {rate:.0} Hz (its median step)")
+            };
             bail!(
-                "{input}: the time column `{}` steps at about {rate:.0} Hz (its median step), but the model was fitted at \
-                 `sample_rate_hz` = {model_hz:.1} Hz ({config}); resample the recording to that rate or identify a \
-                 model at its own",
+                "{input}: the time column `{}` {steps}, but the model was fitted at `sample_rate_hz` = {model_hz:?} \
+                 Hz ({config}); resample the recording to that rate or identify a model at its own",
                 self.column
             );
         }
@@ -122,6 +145,27 @@ mod tests {
         let err = clock(&half, 1000.0).unwrap().check_rate("in.csv", "m.toml").unwrap_err().to_string();
         assert!(err.contains("steps at about 500 Hz") && err.contains("1000.0 Hz") && err.contains("m.toml"), "{err}");
         assert!(clock(&[0.0], 1000.0).unwrap().median_rate_hz().is_none());
+    }
+
+    /// Beyond the histogram's 16 times either way, or a time that stands still: said so,
+    /// not a rate read off the end bin (before: "about 6252 Hz" for 1 kHz against a model
+    /// at 100 kHz, "about 15994 Hz" for a constant time).
+    #[test]
+    fn rates_far_off_are_named_without_a_false_figure() {
+        let t: Vec<f64> = (0..100).map(|k| 0.001 * k as f64).collect();
+        let message = |times: &[f64], model_hz: f64| {
+            clock(times, model_hz).unwrap().check_rate("in.csv", "m.toml").unwrap_err().to_string()
+        };
+        let slow = message(&t, 1e5);
+        assert!(slow.contains("steps over 16 times slower") && slow.contains("= 100000.0 Hz"), "{slow}");
+        let fast = message(&t, 10.0);
+        assert!(fast.contains("steps over 16 times faster") && fast.contains("= 10.0 Hz"), "{fast}");
+        let near = message(&t, 200.0);
+        assert!(near.contains("steps at about 1000 Hz"), "{near}");
+        let still = message(&[5.0; 50], 1000.0);
+        assert!(still.contains("does not move forward (its median step is zero)"), "{still}");
+        let huge = message(&t, 1e308);
+        assert!(huge.contains("= 1e308 Hz"), "{huge}");
     }
 
     #[test]
