@@ -173,6 +173,9 @@ fn bad_input_gives_error_codes() {
             (SW_ERROR_ORDER, |m| m.orders[0].load_scaled = 2),
             (SW_ERROR_MODEL, |m| m.sample_rate_hz = 0.0),
             (SW_ERROR_MODEL, |m| m.noise_nm = f64::NAN),
+            // Its square is finite, but every step's sums overflow (before: accepted, and
+            // every `sw_step` then returned SW_ERROR_COVARIANCE).
+            (SW_ERROR_MODEL, |m| m.noise_nm = 1e154),
             (SW_ERROR_MODEL, |m| m.phase_source = 7),
             (SW_ERROR_MODEL, |m| m.has_bias_state = 2),
             (SW_ERROR_MODEL, |m| {
