@@ -270,7 +270,15 @@ fn bad_inputs_are_one_line_errors_and_write_nothing() {
     let scaled = d.join("scaled.toml");
     let to = "motor_angle = { column = \"motor_angle\", scale = 1e308 }";
     std::fs::write(&scaled, cold.replacen("motor_angle = \"motor_angle\"", to, 1)).unwrap();
-    let o = run(&["filter", "--config", scaled.to_str().unwrap(), "--in", sim.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    let o = run(&[
+        "filter",
+        "--config",
+        scaled.to_str().unwrap(),
+        "--in",
+        sim.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     assert_user_error(&o, "column `motor_angle` (`channels.motor_angle`) is");
     assert!(stderr(&o).contains("which its scale and offset make infinite"));
     assert!(!out.exists());
@@ -671,4 +679,33 @@ fn a_time_channel_in_ms_is_read_in_seconds() {
     assert!(o.status.success(), "{}", stderr(&o));
     let (h_ms, rows_ms) = read(&out_ms);
     assert_eq!(col(&h_ms, &rows_ms, "torque"), torque_s[..2000].to_vec());
+}
+
+/// A calibration that rejects speeds outside its table: the skipped samples are named by
+/// that reason, with and without `--smooth` (before: "a non-finite angle, or a torque not
+/// finite or beyond ±1e12 N·m").
+#[test]
+fn samples_the_calibration_rejects_are_named_as_such() {
+    let d = tmp("reject");
+    let sim = simulate(&d, "0.5");
+    std::fs::write(
+        d.join("cal.toml"),
+        "model = \"speed_table\"\nspeed_rad_s = [-5.0, 5.0]\nalpha = [6.611, 6.611]\nbeta_nm = [0.0, 0.0]\nextrapolation = \"reject\"\n",
+    )
+    .unwrap();
+    let text = std::fs::read_to_string(config()).unwrap();
+    let cold: String = text.lines().filter(|l| !l.starts_with("learned")).map(|l| format!("{l}\n")).collect();
+    let cfg = d.join("joint.toml");
+    std::fs::write(&cfg, cold.replacen("gain_nm_per_v = 6.611", "file = \"cal.toml\"", 1)).unwrap();
+    let out = d.join("out.csv");
+    for smooth in [false, true] {
+        let mut args = vec!["filter", "--config", cfg.to_str().unwrap(), "--in", sim.to_str().unwrap()];
+        args.extend(["--out", out.to_str().unwrap()]);
+        args.extend(smooth.then_some("--smooth"));
+        let o = run(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let e = stderr(&o);
+        assert!(e.contains("samples with a speed outside the calibration's range were skipped"), "{e}");
+        assert!(!e.contains("a non-finite angle"), "{e}");
+    }
 }

@@ -457,6 +457,9 @@ fn spectral_commands_name_a_value_their_spectrum_would_overflow() {
     let needle = "row 701, column `x`: 1e200 is beyond ±1e100, where its spectrum would overflow";
     error(&["spectrogram", "--in", s(&rec), "--signal", "x", "--out", s(&svg)], &[needle]);
     error(&["campbell", "--in", s(&rec), "--signal", "x", "--speed", "speed_rpm", "--out", s(&svg)], &[needle]);
-    error(&["orders", "--in", s(&rec), "--signal", "x", "--speed", "speed_rpm", "--order", "2", "--out", s(&svg)], &[needle]);
+    error(
+        &["orders", "--in", s(&rec), "--signal", "x", "--speed", "speed_rpm", "--order", "2", "--out", s(&svg)],
+        &[needle],
+    );
     assert!(!svg.exists());
 }

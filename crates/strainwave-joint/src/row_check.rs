@@ -17,6 +17,9 @@ pub struct RowCheck {
     /// Rows the canceller skipped (non-finite torque or angle), and the first of them.
     skipped: u64,
     first_skipped: Option<String>,
+    /// Of those, rows whose speed the calibration rejects, and the first of them.
+    rejected: u64,
+    first_rejected: Option<String>,
     /// Whether the output is standard output (errors then say how much was written).
     to_stdout: bool,
 }
@@ -44,6 +47,8 @@ impl RowCheck {
             monitor: TimeMonitor::new(Some(1.0 / sample_rate_hz)),
             skipped: 0,
             first_skipped: None,
+            rejected: 0,
+            first_rejected: None,
             to_stdout,
         }
     }
@@ -110,9 +115,13 @@ impl RowCheck {
         )
     }
 
-    /// Records the canceller's flags for `row`.
-    pub fn flags(&mut self, flags: StepFlags, row: &[f64], name: impl Fn(&[f64]) -> String) {
-        if flags.contains(StepFlags::MEASUREMENT_SKIPPED) || flags.contains(StepFlags::ANGLE_SKIPPED) {
+    /// Records the canceller's flags for `row`; `rejected`: the calibration rejected its
+    /// speed (the reason it was skipped).
+    pub fn flags(&mut self, flags: StepFlags, rejected: bool, row: &[f64], name: impl Fn(&[f64]) -> String) {
+        if rejected {
+            self.rejected += 1;
+            self.first_rejected.get_or_insert_with(|| name(row));
+        } else if flags.contains(StepFlags::MEASUREMENT_SKIPPED) || flags.contains(StepFlags::ANGLE_SKIPPED) {
             self.skipped += 1;
             self.first_skipped.get_or_insert_with(|| name(row));
         }
@@ -129,6 +138,13 @@ impl RowCheck {
                  code), were skipped, the first at {first} \
                  (flag bits 0-1 in filter_flags)",
                 self.skipped
+            ));
+        }
+        if let Some(first) = &self.first_rejected {
+            w.push(format!(
+                "{input}: {} samples with a speed outside the calibration's range were skipped \
+                 (`extrapolation = \"reject\"`), the first at {first} (flag bit 0 in filter_flags)",
+                self.rejected
             ));
         }
         if let Some(msg) = self.monitor.report() {

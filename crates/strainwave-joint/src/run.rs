@@ -309,21 +309,34 @@ impl Bound {
         RowCheck::new(&channels, self.time, columns, cfg.filter.sample_rate_hz, opts.lenient, opts.streaming_output)
     }
 
-    /// The canceller's input for one row; `true` when the calibration extrapolated.
+    /// The canceller's input for one row, and what the calibration did to its reading.
     pub(crate) fn input(
         &self,
         gear: &strainwave_core::gear::Gear<f64>,
         cal: &strainwave_core::calibration::Calibration<f64, MAX_TABLE_LEN>,
         row: &[f64],
         velocity: bool,
-    ) -> (RippleInput<f64>, bool, bool) {
+    ) -> RowInput {
+        use strainwave_core::Error as E;
         let speed = self.motor_velocity.map_or(0.0, |c| c.get(row));
-        let (torque, extrapolated, overflow) = match cal.apply_flagged(self.torque.get(row), speed) {
-            Ok(a) => (a.torque_nm, a.extrapolated, false),
+        let mut calibrated = Calibrated::default();
+        let torque = match cal.apply_flagged(self.torque.get(row), speed) {
+            Ok(a) => {
+                calibrated.extrapolated = a.extrapolated;
+                a.torque_nm
+            }
             // A finite reading the calibration makes infinite: as a NaN in the file.
-            Err(strainwave_core::Error::NonFinite("torque_nm")) => (f64::NAN, false, true),
-            // A non-finite sample or a speed the policy rejects: the filter skips it.
-            Err(_) => (f64::NAN, false, false),
+            Err(E::NonFinite("torque_nm")) => {
+                calibrated.overflow = true;
+                f64::NAN
+            }
+            // A speed outside the range, under `extrapolation = "reject"`: skipped.
+            Err(E::OutOfRange("speed_rad_s")) => {
+                calibrated.rejected = true;
+                f64::NAN
+            }
+            // A non-finite sample: the filter skips it.
+            Err(_) => f64::NAN,
         };
         let refs = if velocity {
             let w = speed;
@@ -333,12 +346,29 @@ impl Bound {
                 (self.motor_angle.map_or(f64::NAN, |c| c.get(row)), self.output_angle.map_or(f64::NAN, |c| c.get(row)));
             ReferenceValues::from_gear(gear, m, o)
         };
-        let mut input = RippleInput::new(torque, refs);
+        let mut sample = RippleInput::new(torque, refs);
         if let Some(e) = self.expected {
-            input = input.with_expected_torque(e.get(row));
+            sample = sample.with_expected_torque(e.get(row));
         }
-        (input, extrapolated, overflow)
+        RowInput { sample, time_s: self.time.get(row), calibrated }
     }
+}
+
+/// A row as the canceller takes it.
+pub(crate) struct RowInput {
+    pub(crate) sample: RippleInput<f64>,
+    pub(crate) time_s: f64,
+    pub(crate) calibrated: Calibrated,
+}
+
+/// What the calibration did to a row's reading: extrapolated it (outside its speed
+/// range), overflowed (a finite reading made infinite), or rejected its speed
+/// (`extrapolation = "reject"`).
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Calibrated {
+    pub(crate) extrapolated: bool,
+    pub(crate) overflow: bool,
+    pub(crate) rejected: bool,
 }
 
 /// One run's settings and ends, for whichever model size the config has.
@@ -403,7 +433,7 @@ impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
             let w = create(&refs)?;
             let in_config = |e| in_config_terms(e, cfg.filter.model == ModelChoice::Orders, cfg.filter.sample_rate_hz);
             return crate::smooth::smooth(opts, model, (canceller, &in_config), denoiser, r, w, &mut check, |row| {
-                (ch.input(&gear, &cal, row, velocity).0, ch.time.get(row))
+                ch.input(&gear, &cal, row, velocity)
             });
         }
         let mut w = create(&refs)?;
@@ -416,12 +446,11 @@ impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
             let n = r.rows_read();
             let name = |row: &[f64]| r.row_name(row);
             check.row(&row, n - 1, name).with_context(|| input.to_string())?;
-            let t = ch.time.get(&row);
-            let (mut sample, extra, overflow) = ch.input(&gear, &cal, &row, velocity);
-            if overflow {
+            let RowInput { mut sample, time_s: t, calibrated } = ch.input(&gear, &cal, &row, velocity);
+            if calibrated.overflow {
                 check.calibration_overflow(&row, name).with_context(|| input.to_string())?;
             }
-            extrapolated += u64::from(extra);
+            extrapolated += u64::from(calibrated.extrapolated);
             if let Some(t0) = last_t.filter(|t0| t.is_finite() && t > *t0) {
                 sample = sample.with_dt(t - t0);
             }
@@ -436,7 +465,7 @@ impl<S: RowSource, W: RowSink, C: FnOnce(&[&str]) -> Result<W>> Run<'_, S, C> {
                 let why = in_config_terms(e, cfg.filter.model == ModelChoice::Orders, cfg.filter.sample_rate_hz);
                 anyhow!("{input}: {}: {why}", name(&row))
             })?;
-            check.flags(o.flags, &row, name);
+            check.flags(o.flags, calibrated.rejected, &row, name);
             // NaN marks a skipped sample; an infinity is an overflow the filter made.
             let outputs = [o.torque_nm, o.ripple_nm, o.misalignment_nm, o.innovation_nm, o.nis];
             if let Some(v) = outputs.iter().find(|v| v.is_infinite()) {

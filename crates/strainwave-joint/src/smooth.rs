@@ -170,7 +170,7 @@ pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
     r: &mut S,
     mut w: W,
     check: &mut RowCheck,
-    input_and_time: impl Fn(&[f64]) -> (RippleInput<f64>, f64),
+    row_input: impl Fn(&[f64]) -> crate::run::RowInput,
 ) -> Result<FilterSummary> {
     let dir = opts.scratch_dir.clone().unwrap_or_else(std::env::temp_dir);
     let input = opts.input_name.as_str();
@@ -203,7 +203,10 @@ pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
     while r.read_row(&mut row)? {
         let name = |row: &[f64]| r.row_name(row);
         check.row(&row, 0, name).with_context(|| input.to_string())?;
-        let (mut sample, t) = input_and_time(&row);
+        let crate::run::RowInput { mut sample, time_s: t, calibrated } = row_input(&row);
+        if calibrated.overflow {
+            check.calibration_overflow(&row, name).with_context(|| input.to_string())?;
+        }
         if let Some(t0) = last_t.filter(|t0| t.is_finite() && t > *t0) {
             sample = sample.with_dt(t - t0);
         }
@@ -213,7 +216,7 @@ pub(crate) fn smooth<const M: usize, S: RowSource, W: RowSink>(
         }
         speed.push(sample.references.relative);
         let o = sm.push(&sample).map_err(smoother_error)?;
-        check.flags(o.flags, &row, name);
+        check.flags(o.flags, calibrated.rejected, &row, name);
         let (g, bits) =
             canceller.step(model, &sample).map_err(|e| anyhow!("{input}: {}: {}", name(&row), in_config(e)))?;
         // The guard applied the canceller's whole correction (same numbers to rounding);
