@@ -66,6 +66,9 @@ pub fn run(a: &Args) -> Result<()> {
         bail!("--speed-bin: must be positive, got {:?}", a.speed_bin);
     }
     crate::recording_args::speed_bins(&speed, a.speed_bin, &a.speed.speed, &a.source.input)?;
+    if !(a.revs_per_block.is_finite() && a.revs_per_block >= 1.0) {
+        bail!("--revs-per-block: must be at least 1 and finite, got {}", compact(a.revs_per_block));
+    }
     let cfg = OrderSliceConfig { revs_per_block: a.revs_per_block, ..Default::default() };
     let mut slices = Vec::new();
     for &o in &a.orders {

@@ -148,6 +148,9 @@ pub fn speed_bins(speed_rpm: &[f64], bin_rpm: f64, name: &str, path: &Path) -> R
     Ok(bins as usize)
 }
 
+/// Largest speed magnitude the spectral commands take, rpm (10⁷: beyond any motor).
+pub const MAX_SPEED_RPM: f64 = 1e7;
+
 /// The speed column in rpm; an error naming it when it is zero or negative on average.
 pub fn speed_rpm(t: &Table, name: &str, unit: SpeedUnit, path: &Path) -> Result<Vec<f64>> {
     let raw = column(t, name, "--speed", path)?;
@@ -157,9 +160,17 @@ pub fn speed_rpm(t: &Table, name: &str, unit: SpeedUnit, path: &Path) -> Result<
         let at = strainwave_io::row_name(path, t, i, "row");
         bail!("{}: {at}, column `{name}`: speed {:?} is not finite", path.display(), raw[i]);
     }
+    // A speed a recording's spectrum can take: beyond, one glitched row dominates the mean.
+    if let Some(i) = v.iter().position(|x| x.abs() > MAX_SPEED_RPM) {
+        let at = strainwave_io::row_name(path, t, i, "row");
+        bail!("{}: {at}, column `{name}`: speed {:e} rpm is beyond ±{MAX_SPEED_RPM:e} rpm", path.display(), v[i]);
+    }
     let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
     if mean.is_nan() || mean <= 0.0 {
-        bail!("--speed: column `{name}` is zero or negative (mean {mean:.3} rpm); negate a reverse run");
+        bail!(
+            "{}: --speed: column `{name}` is zero or negative (mean {mean:.3} rpm); negate a reverse run",
+            path.display()
+        );
     }
     Ok(v)
 }
@@ -238,6 +249,7 @@ impl ReadArgs {
             Some("tab" | "\\t" | "\t") => Some(b'\t'),
             Some("space" | " ") => Some(b' '),
             Some(d) if d.len() == 1 && d.is_ascii() && d != "\"" && d != "#" => Some(d.as_bytes()[0]),
+            Some("#") => bail!("--delimiter: `#` starts a comment line; pick another (comma, semicolon, tab, space)"),
             Some(d) => bail!("--delimiter: `{d}` is not one ASCII character (comma, semicolon, tab, space)"),
         };
         if let Some(g) = self.max_gap {

@@ -97,6 +97,8 @@ fn joint3_from_the_loaded_log_alone_beats_the_plain_linear_fit() {
     let table = String::from_utf8_lossy(&o.stdout);
     println!("{table}");
     assert!(table.contains("not identifiable"), "{table}");
+    // Signs no physical reading has are said so where they are printed.
+    assert!(table.contains("note: inertia_kg_m2 -1.") && table.contains("is negative"), "{table}");
     let s = json(&summary);
     let h = &s["holdout"];
     let (model_r2, plain_r2) =

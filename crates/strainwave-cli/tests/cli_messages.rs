@@ -463,3 +463,42 @@ fn spectral_commands_name_a_value_their_spectrum_would_overflow() {
     );
     assert!(!svg.exists());
 }
+
+/// The spectral commands' speed and options named as the user gave them (before: a mean
+/// speed of 300 digits with no file, `--order 6: revs_per_block` for `--revs-per-block`,
+/// and "`#` is not one ASCII character").
+#[test]
+fn spectral_commands_name_their_file_speed_row_and_option() {
+    let d = tmp("spectral-speed");
+    let rec = d.join("run.csv");
+    let mut text = String::from("time,x,speed_rpm\n");
+    for k in 0..4096 {
+        let speed = if k == 100 { -1.7e308 } else { 1000.0 };
+        text += &format!("{},{},{speed}\n", k as f64 * 1e-3, (k as f64 * 0.3).sin());
+    }
+    std::fs::write(&rec, text).unwrap();
+    let svg = d.join("out.svg");
+    let needle = "run.csv: row 101, column `speed_rpm`: speed -1.7e308 rpm is beyond ±1e7 rpm";
+    error(&["campbell", "--in", s(&rec), "--signal", "x", "--speed", "speed_rpm", "--out", s(&svg)], &[needle]);
+    std::fs::write(&rec, "time,x,speed_rpm\n0,1,-5\n0.001,2,-5\n").unwrap();
+    error(
+        &["orders", "--in", s(&rec), "--signal", "x", "--speed", "speed_rpm", "--order", "2", "--out", s(&svg)],
+        &["run.csv: --speed: column `speed_rpm` is zero or negative"],
+    );
+    let mut text = String::from("time,x,speed_rpm\n");
+    for k in 0..4096 {
+        text += &format!("{},{},1000\n", k as f64 * 1e-3, (k as f64 * 0.3).sin());
+    }
+    std::fs::write(&rec, text).unwrap();
+    for bad in ["0", "inf"] {
+        let args = ["orders", "--in", s(&rec), "--signal", "x", "--speed", "speed_rpm", "--order", "2"];
+        error(
+            &[&args[..], &["--revs-per-block", bad, "--out", s(&svg)]].concat(),
+            &["--revs-per-block: must be at least 1"],
+        );
+    }
+    let o = run(&["convert", "--in", s(&rec), "--delimiter", "#", "--out", s(&d.join("o.csv"))]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("`#` starts a comment line"));
+    assert!(!svg.exists());
+}

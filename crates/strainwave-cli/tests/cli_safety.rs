@@ -461,7 +461,7 @@ fn one_glitched_speed_sample_or_a_tiny_speed_bin_is_an_error_naming_it() {
     let out = d.join("c.svg");
     let base = ["--in", s(&rec), "--signal", "signal", "--speed", "speed", "--out", s(&out)];
     let campbell = |extra: &[&str]| run(&[&["campbell", "--nperseg", "512"][..], &base, extra].concat());
-    assert_error(&campbell(&[]), &["row 4001", "`speed`", "--speed-bin"]);
+    assert_error(&campbell(&[]), &["row 4001", "`speed`", "beyond ±1e7 rpm"]);
     let orders = run(&[&["orders", "--order", "6"][..], &base].concat());
     assert_error(&orders, &["row 4001", "`speed`"]);
     // An order that aliases at every speed (600 rpm, 1 kHz: above order 50).

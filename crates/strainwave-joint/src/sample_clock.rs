@@ -108,12 +108,22 @@ impl SampleClock {
                 format!("steps at about {rate:.0} Hz (its median step)")
             };
             bail!(
-                "{input}: the time column `{}` {steps}, but the model was fitted at `sample_rate_hz` = {model_hz:?} \
-                 Hz ({config}); resample the recording to that rate or identify a model at its own",
-                self.column
+                "{input}: the time column `{}` {steps}, but the model was fitted at `sample_rate_hz` = {} Hz \
+                 ({config}); resample the recording to that rate or identify a model at its own",
+                self.column,
+                hz(model_hz)
             );
         }
         Ok(())
+    }
+}
+
+/// A rate as messages give it: one decimal, or in exponent form far from any joint's.
+fn hz(v: f64) -> String {
+    if (1e-3..1e7).contains(&v) {
+        format!("{v:.1}")
+    } else {
+        format!("{v:e}")
     }
 }
 

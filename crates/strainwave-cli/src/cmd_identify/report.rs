@@ -9,13 +9,10 @@ pub fn table(s: &Summary, model_path: &Path) -> String {
     let m = &s.kin.metrics;
     let f = &s.fit.metrics;
     let unit = |x: f64, u: &str| if x.is_finite() { format!("{x:.3e} {u}") } else { "-".into() };
-    let mut rows = vec![vec![
-        "kinematic error (torsion)".to_string(),
-        s.basis(),
-        format!("{:.4}", m.r_squared),
-        unit(m.rms, "rad"),
-        "".into(),
-    ]];
+    // No fit (a kinematic error of none) has no R².
+    let r2 = |x: f64| if x.is_finite() { format!("{x:.4}") } else { "-".into() };
+    let mut rows =
+        vec![vec!["kinematic error (torsion)".to_string(), s.basis(), r2(m.r_squared), unit(m.rms, "rad"), "".into()]];
     if let Some(cv) = s.cv {
         rows.push(vec![
             "  5-fold cross-validation".into(),
@@ -37,7 +34,7 @@ pub fn table(s: &Summary, model_path: &Path) -> String {
     rows.push(vec![
         what.into(),
         format!("{}, {} hysteresis; {solver}", s.spring, s.hysteresis),
-        format!("{:.4}", f.r_squared),
+        r2(f.r_squared),
         format!("{:.3} N·m", f.rms),
         format!("{:.1}", f.nrmse_fit_percent()),
     ]);
@@ -46,7 +43,7 @@ pub fn table(s: &Summary, model_path: &Path) -> String {
             rows.push(vec![
                 format!("  {}-block holdout: {name}", h.blocks),
                 "out of sample".into(),
-                format!("{:.4}", m.r_squared),
+                r2(m.r_squared),
                 format!("{:.3} N·m", m.rms),
                 format!("{:.1}", m.nrmse_fit_percent()),
             ]);
@@ -60,6 +57,22 @@ pub fn table(s: &Summary, model_path: &Path) -> String {
     }
     for n in &s.notes {
         out.push_str(&format!("note: {n}\n"));
+    }
+    // Signs a physical reading would not have: these terms take up something else.
+    let negative = |name: &str| s.fit.parameters.iter().find(|p| p.name == name && p.value + 2.0 * p.std_error < 0.0);
+    if let Some(p) = negative("inertia_kg_m2") {
+        out.push_str(&format!(
+            "note: inertia_kg_m2 {:.3} is negative: the acceleration term takes up a lag of the log (the causal \
+             differences of its angles), not a rotor inertia; see docs/real-arm.md\n",
+            p.value
+        ));
+    }
+    if let Some(p) = negative("coulomb_nm") {
+        out.push_str(&format!(
+            "note: coulomb_nm {:.3} is negative: with stribeck_nm the friction terms draw a curve that rises with \
+             speed; read them together as that shape, not as Coulomb and Stribeck levels\n",
+            p.value
+        ));
     }
     if s.skipped > 0 {
         out.push_str(&format!(
