@@ -270,8 +270,7 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
         let mut m = Self {
             orders,
             noise_nm,
-            // A σ so small that its square underflows is refused as well, and one whose
-            // square the filter's sums would overflow.
+            // A σ whose square underflows, or passes the largest variance, is refused too.
             r_nm2: variance(noise_nm * noise_nm, false, "noise_nm")?,
             sample_rate_hz: sample_rate(sample_rate_hz)?,
             bias_q_nm2: None,
@@ -425,9 +424,8 @@ impl<T: Real, const M: usize> RippleModel<T, M> {
     }
 }
 
-/// Largest variance (measurement noise, initial, prior or process noise per sample) a
-/// model accepts, N·m²: a 1σ of 10⁶ N·m, beyond any joint. Larger ones only overflow the
-/// filter.
+/// Largest variance (measurement, initial, prior or process noise per sample) a model
+/// accepts, N·m²: a 1σ of 10⁶ N·m, beyond any joint. Larger ones overflow the filter.
 pub const MAX_VARIANCE_NM2: f64 = 1e12;
 /// Largest covariance inflation per sample (1 %; the default is 16 ε).
 pub const MAX_COVARIANCE_INFLATION: f64 = 1e-2;
