@@ -22,6 +22,11 @@ from .recording import SOURCE_ATTR
 MAX_STEP_RATIO = 100.0
 #: At most this many speed bins in an order table.
 MAX_SPEED_BINS = 4096
+#: The largest signal magnitude the order analysis takes (its squares summed must not
+#: overflow), as the command line's.
+MAX_SPECTRAL_VALUE = 1e100
+#: The largest speed magnitude, rpm, as the command line's.
+MAX_SPEED_RPM = 1e7
 
 
 def _name(data: Any) -> str:
@@ -224,6 +229,13 @@ def orders(
     """
     path = _name(data)
     x = _column(data, signal, "--signal")
+    # As the command line: a spectrum sums squares, which overflow beyond this.
+    big = np.flatnonzero(np.abs(x) > MAX_SPECTRAL_VALUE)
+    if big.size:
+        i = int(big[0])
+        raise StrainwaveError(
+            f"{path}: row {i + 1}, column `{signal}`: {_num_debug(x[i])} is beyond ±1e100, where its spectrum would overflow"
+        )
     fs = sample_rate_hz(data)
     raw = _column(data, speed, "--speed")
     if speed_unit not in ("rpm", "rad-s", "rad_s"):
@@ -233,9 +245,15 @@ def orders(
     if bad.size:
         i = int(bad[0])
         raise StrainwaveError(f"{path}: row {i + 1}, column `{speed}`: speed {_num_debug(raw[i])} is not finite")
+    fast = np.flatnonzero(np.abs(v) > MAX_SPEED_RPM)
+    if fast.size:
+        i = int(fast[0])
+        raise StrainwaveError(f"{path}: row {i + 1}, column `{speed}`: speed {_num_debug(v[i])} rpm is beyond ±1e7 rpm")
     mean = math.fsum(v) / max(len(v), 1) if len(v) else float("nan")
     if math.isnan(mean) or mean <= 0.0:
-        raise StrainwaveError(f"--speed: column `{speed}` is zero or negative (mean {mean:.3f} rpm); negate a reverse run")
+        raise StrainwaveError(
+            f"{path}: --speed: column `{speed}` is zero or negative (mean {mean:.3f} rpm); negate a reverse run"
+        )
     if not (math.isfinite(speed_bin) and speed_bin > 0):
         raise StrainwaveError(f"--speed-bin: must be positive, got {_num_debug(speed_bin)}")
     top_k = int(np.argmax(v)) if len(v) else 0
@@ -246,6 +264,8 @@ def orders(
             f"{path}: row {top_k + 1}, column `{speed}`: {_num_debug(top)} rpm in --speed-bin {_num_debug(speed_bin)} rpm bins needs "
             f"more than {MAX_SPEED_BINS} bins (a glitch in the speed? fix it, or widen --speed-bin)"
         )
+    if not (math.isfinite(revs_per_block) and revs_per_block >= 1.0):
+        raise StrainwaveError(f"--revs-per-block: must be at least 1 and finite, got {_num(revs_per_block)}")
     blocks = []
     table = {
         "speed_low_rpm": np.arange(nbins) * float(speed_bin),

@@ -167,3 +167,28 @@ def test_results_too_large_for_memory_are_errors_before_any_allocation():
         sw.stft(np.zeros(200_000), sample_rate_hz=1000.0, nperseg=1000, noverlap=999)
     with pytest.raises(sw.StrainwaveError, match=r"more than 134217728 values \(1 GiB\) in memory"):
         sw.simulate("taghirad", duration=2e4)
+
+
+def test_orders_limits_are_the_cli_errors(cli, bench, tmp_path):
+    # The signal and speed magnitudes and --revs-per-block, named as the command line names
+    # them (the checks came to the command line first).
+    rec = sw.read_recording(bench)
+    path = tmp_path / "limits.csv"
+    out = tmp_path / "o.svg"
+    cases = [
+        ("accel_torque", 1e200, {}),
+        ("speed_rpm", -1.7e308, {}),
+        (None, None, {"revs_per_block": 0.0}),
+    ]
+    for column, value, kwargs in cases:
+        edited = rec.copy()
+        if column is not None:
+            edited.loc[100, column] = value
+        sw.write_recording(edited, path)
+        args = ["--revs-per-block", str(kwargs["revs_per_block"])] if kwargs else []
+        expected = cli_error(
+            cli("orders", "--in", path, "--out", out, "--signal", "accel_torque", "--speed", "speed_rpm", "--order", 6, *args)
+        )
+        with pytest.raises(sw.StrainwaveError) as e:
+            sw.orders(sw.read_recording(path), "accel_torque", "speed_rpm", [6], **kwargs)
+        assert str(e.value) == expected

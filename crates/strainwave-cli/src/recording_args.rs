@@ -39,7 +39,7 @@ impl SignalArgs {
         if let Some(i) = x.iter().position(|v| v.abs() > MAX_SPECTRAL_VALUE) {
             let at = strainwave_io::row_name(&self.input, t, i, "row");
             bail!(
-                "{}: {at}, column `{}`: {:e} is beyond ±{MAX_SPECTRAL_VALUE:e}, where its spectrum would overflow",
+                "{}: {at}, column `{}`: {:?} is beyond ±{MAX_SPECTRAL_VALUE:e}, where its spectrum would overflow",
                 self.input.display(),
                 self.signal,
                 x[i]
@@ -163,7 +163,7 @@ pub fn speed_rpm(t: &Table, name: &str, unit: SpeedUnit, path: &Path) -> Result<
     // A speed a recording's spectrum can take: beyond, one glitched row dominates the mean.
     if let Some(i) = v.iter().position(|x| x.abs() > MAX_SPEED_RPM) {
         let at = strainwave_io::row_name(path, t, i, "row");
-        bail!("{}: {at}, column `{name}`: speed {:e} rpm is beyond ±{MAX_SPEED_RPM:e} rpm", path.display(), v[i]);
+        bail!("{}: {at}, column `{name}`: speed {:?} rpm is beyond ±{MAX_SPEED_RPM:e} rpm", path.display(), v[i]);
     }
     let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
     if mean.is_nan() || mean <= 0.0 {
