@@ -237,8 +237,8 @@ impl ParquetReader {
                     for c in b.columns() {
                         row.push(value(c.as_ref(), self.row_in_batch));
                     }
-                    self.time.apply(row);
                     self.row_in_batch += 1;
+                    self.time.apply(row, &self.path, self.rows_read + 1)?;
                     self.rows_read += 1;
                     return Ok(true);
                 }

@@ -15,12 +15,14 @@ pub(crate) fn seconds_per(unit: &str) -> Option<(f64, f64)> {
     })
 }
 
+use crate::error::IoError;
+
 /// Which column is the time, and how it becomes seconds; the column's unit reads `s`
 /// while it is converted.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct TimeInSeconds {
-    /// The column, `(mul, div)` and its unit as the file gave it.
-    converted: Option<(usize, f64, f64, Option<String>)>,
+    /// The column, `(mul, div)`, its unit as the file gave it, and its name.
+    converted: Option<(usize, f64, f64, Option<String>, String)>,
 }
 
 impl TimeInSeconds {
@@ -37,21 +39,28 @@ impl TimeInSeconds {
         self.keep_as_written(units);
         let Some((mul, div)) = units[i].as_deref().and_then(seconds_per) else { return };
         let written = units[i].replace("s".to_string());
-        self.converted = Some((i, mul, div, written)).filter(|_| (mul, div) != (1.0, 1.0));
+        self.converted = Some((i, mul, div, written, name.to_string())).filter(|_| (mul, div) != (1.0, 1.0));
     }
 
     /// Reads the time column as the file gives it (a config's scale converts it instead).
     pub(crate) fn keep_as_written(&mut self, units: &mut [Option<String>]) {
-        if let Some((i, _, _, written)) = self.converted.take() {
+        if let Some((i, _, _, written, _)) = self.converted.take() {
             units[i] = written;
         }
     }
 
-    /// The row's time in seconds.
+    /// The row's time in seconds; `row` is data row `row_number` of `path`. A finite time
+    /// that seconds make infinite (`1e306` h) is an error naming the row and column.
     #[inline]
-    pub(crate) fn apply(&self, row: &mut [f64]) {
-        if let Some((i, mul, div, _)) = self.converted {
-            row[i] = row[i] * mul / div;
+    pub(crate) fn apply(&self, row: &mut [f64], path: &std::path::Path, row_number: u64) -> Result<(), IoError> {
+        let Some((i, mul, div, unit, name)) = &self.converted else { return Ok(()) };
+        let (t, seconds) = (row[*i], row[*i] * mul / div);
+        if t.is_finite() && !seconds.is_finite() {
+            let unit = unit.as_deref().unwrap_or("");
+            let msg = format!("row {row_number}, column `{name}`: {t:?} {unit} is beyond the seconds a number holds");
+            return Err(IoError::Csv { path: path.to_path_buf(), msg });
         }
+        row[*i] = seconds;
+        Ok(())
     }
 }

@@ -238,7 +238,7 @@ impl CsvReader {
         }
         row.clear();
         row.extend_from_slice(&self.cells[self.next..self.next + n]);
-        self.time.apply(row);
+        self.time.apply(row, &self.path, self.rows_read + 1)?;
         self.next += n;
         self.rows_read += 1;
         Ok(true)

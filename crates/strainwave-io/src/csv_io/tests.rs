@@ -741,3 +741,14 @@ fn a_date_and_time_column_is_seconds_since_1970() {
     let e = r.read_row(&mut row).unwrap_err().to_string();
     assert!(e.starts_with("rec.csv: row 3, column `time`: `06:00:02` is not a date and time as in data row 1"), "{e}");
 }
+
+/// A time that its unit makes infinite in seconds is an error naming its row and column
+/// (before: `inf` read, and written by `convert`).
+#[test]
+fn a_time_beyond_the_seconds_a_number_holds_is_named() {
+    let mut r = reader("time [h],x\n0,1\n1e306,2\n").unwrap();
+    let mut row = Vec::new();
+    assert!(r.read_row(&mut row).unwrap());
+    let e = r.read_row(&mut row).unwrap_err().to_string();
+    assert_eq!(e, "rec.csv: row 2, column `time`: 1e306 h is beyond the seconds a number holds");
+}
