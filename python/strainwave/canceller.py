@@ -135,7 +135,8 @@ class RippleCanceller:
             # Only the channels are converted (with a channel missing, every column goes
             # to the command line's error, which lists them).
             data = data[[c for c in data.columns if str(c) in wanted]]
-        names, arrays = _columns(data, input_name)
+        # A sample it cannot use is skipped with a flag, a text cell too (as `--lenient`).
+        names, arrays = _columns(data, input_name, lenient=True)
         names_out, columns = self._native.run_columns(names, arrays, input_name=input_name)
         return dict(zip(names_out, columns))
 

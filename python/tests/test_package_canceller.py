@@ -172,6 +172,15 @@ def test_nan_samples_are_flagged_not_errors(recording):
     assert np.isfinite(out["torque"][101:]).all()
 
 
+def test_a_text_cell_is_a_flagged_sample_too(recording):
+    # As a NaN: `run` skips what it cannot use (before: "`OVL` is not a number").
+    rec = sw.read_recording(recording).iloc[:200].astype({"bridge_voltage": object})
+    rec.loc[100, "bridge_voltage"] = "OVL"
+    with pytest.warns(sw.RecordingWarning, match=r"1 cell\(s\) that are not numbers read as NaN, the first at row 101"):
+        out = sw.RippleCanceller.from_config(TAGHIRAD_6TH).run(rec)
+    assert int(out["filter_flags"][100]) & 1 and np.isfinite(out["torque"][101:]).all()
+
+
 def test_an_overrange_code_is_skipped_and_the_canceller_goes_on(recording):
     rec = sw.read_recording(recording).iloc[:400].copy()
     rec.loc[250, "bridge_voltage"] = 9.9e37  # a DAQ's overrange code
